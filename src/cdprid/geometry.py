@@ -1,0 +1,391 @@
+"""Robot geometry: :class:`CableRobot`, cable vectors, swivel pulleys, wrench matrix W.
+
+Notation (paper section 3, names carry their frame):
+
+- ``B_A`` (m, 3): exit points A_i, base frame. With a swivel pulley, A_i is the fixed
+  point where the cable enters the pulley, on the swivel axis.
+- ``P_b`` (m, 3): attachment points b_i on the platform, platform frame (origin P).
+- ``B_p`` (3,): position of P in the base frame; ``B_R_P`` (3, 3): rotation platform -> base.
+- ``u_i``: unit vector of cable i from its attachment B_i towards its leave point, base frame.
+- ``W`` (6, m): wrench matrix (eq. 2), columns ``[u_i; (B_R_P b_i) x u_i]``: force and
+  moment about P, base frame, of unit tensions. The paper writes ``b_i x u_i`` with b_i
+  "expressed in the platform frame"; the moment needs b_i rotated into the base frame,
+  which is what is implemented (identical when ``B_R_P = I``).
+
+Swivel pulleys (spec v1): the pulley of radius r turns about the unit axis k through A so
+that its plane contains the cable. The cable arrives at A travelling along +k, wraps on
+the rim, and leaves at the tangent point T towards the attachment. In the pulley plane
+(x along the horizontal-to-B direction e, y along k, origin at the pulley centre
+C = A + r e), with (px, py) the coordinates of B - C, d = |B - C|, the leave point is at
+angle phi = atan2(py, px) + acos(r / d), T = C + r (cos phi e + sin phi k), and the cable
+length is r (pi - phi) + |B - T|. The length's gradient with respect to the platform
+pose is the straight segment's unit vector, so ``W = -J^T`` with J the Jacobian of the
+cable lengths with respect to (position, rotation vector) — tested in the suite.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+__all__ = [
+    "CableRobot",
+    "Limits",
+    "NominalPlatform",
+    "load_robot",
+    "robot_from_dict",
+    "robot_to_dict",
+    "leave_points",
+    "cable_vectors",
+    "cable_lengths",
+    "unit_vectors",
+    "wrench_matrix",
+    "swivel_angles",
+    "RobotFileError",
+]
+
+
+class RobotFileError(ValueError):
+    """A robot.toml that cannot be used; the message is one sentence naming file and field."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Limits:
+    """Optional limits of robot.toml ``[limits]`` (None when absent)."""
+
+    tension_min: float | None = None
+    tension_max: float | None = None
+    cable_speed_max: float | None = None
+    workspace_min: tuple[float, float, float] | None = None
+    workspace_max: tuple[float, float, float] | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class NominalPlatform:
+    """Nominal platform of robot.toml ``[platform]``; never used as an identification answer."""
+
+    mass: float | None = None
+    com: tuple[float, float, float] | None = None
+    inertia: tuple[tuple[float, ...], ...] | None = None
+
+
+class CableRobot(eqx.Module):
+    """Geometry of a cable-driven parallel robot (an immutable pytree).
+
+    Attributes
+    ----------
+    B_A : array (m, 3)
+        Exit points (pulley entry points when a pulley is present), base frame, m.
+    P_b : array (m, 3)
+        Attachment points, platform frame, m.
+    pulley_radius : array (m,)
+        Swivel pulley radius, m (0 = no pulley).
+    pulley_axis : array (m, 3)
+        Unit swivel axes, base frame.
+    pulley_reference : array (m, 3)
+        Unit vectors (base frame, perpendicular to the axis) of swivel angle 0.
+    gravity : array (3,)
+        Gravity acceleration, base frame, m/s^2.
+    name, limits, platform
+        Static metadata.
+    """
+
+    B_A: jnp.ndarray
+    P_b: jnp.ndarray
+    pulley_radius: jnp.ndarray
+    pulley_axis: jnp.ndarray
+    pulley_reference: jnp.ndarray
+    gravity: jnp.ndarray
+    name: str = eqx.field(static=True, default="robot")
+    limits: Limits = eqx.field(static=True, default=Limits())
+    platform: NominalPlatform = eqx.field(static=True, default=NominalPlatform())
+
+    @property
+    def n_cables(self) -> int:
+        """Number of cables m."""
+        return int(self.B_A.shape[0])
+
+    @property
+    def has_pulleys(self) -> bool:
+        """True when any cable has a swivel pulley of positive radius."""
+        return bool(np.any(np.asarray(self.pulley_radius) > 0))
+
+    def replace(self, **changes) -> CableRobot:
+        """A copy with some array fields replaced (e.g. ``B_A=...``)."""
+        out = self
+        for key, value in changes.items():
+            out = eqx.tree_at(lambda r, k=key: getattr(r, k), out, jnp.asarray(value, float))
+        return out
+
+
+def _default_reference(axis: np.ndarray) -> np.ndarray:
+    """A unit vector perpendicular to ``axis``: base x projected, else base y."""
+    for cand in (np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])):
+        v = cand - (cand @ axis) * axis
+        if np.linalg.norm(v) > 1e-6:
+            return v / np.linalg.norm(v)
+    raise AssertionError("unreachable")
+
+
+def _vec(src: str, table: dict, key: str, where: str, n: int = 3, default=None):
+    if key not in table:
+        if default is not None:
+            return np.asarray(default, float)
+        raise RobotFileError(f"{src}: {where} is missing the required field '{key}'.")
+    val = table[key]
+    try:
+        arr = np.asarray(val, dtype=float)
+    except (TypeError, ValueError):
+        raise RobotFileError(
+            f"{src}: {where} field '{key}' must be a list of {n} numbers, got {val!r}."
+        ) from None
+    if arr.shape != (n,) or not np.all(np.isfinite(arr)):
+        raise RobotFileError(
+            f"{src}: {where} field '{key}' must be a list of {n} finite numbers, got {val!r}."
+        )
+    return arr
+
+
+def _num(src: str, table: dict, key: str, where: str):
+    if key not in table:
+        return None
+    val = table[key]
+    if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val):
+        raise RobotFileError(f"{src}: {where} field '{key}' must be a finite number, got {val!r}.")
+    return float(val)
+
+
+def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
+    """Build a :class:`CableRobot` from the parsed robot.toml mapping (spec v1).
+
+    Raises
+    ------
+    RobotFileError
+        One sentence naming ``source``, the table and field, and what is wrong.
+    """
+    cables = data.get("cable")
+    if not isinstance(cables, list) or len(cables) == 0:
+        raise RobotFileError(f"{source}: no [[cable]] tables found; at least one cable is required.")
+    B_A, P_b, radius, axis, ref = [], [], [], [], []
+    for i, c in enumerate(cables, start=1):
+        where = f"[[cable]] number {i}"
+        if not isinstance(c, dict):
+            raise RobotFileError(f"{source}: {where} is not a table.")
+        B_A.append(_vec(source, c, "exit", where))
+        P_b.append(_vec(source, c, "anchor", where))
+        r = _num(source, c, "pulley_radius", where)
+        if r is not None and r < 0:
+            raise RobotFileError(f"{source}: {where} field 'pulley_radius' must be >= 0, got {r}.")
+        radius.append(0.0 if r is None else r)
+        k = _vec(source, c, "pulley_axis", where, default=[0.0, 0.0, -1.0])
+        if np.linalg.norm(k) < 1e-9:
+            raise RobotFileError(f"{source}: {where} field 'pulley_axis' must not be zero.")
+        k = k / np.linalg.norm(k)
+        axis.append(k)
+        if "pulley_reference" in c:
+            e = _vec(source, c, "pulley_reference", where)
+            e = e - (e @ k) * k
+            if np.linalg.norm(e) < 1e-9:
+                raise RobotFileError(
+                    f"{source}: {where} field 'pulley_reference' must not be parallel to the axis."
+                )
+            ref.append(e / np.linalg.norm(e))
+        else:
+            ref.append(_default_reference(k))
+    gravity = _vec(source, data, "gravity", "the top level", default=[0.0, 0.0, -9.81])
+    lim = data.get("limits", {}) or {}
+    if not isinstance(lim, dict):
+        raise RobotFileError(f"{source}: [limits] must be a table.")
+    wmin = _vec(source, lim, "workspace_min", "[limits]") if "workspace_min" in lim else None
+    wmax = _vec(source, lim, "workspace_max", "[limits]") if "workspace_max" in lim else None
+    limits = Limits(
+        tension_min=_num(source, lim, "tension_min", "[limits]"),
+        tension_max=_num(source, lim, "tension_max", "[limits]"),
+        cable_speed_max=_num(source, lim, "cable_speed_max", "[limits]"),
+        workspace_min=None if wmin is None else tuple(float(v) for v in wmin),
+        workspace_max=None if wmax is None else tuple(float(v) for v in wmax),
+    )
+    plat = data.get("platform", {}) or {}
+    if not isinstance(plat, dict):
+        raise RobotFileError(f"{source}: [platform] must be a table.")
+    inertia = None
+    if "inertia" in plat:
+        try:
+            I = np.asarray(plat["inertia"], float)
+        except (TypeError, ValueError):
+            I = np.zeros(0)
+        if I.shape != (3, 3) or not np.all(np.isfinite(I)):
+            raise RobotFileError(f"{source}: [platform] field 'inertia' must be a 3x3 numeric matrix.")
+        inertia = tuple(tuple(float(v) for v in row) for row in I)
+    com = _vec(source, plat, "com", "[platform]") if "com" in plat else None
+    platform = NominalPlatform(
+        mass=_num(source, plat, "mass", "[platform]"),
+        com=None if com is None else tuple(float(v) for v in com),
+        inertia=inertia,
+    )
+    name = data.get("name", "robot")
+    return CableRobot(
+        B_A=jnp.asarray(np.array(B_A)),
+        P_b=jnp.asarray(np.array(P_b)),
+        pulley_radius=jnp.asarray(np.array(radius)),
+        pulley_axis=jnp.asarray(np.array(axis)),
+        pulley_reference=jnp.asarray(np.array(ref)),
+        gravity=jnp.asarray(gravity),
+        name=str(name),
+        limits=limits,
+        platform=platform,
+    )
+
+
+def load_robot(path: str | Path) -> CableRobot:
+    """Read a spec-v1 ``robot.toml``.
+
+    Raises
+    ------
+    RobotFileError
+        Missing file, broken TOML or an invalid field (one sentence).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise RobotFileError(f"{path}: required file is missing.")
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise RobotFileError(f"{path}: not valid TOML ({exc}).") from None
+    except UnicodeDecodeError:
+        raise RobotFileError(f"{path}: not valid UTF-8 text.") from None
+    return robot_from_dict(data, source=str(path))
+
+
+def robot_to_dict(robot: CableRobot) -> dict:
+    """The spec-v1 robot.toml mapping of a robot (inverse of :func:`robot_from_dict`)."""
+    out: dict = {"name": robot.name, "gravity": [float(v) for v in np.asarray(robot.gravity)]}
+    lim = {k: (list(v) if isinstance(v, tuple) else v)
+           for k, v in dataclasses.asdict(robot.limits).items() if v is not None}
+    if lim:
+        out["limits"] = lim
+    cables = []
+    for i in range(robot.n_cables):
+        c = {
+            "exit": [float(v) for v in np.asarray(robot.B_A[i])],
+            "anchor": [float(v) for v in np.asarray(robot.P_b[i])],
+        }
+        r = float(robot.pulley_radius[i])
+        if r > 0:
+            c["pulley_radius"] = r
+            c["pulley_axis"] = [float(v) for v in np.asarray(robot.pulley_axis[i])]
+            c["pulley_reference"] = [float(v) for v in np.asarray(robot.pulley_reference[i])]
+        cables.append(c)
+    out["cable"] = cables
+    plat = {}
+    if robot.platform.mass is not None:
+        plat["mass"] = robot.platform.mass
+    if robot.platform.com is not None:
+        plat["com"] = list(robot.platform.com)
+    if robot.platform.inertia is not None:
+        plat["inertia"] = [list(r) for r in robot.platform.inertia]
+    if plat:
+        out["platform"] = plat
+    return out
+
+
+# --------------------------------------------------------------------------- per-pose geometry
+
+
+def _safe_unit(v, fallback):
+    n2 = v @ v
+    ok = n2 > 1e-24
+    n = jnp.sqrt(jnp.where(ok, n2, 1.0))
+    return jnp.where(ok, v / n, fallback)
+
+
+def _one_cable(A, b_base, p, r, k, ref):
+    """Leave point T, wrap angle and straight segment for one cable (base frame)."""
+    B = p + b_base
+    v = B - A
+    e = _safe_unit(v - (v @ k) * k, ref)
+    C = A + r * e
+    px = (B - C) @ e
+    py = (B - C) @ k
+    d = jnp.sqrt(px * px + py * py)
+    phi = jnp.arctan2(py, px) + jnp.arccos(jnp.clip(r / d, 0.0, 1.0))
+    T = C + r * (jnp.cos(phi) * e + jnp.sin(phi) * k)
+    wrap = jnp.pi - phi
+    return T, wrap, e
+
+
+def leave_points(robot: CableRobot, B_p, B_R_P):
+    """Points where the cables leave the frame towards the platform (m, 3), base frame.
+
+    Equal to ``robot.B_A`` for cables without pulleys.
+    """
+    b = (B_R_P @ robot.P_b.T).T
+    T, _, _ = _per_cable(robot, B_p, b)
+    return T
+
+
+def _per_cable(robot, B_p, b_base):
+    return jax.vmap(_one_cable, in_axes=(0, 0, None, 0, 0, 0))(
+        robot.B_A, b_base, B_p, robot.pulley_radius, robot.pulley_axis, robot.pulley_reference
+    )
+
+
+def cable_vectors(robot: CableRobot, B_p, B_R_P):
+    """Cable vectors (m, 3) from each attachment B_i to its leave point, base frame."""
+    b = (B_R_P @ robot.P_b.T).T
+    T, _, _ = _per_cable(robot, B_p, b)
+    return T - (B_p + b)
+
+
+def cable_lengths(robot: CableRobot, B_p, B_R_P):
+    """Cable lengths (m,) from the pulley entry point (arc on the rim included) to B_i."""
+    b = (B_R_P @ robot.P_b.T).T
+    T, wrap, _ = _per_cable(robot, B_p, b)
+    straight = jnp.linalg.norm(T - (B_p + b), axis=1)
+    return straight + robot.pulley_radius * wrap
+
+
+def unit_vectors(robot: CableRobot, B_p, B_R_P):
+    """Unit cable vectors u_i (m, 3), from attachment towards leave point, base frame."""
+    L = cable_vectors(robot, B_p, B_R_P)
+    return L / jnp.linalg.norm(L, axis=1, keepdims=True)
+
+
+def wrench_matrix(robot: CableRobot, B_p, B_R_P):
+    """Wrench matrix W (6, m) of eq. (2) at one pose: ``W tau`` = cable force and moment about P.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    B_p : array (3,)
+        Position of P, base frame.
+    B_R_P : array (3, 3)
+        Rotation platform -> base.
+
+    Returns
+    -------
+    W : array (6, m)
+        Rows 0-2 force (base frame), rows 3-5 moment about P (base frame).
+    """
+    b = (B_R_P @ robot.P_b.T).T
+    T, _, _ = _per_cable(robot, B_p, b)
+    L = T - (B_p + b)
+    u = L / jnp.linalg.norm(L, axis=1, keepdims=True)
+    return jnp.concatenate([u.T, jnp.cross(b, u).T], axis=0)
+
+
+def swivel_angles(robot: CableRobot, B_p, B_R_P):
+    """Swivel angle (m,) of each pulley plane, rad, about its axis from ``pulley_reference``."""
+    b = (B_R_P @ robot.P_b.T).T
+    _, _, e = _per_cable(robot, B_p, b)
+    k, ref = robot.pulley_axis, robot.pulley_reference
+    s = jnp.sum(jnp.cross(ref, e) * k, axis=1)
+    c = jnp.sum(ref * e, axis=1)
+    return jnp.arctan2(s, c)

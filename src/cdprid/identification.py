@@ -1,0 +1,173 @@
+"""Least-squares identification (paper eqs. 11-21).
+
+``Y_ID = W_ID x + rho`` is solved by a thin QR of the (optionally weighted) stacked regressor
+— never through the normal-equation inverse. The covariance ``sigma_rho^2 (W^T W)^-1`` (eq. 20)
+is formed from R as ``sigma_rho^2 R^-1 R^-T``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+__all__ = ["LSResult", "least_squares", "condition_number", "group_weights"]
+
+
+@dataclasses.dataclass(frozen=True)
+class LSResult:
+    """Result of a least-squares identification.
+
+    Attributes
+    ----------
+    names : tuple of str
+        Parameter names, e.g. ``("m", "mxG", "myG", "mzG")``.
+    x : ndarray (p,)
+        Estimates (eq. 15).
+    cov : ndarray (p, p)
+        Covariance of the estimate (eq. 20).
+    sigma_rho : float
+        Residual standard deviation (eq. 19), in the units of the (weighted) rows.
+    cond : float
+        Condition number of W_ID (ratio of extreme singular values).
+    cond_scaled : float
+        Condition number after scaling every column to unit norm.
+    n_rows : int
+        Number of equations 6 n_e (rows used).
+    residual : ndarray
+        Unweighted residual ``Y_ID - W_ID x``.
+    weights : ndarray or None
+        Row weights used (None for ordinary LS).
+    """
+
+    names: tuple
+    x: np.ndarray
+    cov: np.ndarray
+    sigma_rho: float
+    cond: float
+    cond_scaled: float
+    n_rows: int
+    residual: np.ndarray
+    weights: np.ndarray | None = None
+
+    @property
+    def std(self) -> np.ndarray:
+        """Standard deviation of each parameter (square root of the covariance diagonal)."""
+        return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
+
+    @property
+    def rel_std_percent(self) -> np.ndarray:
+        """Relative standard deviation in percent (eq. 21); inf for a zero estimate."""
+        with np.errstate(divide="ignore"):
+            return 100.0 * self.std / np.abs(self.x)
+
+    def as_dict(self) -> dict:
+        """``{name: {"value", "std", "rel_std_percent"}}`` (the CLI's JSON contract)."""
+        return {
+            n: {"value": float(v), "std": float(s), "rel_std_percent": float(r)}
+            for n, v, s, r in zip(self.names, self.x, self.std, self.rel_std_percent)
+        }
+
+
+def condition_number(W_ID, scaled: bool = False) -> float:
+    """Condition number of W_ID by SVD; ``scaled=True`` first scales columns to unit norm."""
+    A = np.asarray(W_ID, float)
+    if scaled:
+        norms = np.linalg.norm(A, axis=0)
+        A = A / np.where(norms > 0, norms, 1.0)
+    s = np.linalg.svd(A, compute_uv=False)
+    return float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
+
+
+def group_weights(residual, groups) -> np.ndarray:
+    """Row weights 1/sigma_g for each row group from a first-pass residual.
+
+    Parameters
+    ----------
+    residual : ndarray (N,)
+    groups : ndarray of int (N,)
+        Group label of each row (e.g. 0 for force rows, 1 for moment rows).
+    """
+    residual = np.asarray(residual, float)
+    groups = np.asarray(groups)
+    w = np.ones_like(residual)
+    for g in np.unique(groups):
+        sel = groups == g
+        s = np.sqrt(np.mean(residual[sel] ** 2))
+        w[sel] = 1.0 / s if s > 0 else 1.0
+    return w
+
+
+def _check_rank(A, names, tol: float = 1e-10) -> None:
+    """Raise a clear ValueError when W_ID is (numerically) rank deficient."""
+    norms = np.linalg.norm(A, axis=0)
+    zero = [n for n, v in zip(names, norms) if v == 0]
+    As = A / np.where(norms > 0, norms, 1.0)
+    _, s, Vt = np.linalg.svd(As, full_matrices=False)
+    if zero or s[-1] < tol * s[0]:
+        v = np.abs(Vt[-1])
+        culprits = zero or [n for n, c in zip(names, v) if c > 0.3 * v.max()]
+        raise ValueError(
+            f"the regressor W_ID is rank deficient: {', '.join(culprits)} not identifiable from "
+            "this motion (excite it, or use a smaller model)."
+        )
+
+
+def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None) -> LSResult:
+    """Ordinary or weighted least squares with the paper's statistics.
+
+    Parameters
+    ----------
+    W_ID : array (N, p)
+        Stacked regressor (eq. 11).
+    Y_ID : array (N,)
+        Stacked measured wrenches ``W tau``.
+    names : sequence of str, optional
+    weights : array (N,), optional
+        Row weights (rows are multiplied by them before solving).
+    groups : array (N,) of int, optional
+        If given and ``weights`` is None: two-step weighted LS, each group's weight the
+        inverse of its first-pass residual RMS (force and moment rows differ in units).
+
+    Returns
+    -------
+    LSResult
+
+    Notes
+    -----
+    sigma_rho^2 = ||W (Y - A x)||^2 / (N - p) (eq. 19) and ``cov = sigma_rho^2 (A_w^T A_w)^-1``
+    (eq. 20) are computed from the thin QR ``A_w = Q R``: ``cov = sigma_rho^2 R^-1 R^-T``.
+    """
+    A = np.asarray(W_ID, float)
+    y = np.asarray(Y_ID, float).reshape(-1)
+    if A.ndim != 2 or A.shape[0] != y.shape[0]:
+        raise ValueError(f"W_ID {A.shape} and Y_ID {y.shape} do not have the same number of rows.")
+    N, p = A.shape
+    if N <= p:
+        raise ValueError(f"need more equations than parameters, got {N} rows for {p} parameters.")
+    if names is None:
+        names = tuple(f"x{i}" for i in range(p))
+    if weights is None and groups is not None:
+        first = least_squares(A, y, names)
+        weights = group_weights(first.residual, groups)
+    w = np.ones(N) if weights is None else np.asarray(weights, float)
+    Aw = A * w[:, None]
+    yw = y * w
+    _check_rank(Aw, names)
+    Q, R = np.linalg.qr(Aw, mode="reduced")
+    x = np.linalg.solve(R, Q.T @ yw)
+    rw = yw - Aw @ x
+    sigma2 = float(rw @ rw) / (N - p)
+    Rinv = np.linalg.solve(R, np.eye(p))
+    cov = sigma2 * (Rinv @ Rinv.T)
+    return LSResult(
+        names=tuple(names),
+        x=x,
+        cov=cov,
+        sigma_rho=float(np.sqrt(sigma2)),
+        cond=condition_number(A),
+        cond_scaled=condition_number(A, scaled=True),
+        n_rows=N,
+        residual=y - A @ x,
+        weights=None if weights is None else w,
+    )
