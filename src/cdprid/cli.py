@@ -110,6 +110,10 @@ _OPTIONAL_COMMANDS = (
     # (module, function adding the subparser): commands of later issues register here
     ("cdprid.cli_differentiate", "add_parser"),
     ("cdprid.cli_simulate", "add_parser"),
+    ("cdprid.cli_diagnose", "add_parser"),
+    ("cdprid.cli_excite", "add_parser"),
+    ("cdprid.cli_import", "add_parser"),
+    ("cdprid.cli_tune", "add_parser"),
 )
 
 

@@ -1,0 +1,290 @@
+"""The effect vocabulary of the simulator: unmodelled phenomena injected into synthetic data.
+
+The names and parameter names are a contract shared with the diagnosis (cables numbered
+from 1). How each effect is modelled by :func:`cdprid.simulate.simulate`:
+
+``none``
+    Nothing.
+``time_delay {delay_s}``
+    The tension stream lags the pose stream: the tension sample stamped t holds the
+    (noise-free) tensions of the plant at ``t - delay_s``, the trajectory being evaluated
+    exactly at that time (a true fractional delay).
+``tension_offset {cable, offset_N}``
+    Load cell ``cable`` reads ``tau + offset_N``.
+``tension_gain {cable, gain}``
+    Load cell ``cable`` reads ``gain * tau`` (applied before the offset, before noise).
+``exit_point_error {cable, displacement_m: [dx, dy, dz]}``
+    The true exit point A_i (base frame) is robot.toml's plus the displacement; the plant
+    uses the true one, robot.toml keeps the nominal one.
+``anchor_point_error {cable, displacement_m}``
+    The same for the attachment b_i (platform frame).
+``viscous_drag {coefficient_Ns_per_m}``
+    A force ``-c v`` on the platform, applied at P (no moment about P); v is the velocity
+    of P, base frame.
+``pulley {radius_m}``
+    Every cable passes over a swivel pulley of that radius (axis from robot.toml, by
+    default ``[0, 0, -1]``; reference direction base x) that robot.toml omits: the plant's
+    cable directions start at the leave points on the pulley rims (spec v1 pulley model).
+``cable_mass {linear_density_kg_per_m}``
+    Lumped cable weight: each cable is taken as straight between its leave point and its
+    attachment B_i, of length L_i; half of its weight, ``rho L_i g / 2`` (g the gravity
+    vector of the plant, so it follows ``frame_tilt``), acts on the platform at B_i (force
+    and moment about P). The tensions reported are those along the straight chords (what
+    ``W`` multiplies). No sag/catenary shape is modelled.
+``frame_tilt {tilt_rad: [rx, ry]}``
+    The pose frame (in which robot.toml and pose.csv are expressed) is tilted relative to
+    gravity: with ``R_tilt = Ry(ry) Rx(rx)`` (about x first, then about the fixed y) mapping
+    pose-frame vectors to the level frame, the plant's gravity in the pose frame is
+    ``g_pose = R_tilt^T g`` with g robot.toml's gravity (for g = [0, 0, -9.81]:
+    ``g_pose = 9.81 [sin ry, -sin rx cos ry, -cos rx cos ry]``); robot.toml keeps the
+    nominal g.
+``rotational_dynamics {amplitude_rad}``
+    The platform also performs small rotations (:func:`cdprid.trajectories.small_rotation`,
+    that peak angle about each axis), so the rotational inertia and angular terms act;
+    pose.csv then carries quaternions.
+
+Several effects may be combined (also the same effect on several cables).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+
+__all__ = [
+    "VOCABULARY",
+    "Effect",
+    "parse_effect",
+    "validate_effects",
+    "true_robot",
+    "true_gravity",
+    "tilt_matrix",
+    "effect_parameters_table",
+]
+
+#: effect name -> {parameter name: kind}; kinds: 'float', 'cable', 'vec3', 'vec2'
+VOCABULARY: dict[str, dict[str, str]] = {
+    "none": {},
+    "time_delay": {"delay_s": "float"},
+    "tension_offset": {"cable": "cable", "offset_N": "float"},
+    "tension_gain": {"cable": "cable", "gain": "float"},
+    "exit_point_error": {"cable": "cable", "displacement_m": "vec3"},
+    "anchor_point_error": {"cable": "cable", "displacement_m": "vec3"},
+    "viscous_drag": {"coefficient_Ns_per_m": "float"},
+    "pulley": {"radius_m": "float"},
+    "cable_mass": {"linear_density_kg_per_m": "float"},
+    "frame_tilt": {"tilt_rad": "vec2"},
+    "rotational_dynamics": {"amplitude_rad": "float"},
+}
+
+
+def _convert(effect: str, key: str, kind: str, value):
+    where = f"effect '{effect}' parameter '{key}'"
+    if isinstance(value, str):
+        text = value.strip()
+        if kind in ("vec3", "vec2"):
+            try:
+                value = (
+                    json.loads(text)
+                    if text.startswith("[")
+                    else [float(v) for v in text.split(",")]
+                )
+            except (ValueError, json.JSONDecodeError):
+                raise ValueError(
+                    f"{where} must be a list of numbers like 0.01,0,-0.02, got {text!r}."
+                ) from None
+        else:
+            try:
+                value = float(text)
+            except ValueError:
+                raise ValueError(f"{where} must be a number, got {text!r}.") from None
+    if kind in ("vec3", "vec2"):
+        n = 3 if kind == "vec3" else 2
+        try:
+            arr = [float(v) for v in value]
+        except (TypeError, ValueError):
+            arr = []
+        if len(arr) != n or not all(np.isfinite(arr)):
+            raise ValueError(f"{where} must be a list of {n} finite numbers, got {value!r}.")
+        return arr
+    if isinstance(value, bool):
+        raise ValueError(f"{where} must be a number, got {value!r}.")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where} must be a number, got {value!r}.") from None
+    if not np.isfinite(v):
+        raise ValueError(f"{where} must be finite, got {value!r}.")
+    if kind == "cable":
+        if v != int(v) or v < 1:
+            raise ValueError(f"{where} must be a cable number 1, 2, ..., got {value!r}.")
+        return int(v)
+    return v
+
+
+@dataclasses.dataclass(frozen=True)
+class Effect:
+    """One injected effect of the vocabulary (validated at construction).
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`VOCABULARY`.
+    params : dict
+        Exactly its parameters; strings (as from the command line) are converted:
+        ``"3"``, ``"1.05"``, ``"0.01,0,-0.02"`` or ``"[0.01, 0, -0.02]"``.
+
+    Raises
+    ------
+    ValueError
+        Unknown effect or parameter names, missing parameters or bad values (one sentence
+        listing the valid names).
+    """
+
+    name: str
+    params: dict = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.name not in VOCABULARY:
+            raise ValueError(
+                f"unknown effect {self.name!r}; valid effects: {', '.join(VOCABULARY)}."
+            )
+        spec = VOCABULARY[self.name]
+        valid = ", ".join(spec) if spec else "none"
+        unknown = [k for k in self.params if k not in spec]
+        if unknown:
+            raise ValueError(
+                f"unknown parameter {unknown[0]!r} for effect '{self.name}'; "
+                f"valid parameters: {valid}."
+            )
+        missing = [k for k in spec if k not in self.params]
+        if missing:
+            raise ValueError(
+                f"effect '{self.name}' needs the parameter(s) {', '.join(missing)} "
+                f"(e.g. --param {missing[0]}=...); valid parameters: {valid}."
+            )
+        clean = {k: _convert(self.name, k, spec[k], v) for k, v in self.params.items()}
+        if self.name == "tension_gain" and clean["gain"] <= 0:
+            raise ValueError(
+                f"effect 'tension_gain' parameter 'gain' must be > 0, got {clean['gain']}."
+            )
+        for key in (
+            "delay_s",
+            "coefficient_Ns_per_m",
+            "radius_m",
+            "linear_density_kg_per_m",
+            "amplitude_rad",
+        ):
+            if key in clean and clean[key] < 0:
+                raise ValueError(
+                    f"effect '{self.name}' parameter '{key}' must be >= 0, got {clean[key]}."
+                )
+        object.__setattr__(self, "params", clean)
+
+
+def parse_effect(name: str, pairs) -> Effect:
+    """Build an :class:`Effect` from ``key=value`` strings (command-line form).
+
+    Parameters
+    ----------
+    name : str
+    pairs : sequence of str
+        E.g. ``["cable=3", "gain=1.05"]``.
+    """
+    params = {}
+    for text in pairs:
+        if "=" not in text:
+            raise ValueError(f"--param {text!r} must have the form key=value (effect '{name}').")
+        k, v = text.split("=", 1)
+        params[k.strip()] = v
+    return Effect(name, params)
+
+
+def validate_effects(effects, n_cables: int) -> list[Effect]:
+    """Check cable numbers against the robot and the combination of effects.
+
+    Returns
+    -------
+    list of Effect
+    """
+    out = []
+    for e in effects:
+        e = e if isinstance(e, Effect) else Effect(*e)
+        c = e.params.get("cable")
+        if c is not None and c > n_cables:
+            raise ValueError(
+                f"effect '{e.name}' refers to cable {c} but the robot has {n_cables} cables "
+                f"(numbered 1 to {n_cables})."
+            )
+        out.append(e)
+    for single in (
+        "time_delay",
+        "viscous_drag",
+        "pulley",
+        "cable_mass",
+        "frame_tilt",
+        "rotational_dynamics",
+    ):
+        if sum(e.name == single for e in out) > 1:
+            raise ValueError(f"effect '{single}' is given more than once; give it once.")
+    return out
+
+
+def true_robot(robot, effects):
+    """The plant's robot: nominal geometry with exit/anchor errors and pulleys applied."""
+    B_A = np.array(robot.B_A)
+    P_b = np.array(robot.P_b)
+    radius = np.array(robot.pulley_radius)
+    for e in effects:
+        if e.name == "exit_point_error":
+            B_A[e.params["cable"] - 1] += np.asarray(e.params["displacement_m"])
+        elif e.name == "anchor_point_error":
+            P_b[e.params["cable"] - 1] += np.asarray(e.params["displacement_m"])
+        elif e.name == "pulley":
+            radius[:] = e.params["radius_m"]
+    return robot.replace(B_A=B_A, P_b=P_b, pulley_radius=radius)
+
+
+def tilt_matrix(rx: float, ry: float) -> np.ndarray:
+    """``R_tilt = Ry(ry) Rx(rx)``: pose-frame vectors -> level frame (see module docstring)."""
+    cx, sx, cy, sy = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry)
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    return Ry @ Rx
+
+
+def true_gravity(robot, effects) -> np.ndarray:
+    """Gravity of the plant expressed in the pose frame (``frame_tilt`` applied)."""
+    g = np.asarray(robot.gravity, float)
+    for e in effects:
+        if e.name == "frame_tilt":
+            g = tilt_matrix(*e.params["tilt_rad"]).T @ g
+    return g
+
+
+def effect_parameters_table(effects) -> dict:
+    """The ``[truth.effect_parameters]`` table of meta.toml.
+
+    One effect: its parameters as flat keys (e.g. ``delay_s = 0.025``). Several effects:
+    the flat keys that are not ambiguous (given by one effect only), plus one sub-table per
+    effect name (``[truth.effect_parameters.tension_gain]``); a name used again gets
+    ``_2``, ``_3``... appended.
+    """
+    effects = [e for e in effects if e.name != "none"]
+    if len(effects) == 1:
+        return dict(effects[0].params)
+    flat: dict = {}
+    counts: dict = {}
+    for e in effects:
+        for k, v in e.params.items():
+            counts[k] = counts.get(k, 0) + 1
+            flat[k] = v
+    out = {k: v for k, v in flat.items() if counts[k] == 1}
+    seen: dict = {}
+    for e in effects:
+        seen[e.name] = seen.get(e.name, 0) + 1
+        key = e.name if seen[e.name] == 1 else f"{e.name}_{seen[e.name]}"
+        out[key] = dict(e.params)
+    return out
