@@ -1,0 +1,70 @@
+"""Execute every notebook in ``notebooks/`` (nbclient, temp copy, timeout).
+
+Each notebook runs in a temporary copy of the folder layout (``tmp/notebooks/X.ipynb`` beside
+``tmp/results/``), so the figures it writes never touch the repository. ``CDPRID_FAST=1`` is
+set for the kernel (notebooks may shrink their work) and ``CDPRID_SHARED`` points at the
+shared folder beside the repository. A notebook that reads ``../shared`` is skipped, with the
+reason, when that folder is absent. Committed notebooks must carry no outputs.
+"""
+
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+
+import pytest
+
+nbformat = pytest.importorskip("nbformat")
+nbclient = pytest.importorskip("nbclient")
+pytest.importorskip("ipykernel")
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+SHARED = ROOT.parent / "shared"
+TIMEOUT_S = 240  # per cell
+
+
+def _needs_shared(nb) -> bool:
+    src = "\n".join(c.source for c in nb.cells if c.cell_type == "code")
+    return "shared" in src and ("find_shared" in src or "../shared" in src) and \
+        "if shared:" not in src
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
+def test_notebook_has_no_outputs(path):
+    nb = nbformat.read(path, as_version=4)
+    dirty = [i for i, c in enumerate(nb.cells)
+             if c.cell_type == "code" and (c.get("outputs") or c.get("execution_count"))]
+    assert not dirty, f"{path.name}: cells {dirty} carry outputs; commit notebooks without outputs"
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
+def test_notebook_executes(path, tmp_path, monkeypatch):
+    nb = nbformat.read(path, as_version=4)
+    if _needs_shared(nb) and not (SHARED / "datasets").is_dir():
+        pytest.skip(f"{path.name} reads the shared datasets and {SHARED} is absent")
+    work = tmp_path / "notebooks"
+    work.mkdir()
+    (tmp_path / "results").mkdir()
+    shutil.copy(path, work / path.name)
+    monkeypatch.setenv("CDPRID_FAST", "1")
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    if (SHARED / "datasets").is_dir():
+        monkeypatch.setenv("CDPRID_SHARED", str(SHARED))
+    client = nbclient.NotebookClient(nb, timeout=TIMEOUT_S, kernel_name="python3",
+                                     resources={"metadata": {"path": str(work)}})
+    t0 = time.perf_counter()
+    client.execute()
+    elapsed = time.perf_counter() - t0
+    print(f"{path.name}: {elapsed:.1f} s")
+    errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
+              if o.get("output_type") == "error"]
+    assert not errors
+    assert not any((ROOT / "notebooks").glob("results")), "notebook wrote into the repository"
+    if path.name.startswith("01"):
+        assert (tmp_path / "results" / "model_robot.png").is_file()
+    if path.name.startswith("02"):
+        for f in ("fig3_tensions_orientation.png", "fig4_velocity_acceleration.png",
+                  "mzg_gap.png"):
+            assert (tmp_path / "results" / f).is_file(), f
