@@ -60,9 +60,13 @@ def _cmd_identify(args) -> int:
     ds = read_dataset(args.dataset)
     params = _parse_params(args.params)
     if args.online:
-        from .online import run_online_cli  # noqa: F401  (provided by the online issue)
+        from .online import run_online_cli
 
+        if args.differentiator is None:
+            args.differentiator = "sihd2-cascade"
         return run_online_cli(ds, args, params)
+    if args.differentiator is None:
+        args.differentiator = "euler-filtfilt"
     rep = identify_dataset(
         ds,
         model=args.model,
@@ -89,8 +93,9 @@ def _add_identify(sub) -> None:
     p.add_argument("dataset", help="dataset folder (spec v1)")
     p.add_argument("--model", choices=["translation", "full"], default="translation",
                    help="4-parameter translation model (paper eq. 10) or 10-parameter model")
-    p.add_argument("--differentiator", default="euler-filtfilt",
-                   help="differentiation method (see `cdprid differentiate --help`)")
+    p.add_argument("--differentiator", default=None,
+                   help="differentiation method (default euler-filtfilt; sihd2-cascade with "
+                   "--online); see `cdprid differentiate --help`")
     p.add_argument("--params", help="differentiator parameters as JSON (or a JSON file)")
     p.add_argument("--t-start", type=float, default=None, help="start of the time window, s")
     p.add_argument("--t-end", type=float, default=None, help="end of the time window, s")
@@ -98,7 +103,15 @@ def _add_identify(sub) -> None:
                    help=f"seconds dropped at both ends after differentiation (default {DEFAULT_TRIM_S})")
     p.add_argument("--weighting", choices=["none", "groups"], default="none",
                    help="'groups': weighted LS with separate force/moment row weights")
-    p.add_argument("--online", action="store_true", help=argparse.SUPPRESS)
+    p.add_argument("--online", action="store_true",
+                   help="online identification: causal SIHD-2 cascade + recursive least squares, "
+                   "per-sample parameter trajectory (CSV and PNG)")
+    p.add_argument("--forgetting", type=float, default=1.0,
+                   help="forgetting factor lambda in (0, 1] for --online (memory dt/(1-lambda))")
+    p.add_argument("--out-csv", dest="out_csv", default=None,
+                   help="parameter trajectory CSV for --online (a PNG is written beside it)")
+    p.add_argument("--wrench-filter", dest="wrench_filter", choices=["matched", "delay", "none"],
+                   default="matched", help="--online: filter W tau like the accelerations")
     p.add_argument("--json", help="write the result as JSON to this file")
     p.set_defaults(func=_cmd_identify)
 

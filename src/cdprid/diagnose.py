@@ -39,7 +39,6 @@ from scipy import stats
 
 from .differentiators import differentiate, zero_phase_filter
 from .dynamics import PARAMETER_NAMES, regressor_full, regressor_translation
-from .filters import make_zero_phase_filter
 from .geometry import CableRobot, _one_cable, cable_vectors, wrench_matrix
 from .identification import least_squares
 from .io.dataset import Dataset, align
@@ -472,9 +471,28 @@ def _rotvec_from_quat(q):
     return v * scale[:, None]
 
 
-def _vocab_params(c: Candidate, th_values: np.ndarray, layout: ThetaLayout, extra: dict) -> dict:
+def _well_determined(v, cov, ratio: float = 0.4):
+    """Shrink the poorly determined directions of a 3-D displacement estimate to zero.
+
+    A displacement of an exit or attachment point along its cable barely changes the cable
+    direction, so that component is weakly identifiable (its standard deviation is large).
+    Components along covariance eigen-directions whose standard deviation exceeds ``ratio``
+    times the estimate's norm are set to zero (the prior of no displacement); the interval
+    keeps the full uncertainty.
+    """
+    w, E = np.linalg.eigh(cov)
+    c = E.T @ v
+    s = np.sqrt(np.clip(w, 0, None))
+    keep = s <= ratio * max(np.linalg.norm(v), 1e-12)
+    return E @ (c * keep)
+
+
+def _vocab_params(c: Candidate, th_values: np.ndarray, layout: ThetaLayout, extra: dict,
+                  th_cov=None) -> dict:
     idx = layout.candidate_indices(c.effect, c.cable) if c.effect != "rotational_dynamics" else []
     v = th_values[idx] if idx else None
+    if c.effect in ("exit_point_error", "anchor_point_error") and th_cov is not None:
+        v = _well_determined(v, th_cov[np.ix_(idx, idx)])
     if c.effect == "time_delay":
         return {"delay_s": float(v[0])}
     if c.effect == "tension_offset":
@@ -559,8 +577,6 @@ def diagnose(
     -------
     DiagnosisResult
     """
-    import optimistix as optx
-
     t0 = time.perf_counter()
 
     def say(msg):
@@ -629,14 +645,13 @@ def diagnose(
         Jm = np.asarray(Jm)  # (n, 6, ntheta)
         Jm = zf(Jm.reshape(n, -1)).reshape(Jm.shape)
         Jmod = np.asarray(_model_jac_jit(d, th, xin, layout, rotational))
-        Am = A10 if rotational else A4
-        # model side at theta minus its x-part: drag and tilt offsets
+        # model side at theta minus its x-part: drag (tilt acts through the regressor)
+        Am = np.asarray(_regs_jit(d, th, layout, rotational))
         mod = np.asarray(_model_jit(d, th, xin, layout, rotational))
-        lin = np.einsum("nij,j->ni", _regs_jit(d, th, layout, rotational), np.asarray(xin))
-        y_now = ym - (mod - lin)
+        y_now = ym - (mod - np.einsum("nij,j->ni", Am, np.asarray(xin)))
         # columns: d(model)/d theta - d(meas)/d theta  (so that y_now ~ A x + C theta)
         C = Jmod - Jm
-        return y_now, np.asarray(_regs_jit(d, th, layout, rotational)), C
+        return y_now, Am, C
 
     A4 = np.asarray(_regs_jit(d, theta0, layout, False))
     A10 = np.asarray(_regs_jit(d, theta0, layout, True)) if sig.has_rotation else None
@@ -697,7 +712,6 @@ def diagnose(
             moment = np.cross(ms, acc)
             yield yw - np.concatenate([force, moment], axis=1)
 
-    folds = _blocks(n, n_folds) if test is None else None
     guard = lags
 
     def heldout_rms(Z, y):
@@ -823,9 +837,12 @@ def diagnose(
         else:
             active_idx = sorted(set(active_idx) | set(layout.candidate_indices(c_best.effect,
                                                                                c_best.cable)))
-        theta, x_cur, th_std, x_std = _refit(
-            optx, d, make_zero_phase_filter(dt, cutoff_hz, 2), layout, theta, x_cur, active_idx,
-            rotational, wrow, train, lags, scored, c_best)
+        for _, c, _, q, beta, _ in scored:
+            if c == c_best and c.effect != "rotational_dynamics":
+                theta = theta.copy()
+                theta[layout.candidate_indices(c.effect, c.cable)] = beta[:q]
+        theta, x_cur, th_cov = _refit_gauss_newton(design, theta, x_cur, active_idx, rotational,
+                                                   wrow, train, lags)
         # held-out after the nonlinear refit (same split)
         y_new, Am_new, C_new = design(theta, x_cur, rotational)
         Zn = np.concatenate([Am_new] + ([C_new[:, :, active_idx]] if active_idx else []),
@@ -836,8 +853,9 @@ def diagnose(
         extra = {"rotation_amplitude": rot_amp, "rotation_amplitude_std": rot_std}
         findings.append(Finding(
             effect=c_best.effect,
-            parameters=_vocab_params(c_best, theta, layout, extra),
-            interval=_vocab_interval(c_best, theta, th_std, layout, extra),
+            parameters=_vocab_params(c_best, theta, layout, extra, th_cov),
+            interval=_vocab_interval(c_best, theta, np.sqrt(np.clip(np.diag(th_cov), 0, None)),
+                                     layout, extra),
             aliases=aliases,
             heldout_rms_before=float(rms_before),
             heldout_rms_after=float(rms_after),
@@ -966,60 +984,40 @@ def _aliases(c_best, scored, pcols, yt, ratio: float = 0.8, corr: float = 0.9) -
     return out
 
 
-def _refit(optx, d, F, layout, theta0, x0, active_idx, rotational, wrow, train, lags, scored,
-           c_best):
-    """Levenberg-Marquardt (optimistix) on (x, active theta), weighted filtered residual.
+def _refit_gauss_newton(design, theta, x0, active_idx, rotational, wrow, train, lags,
+                        max_iter: int = 10, tol: float = 1e-7):
+    """Nonlinear least squares on (x, active theta): Gauss-Newton with the exact Jacobian.
 
-    The residual is the full nonlinear model through the JAX twin of the matched filter.
+    Every iteration re-linearises the full nonlinear model (``design``: the per-cable JAX
+    Jacobian of the cable side, compiled once, filtered by the matched filter) and solves the
+    weighted linear LS for (x, theta_active) in closed form (x enters linearly: variable
+    projection). No recompilation per active set, which keeps the diagnosis within its time
+    budget. Returns theta, x (10,) and the HAC covariance of theta.
     """
-
-    def res(th, x, dd):
-        thd = layout.unpack(th)
-        return F(_measured_side(dd, thd)) - _model_side(dd, thd, x, rotational)
-
+    theta = np.array(theta, float)
     px = 10 if rotational else 4
-    tr = jnp.asarray(train)
-    w = jnp.asarray(wrow)
-    idx = jnp.asarray(active_idx, dtype=int) if active_idx else jnp.zeros(0, int)
-    th_base = jnp.asarray(theta0)
-    # start: linearised estimate for the new parameters
-    for _, c, _, q, beta, _ in scored:
-        if c == c_best and c_best.effect != "rotational_dynamics":
-            new_idx = layout.candidate_indices(c.effect, c.cable)
-            th_base = th_base.at[jnp.asarray(new_idx)].set(jnp.asarray(beta[:q]))
-    x_start = jnp.asarray(x0[:px])
-
-    def unpack(z):
-        x = z[:px]
-        th = th_base.at[idx].set(z[px:]) if active_idx else th_base
-        return x, th
-
-    def fn(z, dd):
-        x, th = unpack(z)
-        r = res(th, x, dd) * w[None, :]
-        return jnp.where(tr[:, None], r, 0.0).reshape(-1)
-
-    z0 = jnp.concatenate([x_start, th_base[idx] if active_idx else jnp.zeros(0)])
-    solver = optx.LevenbergMarquardt(rtol=1e-8, atol=1e-10)
-    sol = optx.least_squares(fn, solver, z0, args=d, max_steps=40, throw=False)
-    z = sol.value
-    # sandwich covariance with HAC from the Jacobian at the solution
-    J = np.asarray(jax.jit(jax.jacfwd(fn))(z, d))
-    e = np.asarray(jax.jit(fn)(z, d))
-    n = len(train)
-    Jn = J.reshape(n, 6, -1)[train]
-    en = e.reshape(n, 6)[train]
-    V = _hac_cov(-Jn, en, lags)
-    std = np.sqrt(np.clip(np.diag(V), 0, None))
-    x_new, th_new = unpack(z)
-    th_std = np.zeros(layout.size)
-    if active_idx:
-        th_std[np.asarray(active_idx)] = std[px:]
-    x_out = np.zeros(10)
-    x_out[:px] = np.asarray(x_new)
-    if not rotational:
-        x_out[4:] = x0[4:]
-    return np.asarray(th_new), x_out, th_std, std[:px]
+    x = np.array(x0, float)
+    ai = np.asarray(active_idx, int)
+    V = np.zeros((px + len(ai), px + len(ai)))
+    for _ in range(max_iter):
+        y, A, C = design(theta, x, rotational)
+        Ca = C[:, :, ai]
+        Z = np.concatenate([A, Ca], axis=2) * wrow[None, :, None]
+        tgt = (y + np.einsum("nij,j->ni", Ca, theta[ai])) * wrow
+        p = Z.shape[2]
+        beta, *_ = np.linalg.lstsq(Z[train].reshape(-1, p), tgt[train].reshape(-1), rcond=None)
+        step = beta[px:] - theta[ai]
+        theta[ai] = beta[px:]
+        x[:px] = beta[:px]
+        e = tgt[train] - np.einsum("nip,p->ni", Z[train], beta)
+        V = _hac_cov(Z[train], e, lags)
+        scale = np.sqrt(np.clip(np.diag(V)[px:], 1e-30, None))
+        if len(ai) == 0 or np.max(np.abs(step) / scale) < tol * 1e3:
+            break
+    th_cov = np.zeros((len(theta), len(theta)))
+    if len(ai):
+        th_cov[np.ix_(ai, ai)] = V[px:, px:]
+    return theta, x, th_cov
 
 
 def save_report(result: DiagnosisResult, out_dir, dataset_name: str = "dataset") -> Path:

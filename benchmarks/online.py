@@ -1,0 +1,232 @@
+"""Benchmark: online identification (streaming SIHD + recursive least squares).
+
+Measures, for the 4- and 10-parameter models:
+
+- the per-sample latency of :func:`cdprid.online.online_step` called one sample at a time
+  from Python (jit-compiled, ``block_until_ready`` after every call: what a real-time loop
+  driven from Python pays, dispatch overhead included);
+- the per-sample cost inside one ``lax.scan`` (:func:`cdprid.online.online_identify`'s kernel,
+  whole run divided by the number of samples: the cost of the step itself);
+
+and the estimation quality on simulated CRAFT-like data (``paper-orbits``, 52 s, default
+sensor noise): the final online estimate with the three wrench-filter choices (lag
+compensation) against the truth and against the batch pipeline, and the tracking of a
++2.5 kg payload step with forgetting. Writes ``results/online.md``,
+``results/online_convergence.png`` and ``results/online_tracking.png``.
+
+Run from the repository root (light: one core, ~1-2 min of CPU)::
+
+    .venv/bin/python benchmarks/online.py [--repeat 2000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+from cdprid.dynamics import InertialParameters  # noqa: E402
+from cdprid.online import (  # noqa: E402
+    OnlineSample,
+    _online_scan,
+    online_identify,
+    online_init,
+    online_step,
+    plot_online,
+)
+from cdprid.robots import craft_like_robot, craft_like_truth  # noqa: E402
+from cdprid.simulate import simulate  # noqa: E402
+from cdprid.trajectories import preset  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "results"
+
+
+def _commit() -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
+                             capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain"], cwd=ROOT, capture_output=True,
+                               text=True).stdout.strip()
+        return out + ("+dirty" if dirty else "")
+    except Exception:  # noqa: BLE001
+        return "unknown"
+
+
+def _signals(res):
+    n = res.pose_t.size
+    q = res.quaternion if res.quaternion is not None else np.tile([1.0, 0, 0, 0], (n, 1))
+    return {"t": res.pose_t, "position": res.position, "quaternion": q, "tension": res.tension}
+
+
+def latency(robot, sig, model, repeat):
+    """(wall, cpu) microseconds per sample: Python loop of online_step, and inside the scan."""
+    n = min(repeat, sig["t"].size)
+    pos = [jnp.asarray(p) for p in sig["position"][:n]]
+    qs = [jnp.asarray(q) for q in sig["quaternion"][:n]]
+    taus = [jnp.asarray(t) for t in sig["tension"][:n]]
+    st = online_init(robot, 0.01, model=model)
+    st, o = online_step(st, OnlineSample(pos[0], qs[0], taus[0]))  # compile
+    jax.block_until_ready(o)
+    w0, c0 = time.perf_counter(), time.process_time()
+    for k in range(1, n):
+        st, o = online_step(st, OnlineSample(pos[k], qs[k], taus[k]))
+        jax.block_until_ready(o.x)
+    loop = ((time.perf_counter() - w0) / (n - 1) * 1e6, (time.process_time() - c0) / (n - 1) * 1e6)
+    samples = OnlineSample(jnp.asarray(sig["position"]), jnp.asarray(sig["quaternion"]),
+                           jnp.asarray(sig["tension"]))
+    st0 = online_init(robot, 0.01, model=model)
+    jax.block_until_ready(_online_scan(st0, samples))  # compile
+    best = (np.inf, np.inf)
+    for _ in range(3):
+        w0, c0 = time.perf_counter(), time.process_time()
+        jax.block_until_ready(_online_scan(st0, samples))
+        m = sig["t"].size
+        cur = ((time.perf_counter() - w0) / m * 1e6, (time.process_time() - c0) / m * 1e6)
+        best = min(best, cur, key=lambda v: v[1])
+    return loop, best
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=2000, help="samples of the Python-loop timing")
+    args = ap.parse_args(argv)
+    RESULTS.mkdir(exist_ok=True)
+    robot = craft_like_robot()
+    truth = craft_like_truth()
+    x_true = np.asarray(truth.vector("translation"))
+    names = ("m", "mxG", "myG", "mzG")
+
+    t0 = time.process_time()
+    sim = simulate(robot, preset("paper-orbits", robot), seed=0)
+    sig = _signals(sim)
+    sim_rot = simulate(robot, preset("paper-orbits", robot, rotation_amplitude=0.05), seed=0)
+    sig_rot = _signals(sim_rot)
+    print(f"simulated in {time.process_time() - t0:.1f} s CPU")
+
+    # ---- latency
+    lat = {}
+    for model, s in (("translation", sig), ("full", sig_rot)):
+        lat[model] = latency(robot, s, model, args.repeat)
+        (lw, lc), (sw, sc) = lat[model]
+        print(f"{model:12s} python loop {lw:8.1f} us wall {lc:8.1f} us cpu | "
+              f"scan {sw:7.2f} us wall {sc:7.2f} us cpu per sample")
+
+    # ---- convergence: wrench filters vs truth and the batch pipeline
+    import tempfile
+
+    from cdprid.io import read_dataset
+    from cdprid.pipeline import identify_dataset
+    from cdprid.simulate import write_simulation
+
+    rows = []
+    runs = {}
+    for wf in ("matched", "delay", "none"):
+        r = online_identify(sig, robot, wrench_filter=wf)
+        runs[wf] = r
+        rows.append((f"online RLS, wrench filter `{wf}`", r.x_final, r.std_final,
+                     float(r.sigma_rho[-1])))
+    with tempfile.TemporaryDirectory() as tmp:
+        ds = read_dataset(write_simulation(sim, Path(tmp) / "ds"))
+        for m in ("sihd2-cascade", "euler-filtfilt"):
+            rep = identify_dataset(ds, differentiator=m)
+            rows.append((f"batch LS, `{m}`", rep.result.x, rep.result.std,
+                         rep.result.sigma_rho))
+    conv_png = plot_online(runs["matched"], RESULTS / "online_convergence.png", truth=x_true,
+                           title="online identification, paper-orbits 52 s, lambda = 1, "
+                                 "matched wrench filter")
+
+    # ---- tracking a payload step
+    heavy = InertialParameters(truth.mass + 2.5, truth.com * 0.8, truth.inertia_com)
+    sim2 = simulate(robot, preset("paper-orbits", robot, duration=26.0), params=heavy, seed=1)
+    sim1 = simulate(robot, preset("paper-orbits", robot, duration=26.0), seed=2)
+    a, b = _signals(sim1), _signals(sim2)
+    n1 = a["t"].size
+    step = {k: np.concatenate([a[k], b[k]]) for k in ("position", "quaternion", "tension")}
+    step["t"] = np.arange(n1 + b["t"].size) * 0.01
+    x_ref = np.vstack([np.tile(x_true, (n1, 1)),
+                       np.tile(np.asarray(heavy.vector("translation")), (b["t"].size, 1))])
+    track = {}
+    for lam in (0.995, 0.999, 1.0):
+        r = online_identify(step, robot, forgetting=lam)
+        m = r.x[:, 0]
+        err = np.abs(m - x_ref[:, 0]) / x_ref[:, 0]
+        after = np.nonzero(err[n1:] > 0.02)[0]
+        settle = (after.max() + 1) * 0.01 if after.size else 0.0
+        track[lam] = (r, settle, m[-1])
+    track_png = plot_online(track[0.995][0], RESULTS / "online_tracking.png", truth=x_ref,
+                            title=f"payload step +2.5 kg at t = {n1 * 0.01:g} s, lambda = 0.995")
+
+    # ---- report
+    cpu = platform.processor() or platform.machine()
+    lines = [
+        "# Online identification: latency, convergence, tracking",
+        "",
+        f"Generated by `.venv/bin/python benchmarks/online.py --repeat {args.repeat}` at commit "
+        f"`{_commit()}`; machine: {platform.system()} {cpu}, {os.cpu_count()} cores shared with "
+        f"other jobs, Python {sys.version.split()[0]}, JAX {jax.__version__}, float64.",
+        "",
+        "## Latency per sample (SIHD cascade + W tau + regressor + QR RLS update + sigmas + "
+        "excitation eigenvalue)",
+        "",
+        "| model | online_step from Python, wall | same, CPU | inside lax.scan, wall | same, CPU |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for model, ((lw, lc), (sw, sc)) in lat.items():
+        lines.append(f"| {model} ({4 if model == 'translation' else 10} parameters) | {lw:.1f} us "
+                     f"| {lc:.1f} us | {sw:.2f} us | {sc:.2f} us |")
+    lines += [
+        "",
+        "Goal: <= 20 us per sample for the 4-parameter model. The scan column is the cost of "
+        "the step itself; the Python column adds jit dispatch (argument flattening, one XLA "
+        "call, `block_until_ready`) and dominates. CPU time is reported because wall time is "
+        "noisy on this shared machine.",
+        "",
+        "## Convergence (paper-orbits, 52 s, 0.2 mm / 0.5 N noise, lambda = 1)",
+        "",
+        "| estimator | " + " | ".join(names) + " | sigma_rho |",
+        "|---|" + "---:|" * (len(names) + 1),
+        "| truth | " + " | ".join(f"{v:.5g}" for v in x_true) + " | |",
+    ]
+    for label, x, s, sr in rows:
+        cells = " | ".join(f"{v:.5g} ± {e:.2g}" for v, e in zip(x, s, strict=True))
+        lines.append(f"| {label} | {cells} | {sr:.3g} |")
+    lines += [
+        "",
+        "Lag compensation (module docstring of `cdprid.online`): the causal SIHD cascade delays "
+        "and attenuates the accelerations; `matched` passes W tau through the same SIHD cascade "
+        "(fed with its running integral), `delay` delays it by 30 samples, `none` leaves it. "
+        "Without compensation m zG (carried by the horizontal accelerations) is biased; a pure "
+        "delay matches the phase but not the attenuation and over-corrects.",
+        "",
+        f"![convergence]({conv_png.name})",
+        "",
+        "## Tracking a payload step (+2.5 kg, centre of mass x 0.8, 26 s + 26 s)",
+        "",
+        "| lambda | memory | time to stay within 2 % of the new mass | final mass (truth "
+        f"{float(heavy.mass):.4g}) |",
+        "|---:|---:|---:|---:|",
+    ]
+    for lam, (_, settle, mf) in track.items():
+        mem = "infinite" if lam == 1.0 else f"{0.01 / (1 - lam):.3g} s"
+        st = f"{settle:.2f} s" if settle < 26.0 - 0.01 else "never"
+        lines.append(f"| {lam:g} | {mem} | {st} | {mf:.4g} |")
+    lines += ["", f"![tracking]({track_png.name})", ""]
+    (RESULTS / "online.md").write_text("\n".join(lines))
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

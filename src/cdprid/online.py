@@ -1,0 +1,912 @@
+"""Online identification: streaming SIHD differentiation + recursive least squares.
+
+The seed paper's long-term aim is to identify CRAFT's parameters *on line*, during handling
+tasks, with the causal semi-implicit homogeneous differentiator (SIHD) instead of a zero-phase
+filter (section 7). This module does it sample by sample, in ONE ``jax.lax.scan`` whose body,
+:func:`online_step`, is also usable on its own in a real-time loop:
+
+1. **Motion** — the pose sample goes through the paper's cascade of two SIHD-2
+   (:func:`cdprid.differentiators.sihd2_step`, gains of eq. 35 unless overridden):
+   position -> velocity -> acceleration; for the 10-parameter model the sign-continuous
+   quaternion goes through the same cascade and ``omega = 2 vec(qd q*)``,
+   ``alpha = 2 vec(qdd q*)``. The outputs equal :func:`cdprid.differentiate` with
+   ``method="sihd2-cascade"`` sample for sample (tested).
+2. **Rows** — the regressor ``A_k`` (6, p) (eq. 10, or the full model) from the estimated
+   motion, and the measured wrench ``y_k = W_k tau_k`` (eq. 2) at the measured pose.
+3. **Lag matching** — the causal SIHD delays and attenuates the acceleration (about 0.3 s and
+   -15 % at the paper's 0.25 Hz orbits with the eq.-35 gains), while ``W tau`` is not filtered
+   at all; the mismatch biases the estimate of the parameters the horizontal accelerations
+   carry (m z_G). ``wrench_filter`` chooses what is done to ``y_k``:
+
+   - ``"matched"`` (default): ``y_k`` goes through the *same* SIHD cascade as the positions,
+     fed with its running (trapezoidal) integral: stage 1 sees ``int y`` and returns a
+     low-passed ``y`` exactly as it sees ``p = int v`` and returns a low-passed ``v``; stage 2
+     likewise. For ``alpha = 1`` (linear SIHD) both sides of ``A x = y`` then see the same
+     linear filter, so the equation holds exactly for the translation model with constant
+     orientation; with ``alpha < 1`` the gains depend weakly on the error amplitude, so the
+     wrench channels are scaled to acceleration units first (force rows divided by
+     ``|F_0| / |g|``, the mass seen at the first sample; moment rows additionally by the
+     platform radius ``max |P_b|``) — an approximation, measured in ``benchmarks/online.py``.
+   - ``"delay"``: ``y_k`` is delayed by ``wrench_delay`` samples (a ring buffer), which matches
+     the phase at one frequency but not the attenuation.
+   - ``"none"``: no compensation.
+
+4. **Recursive least squares** — square-root information form (a QR update, no matrix
+   inverse, no covariance downdate): the upper-triangular factor ``S`` of ``[W_ID | Y_ID]``
+   (p+1, p+1) is updated with the six new rows at once,
+   ``S <- R-factor of [sqrt(lambda) S ; A_k  y_k]``, so that ``S^T S`` is the exponentially
+   weighted ``[W_ID Y_ID]^T [W_ID Y_ID]``. Then ``R = S[:p, :p]``, ``x = R^-1 S[:p, p]``
+   (eq. 15), the weighted residual sum of squares is ``S[p, p]^2``,
+   ``sigma_rho^2 = S[p, p]^2 / (N_eff - p)`` (eq. 19, ``N_eff`` the weighted row count) and
+   ``cov = sigma_rho^2 R^-1 R^-T`` (eq. 20). With ``lambda = 1`` this *is* the batch QR least
+   squares of :func:`cdprid.least_squares` on the same rows (tested to 1e-8), apart from the
+   prior ``prior_weight * ||x - x0||^2`` that makes ``R`` invertible from the first sample
+   (1e-9 by default: negligible).
+5. **Excitation** — a short-memory information matrix ``M`` (time constant
+   ``excitation_window`` s) of the used rows; ``excitation = sqrt(lambda_min(M / n_rows))`` is
+   the RMS regressor entry (m/s^2 or rad/s^2, all columns of ``A`` have those units) along the
+   least excited direction of parameter space; ``excitation_ok`` is
+   ``excitation >= excitation_threshold``. A static platform gives zero in the ``m z_G``
+   direction (only horizontal accelerations carry it) and in every inertia direction, so the
+   flag drops; with ``lambda < 1`` the sigmas grow at the same time (covariance wind-up).
+
+The first ``warmup`` seconds (the SIHD start-up transient, as the batch pipeline's trim) are
+differentiated but not used by the least squares.
+
+Float64: enable ``jax_enable_x64`` in your script (the CLI does); this module does not change
+JAX's configuration on import.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import math
+from pathlib import Path
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .differentiators import METHODS, sihd2_step
+from .dynamics import PARAMETER_NAMES, regressor_full, regressor_translation
+from .geometry import CableRobot, wrench_matrix
+from .identification import condition_number
+from .rotations import angular_rates_from_quat, quat_to_matrix
+
+__all__ = [
+    "WRENCH_FILTERS",
+    "OnlineConfig",
+    "OnlineState",
+    "OnlineSample",
+    "OnlineOutput",
+    "OnlineResult",
+    "RLSResult",
+    "online_init",
+    "online_step",
+    "online_identify",
+    "recursive_least_squares",
+    "run_online_cli",
+]
+
+WRENCH_FILTERS = ("matched", "delay", "none")
+"""Treatments of the measured wrench ``W tau`` (see the module docstring, item 3)."""
+
+_SIHD = "sihd2-cascade"
+
+
+# ----------------------------------------------------------------------------- data
+
+
+class OnlineConfig(eqx.Module):
+    """Constant settings of an online identification (an immutable pytree).
+
+    Attributes
+    ----------
+    robot : CableRobot
+    dt : array ()
+        Sampling period, s.
+    forgetting : array ()
+        Exponential forgetting factor lambda in (0, 1] of the least squares (per sample).
+    gains : array (6,)
+        SIHD-2 cascade gains ``(lambda1, lambda2, lambda3, lambda4, alpha, mu)``.
+    x0 : array (p,)
+        Prior mean of the parameters.
+    prior_weight : array ()
+        Weight delta of the prior ``delta ||x - x0||^2`` (information per parameter).
+    warmup : array ()
+        Seconds at the start whose rows are not used.
+    excitation_forgetting : array ()
+        Per-sample forgetting of the excitation information matrix.
+    excitation_threshold : array ()
+        Minimum RMS regressor entry along the weakest direction, m/s^2.
+    model : str
+        ``"translation"`` (4 parameters) or ``"full"`` (10).
+    wrench_filter : str
+        One of :data:`WRENCH_FILTERS`.
+    wrench_delay : int
+        Delay of ``W tau`` in samples (``wrench_filter="delay"`` only).
+    """
+
+    robot: CableRobot
+    dt: jnp.ndarray
+    forgetting: jnp.ndarray
+    gains: jnp.ndarray
+    x0: jnp.ndarray
+    prior_weight: jnp.ndarray
+    warmup: jnp.ndarray
+    excitation_forgetting: jnp.ndarray
+    excitation_threshold: jnp.ndarray
+    model: str = eqx.field(static=True, default="translation")
+    wrench_filter: str = eqx.field(static=True, default="matched")
+    wrench_delay: int = eqx.field(static=True, default=0)
+
+    @property
+    def n_params(self) -> int:
+        """Number of parameters p."""
+        return len(PARAMETER_NAMES[self.model])
+
+
+class OnlineState(eqx.Module):
+    """Carry of :func:`online_step`: the configuration and every recursive state.
+
+    Attributes
+    ----------
+    config : OnlineConfig
+    k : array () int
+        Samples consumed so far.
+    sihd_p, sihd_q : tuple
+        SIHD cascade states ``((z1, z2), (z1, z2))`` of the 3 position / 4 quaternion channels.
+    q_prev : array (4,)
+        Previous quaternion (sign continuity).
+    wf : tuple
+        Wrench-filter state: ``(I1, (z1, z2), I2, (z1, z2), y_prev, f1_prev, scale)`` (6,) each
+        for ``"matched"``; the (D, 6) ring buffer for ``"delay"``; ``()`` for ``"none"``.
+    S : array (p+1, p+1)
+        Upper-triangular square-root information factor of ``[W_ID | Y_ID]``.
+    n_rows : array ()
+        Forgetting-weighted number of rows used.
+    M : array (p, p)
+        Short-memory information matrix (excitation monitor).
+    m_rows : array ()
+        Its weighted number of rows.
+    """
+
+    config: OnlineConfig
+    k: jnp.ndarray
+    sihd_p: tuple
+    sihd_q: tuple
+    q_prev: jnp.ndarray
+    wf: tuple
+    S: jnp.ndarray
+    n_rows: jnp.ndarray
+    M: jnp.ndarray
+    m_rows: jnp.ndarray
+
+
+class OnlineSample(NamedTuple):
+    """One measured sample: position (3,), unit quaternion (4,) scalar first, tensions (m,)."""
+
+    position: jnp.ndarray
+    quaternion: jnp.ndarray
+    tension: jnp.ndarray
+
+
+class OnlineOutput(NamedTuple):
+    """What :func:`online_step` yields for one sample (stacked over time by the scan).
+
+    Attributes
+    ----------
+    velocity, acceleration : (3,)
+        SIHD estimates of P's velocity and acceleration, base frame.
+    omega, alpha : (3,)
+        Angular velocity and acceleration, base frame (zeros for the translation model).
+    A : (6, p)
+        Regressor of the sample.
+    y : (6,)
+        Wrench ``W tau`` after the wrench filter (the right-hand side actually used).
+    x, sigma : (p,)
+        Current estimate and standard deviations ``sqrt(sigma_rho^2 diag P)``.
+    sigma_rho : ()
+        Current residual standard deviation (nan until more rows than parameters).
+    excitation : ()
+        ``sqrt(lambda_min(M / n))``, m/s^2.
+    excitation_ok : () bool
+    used : () bool
+        Whether the sample's rows entered the least squares (False during the warm-up).
+    """
+
+    velocity: jnp.ndarray
+    acceleration: jnp.ndarray
+    omega: jnp.ndarray
+    alpha: jnp.ndarray
+    A: jnp.ndarray
+    y: jnp.ndarray
+    x: jnp.ndarray
+    sigma: jnp.ndarray
+    sigma_rho: jnp.ndarray
+    excitation: jnp.ndarray
+    excitation_ok: jnp.ndarray
+    used: jnp.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class RLSResult:
+    """Per-sample output of :func:`recursive_least_squares` (numpy arrays).
+
+    Attributes
+    ----------
+    x, sigma : (n, p)
+    sigma_rho : (n,)
+    cov : (p, p)
+        Final covariance ``sigma_rho^2 R^-1 R^-T``.
+    S : (p+1, p+1)
+        Final square-root information factor.
+    """
+
+    x: np.ndarray
+    sigma: np.ndarray
+    sigma_rho: np.ndarray
+    cov: np.ndarray
+    S: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class OnlineResult:
+    """Result of :func:`online_identify` (numpy arrays, one row per sample).
+
+    Attributes
+    ----------
+    t : (n,)
+    names : tuple of str
+    model : str
+    x, sigma : (n, p)
+        Parameter trajectory and its standard deviations.
+    sigma_rho : (n,)
+    excitation : (n,)
+    excitation_ok : (n,) bool
+    used : (n,) bool
+    velocity, acceleration, omega, alpha : (n, 3)
+    A : (n, 6, p)
+    y : (n, 6)
+    cov : (p, p)
+        Final covariance.
+    cond, cond_scaled : float
+        Condition numbers of the (forgetting-weighted) stacked regressor, from the final R.
+    n_samples : int
+        Samples used by the least squares.
+    forgetting : float
+    wrench_filter : str
+    """
+
+    t: np.ndarray
+    names: tuple
+    model: str
+    x: np.ndarray
+    sigma: np.ndarray
+    sigma_rho: np.ndarray
+    excitation: np.ndarray
+    excitation_ok: np.ndarray
+    used: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    omega: np.ndarray
+    alpha: np.ndarray
+    A: np.ndarray
+    y: np.ndarray
+    cov: np.ndarray
+    cond: float
+    cond_scaled: float
+    n_samples: int
+    forgetting: float
+    wrench_filter: str
+
+    @property
+    def x_final(self) -> np.ndarray:
+        """Final estimate (p,)."""
+        return self.x[-1]
+
+    @property
+    def std_final(self) -> np.ndarray:
+        """Final standard deviations (p,)."""
+        return self.sigma[-1]
+
+    def as_json(self) -> dict:
+        """The JSON contract of ``cdprid identify --json`` for the final estimate."""
+        x, s = self.x_final, self.std_final
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = 100.0 * s / np.abs(x)
+        return {
+            "model": self.model,
+            "parameters": {
+                n: {"value": float(v), "std": float(e), "rel_std_percent": float(r)}
+                for n, v, e, r in zip(self.names, x, s, rel, strict=True)
+            },
+            "sigma_rho": float(self.sigma_rho[-1]),
+            "cond": self.cond,
+            "cond_scaled": self.cond_scaled,
+            "n_samples": self.n_samples,
+        }
+
+
+# ----------------------------------------------------------------------------- RLS kernel
+
+
+def _rls_init(x0, prior_weight):
+    p = x0.shape[0]
+    r = jnp.sqrt(prior_weight)
+    S = jnp.zeros((p + 1, p + 1), x0.dtype)
+    S = S.at[:p, :p].set(r * jnp.eye(p, dtype=x0.dtype)).at[:p, p].set(r * x0)
+    return S
+
+
+def _rls_update(S, n_rows, A, y, lam, use):
+    """Square-root information update with the rows ``[A y]`` (weight ``use`` in {0, 1})."""
+    lam = jnp.where(use, lam, 1.0)
+    w = jnp.where(use, 1.0, 0.0)
+    Z = jnp.concatenate([jnp.sqrt(lam) * S, w * jnp.concatenate([A, y[:, None]], axis=1)], axis=0)
+    S = jnp.linalg.qr(Z, mode="r")
+    n_rows = lam * n_rows + w * A.shape[0]
+    return S, n_rows
+
+
+def _rls_solution(S, n_rows):
+    """Estimate, standard deviations and sigma_rho from the factor (eqs. 15, 19, 20)."""
+    p = S.shape[0] - 1
+    R = S[:p, :p]
+    x = jax.scipy.linalg.solve_triangular(R, S[:p, p], lower=False)
+    Rinv = jax.scipy.linalg.solve_triangular(R, jnp.eye(p, dtype=S.dtype), lower=False)
+    diagP = jnp.sum(Rinv**2, axis=1)
+    dof = n_rows - p
+    s2 = jnp.where(dof > 0, S[p, p] ** 2 / jnp.where(dof > 0, dof, 1.0), jnp.nan)
+    return x, jnp.sqrt(s2 * diagP), jnp.sqrt(s2)
+
+
+@jax.jit
+def _rls_scan(A, y, lam, x0, prior_weight):
+    def body(carry, inp):
+        S, n = carry
+        Ak, yk = inp
+        S, n = _rls_update(S, n, Ak, yk, lam, True)
+        x, sig, srho = _rls_solution(S, n)
+        return (S, n), (x, sig, srho)
+
+    S0 = _rls_init(x0, prior_weight)
+    (S, n), out = jax.lax.scan(body, (S0, jnp.zeros((), A.dtype)), (A, y))
+    return S, n, out
+
+
+def recursive_least_squares(A, y, forgetting: float = 1.0, x0=None,
+                            prior_weight: float = 1e-9) -> RLSResult:
+    """Recursive least squares over given per-sample rows (the RLS kernel alone).
+
+    Parameters
+    ----------
+    A : array (n, r, p)
+        Regressor rows of each sample (r = 6 for a CDPR).
+    y : array (n, r)
+        Right-hand sides.
+    forgetting : float
+        lambda in (0, 1]; 1 = growing-memory least squares.
+    x0 : array (p,), optional
+        Prior mean (default zeros).
+    prior_weight : float
+        delta of the prior ``delta ||x - x0||^2`` (>= 0; keeps R invertible from sample 0).
+
+    Returns
+    -------
+    RLSResult
+    """
+    A = np.asarray(A, np.float64)
+    y = np.asarray(y, np.float64)
+    if A.ndim != 3 or y.shape != A.shape[:2]:
+        raise ValueError(f"A must be (n, r, p) and y (n, r); got {A.shape} and {y.shape}.")
+    _check_forgetting(forgetting)
+    p = A.shape[2]
+    x0 = np.zeros(p) if x0 is None else np.asarray(x0, np.float64).reshape(p)
+    with _x64_scope():
+        S, n, (x, sig, srho) = _rls_scan(jnp.asarray(A), jnp.asarray(y), jnp.asarray(forgetting),
+                                         jnp.asarray(x0), jnp.asarray(float(prior_weight)))
+        S = np.asarray(S)
+    Rinv = np.linalg.solve(S[:p, :p], np.eye(p))
+    srho = np.asarray(srho)
+    return RLSResult(np.asarray(x), np.asarray(sig), srho, srho[-1] ** 2 * Rinv @ Rinv.T, S)
+
+
+# ----------------------------------------------------------------------------- step
+
+
+def _x64_scope():
+    if jax.config.read("jax_enable_x64"):
+        return contextlib.nullcontext()
+    return jax.enable_x64(True)  # pragma: no cover - callers normally enable x64
+
+
+def _check_forgetting(f):
+    if not (isinstance(f, (int, float)) and math.isfinite(f) and 0.0 < f <= 1.0):
+        raise ValueError(f"the forgetting factor must be a number in (0, 1], got {f!r}.")
+
+
+def online_init(
+    robot: CableRobot,
+    dt: float,
+    model: str = "translation",
+    forgetting: float = 1.0,
+    gains: dict | None = None,
+    wrench_filter: str = "matched",
+    wrench_delay: int = 30,
+    x0=None,
+    prior_weight: float = 1e-9,
+    warmup: float = 1.0,
+    excitation_window: float = 1.0,
+    excitation_threshold: float = 0.1,
+) -> OnlineState:
+    """Initial state of an online identification.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    dt : float
+        Sampling period of the pose/tension samples, s.
+    model : {"translation", "full"}
+        Paper eq. (10) (m, m s_G) or the 10-parameter model (plus the inertia about P).
+    forgetting : float
+        Exponential forgetting factor lambda in (0, 1]; memory ``dt / (1 - lambda)`` s.
+    gains : dict, optional
+        SIHD-2 cascade gains overriding ``METHODS["sihd2-cascade"].params`` (eq. 35).
+    wrench_filter : {"matched", "delay", "none"}
+        Lag compensation applied to ``W tau`` (module docstring, item 3).
+    wrench_delay : int
+        Delay in samples for ``wrench_filter="delay"`` (30 = 0.3 s at 100 Hz, the SIHD
+        cascade's lag at 0.25 Hz with eq.-35 gains).
+    x0 : array (p,), optional
+        Prior mean (default zeros).
+    prior_weight : float
+        Prior information per parameter (>= 0).
+    warmup : float
+        Seconds at the start not used by the least squares.
+    excitation_window : float
+        Time constant of the excitation monitor, s.
+    excitation_threshold : float
+        Threshold of ``excitation`` (m/s^2) below which ``excitation_ok`` is False.
+
+    Returns
+    -------
+    OnlineState
+    """
+    if model not in PARAMETER_NAMES:
+        raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+    if wrench_filter not in WRENCH_FILTERS:
+        raise ValueError(f"unknown wrench filter {wrench_filter!r}; use one of "
+                         f"{', '.join(WRENCH_FILTERS)}.")
+    _check_forgetting(forgetting)
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be a positive number of seconds, got {dt!r}.")
+    g = dict(METHODS[_SIHD].params)
+    bad = sorted(set(gains or {}) - set(g))
+    if bad:
+        raise ValueError(f"unknown SIHD gain(s) {', '.join(bad)}; valid: {', '.join(g)}.")
+    g.update({k: float(v) for k, v in (gains or {}).items()})
+    if not all(math.isfinite(v) and v > 0 for v in g.values()) or not 0.5 <= g["alpha"] <= 1:
+        raise ValueError(f"SIHD gains must be finite and > 0 with 0.5 <= alpha <= 1, got {g}.")
+    delay = int(wrench_delay) if wrench_filter == "delay" else 0
+    if wrench_filter == "delay" and delay < 1:
+        raise ValueError(f"wrench_delay must be >= 1 sample, got {wrench_delay!r}.")
+    p = len(PARAMETER_NAMES[model])
+    f64 = jnp.float64
+    x0 = jnp.zeros(p, f64) if x0 is None else jnp.asarray(x0, f64).reshape(p)
+    cfg = OnlineConfig(
+        robot=robot,
+        dt=jnp.asarray(dt, f64),
+        forgetting=jnp.asarray(forgetting, f64),
+        gains=jnp.asarray([g[k] for k in ("lambda1", "lambda2", "lambda3", "lambda4",
+                                          "alpha", "mu")], f64),
+        x0=x0,
+        prior_weight=jnp.asarray(prior_weight, f64),
+        warmup=jnp.asarray(warmup, f64),
+        excitation_forgetting=jnp.asarray(math.exp(-dt / excitation_window), f64),
+        excitation_threshold=jnp.asarray(excitation_threshold, f64),
+        model=model,
+        wrench_filter=wrench_filter,
+        wrench_delay=delay,
+    )
+    z3, z4, z6 = (jnp.zeros(n, f64) for n in (3, 4, 6))
+    if wrench_filter == "matched":
+        wf = (z6, (z6, z6), z6, (z6, z6), z6, z6, jnp.ones(6, f64))
+    elif wrench_filter == "delay":
+        wf = (jnp.zeros((delay, 6), f64),)
+    else:
+        wf = ()
+    return OnlineState(
+        config=cfg,
+        k=jnp.zeros((), jnp.int64 if jax.config.read("jax_enable_x64") else jnp.int32),
+        sihd_p=((z3, z3), (z3, z3)),
+        sihd_q=((z4, z4), (z4, z4)),
+        q_prev=jnp.asarray([1.0, 0.0, 0.0, 0.0], f64),
+        wf=wf,
+        S=_rls_init(x0, cfg.prior_weight),
+        n_rows=jnp.zeros((), f64),
+        M=jnp.zeros((p, p), f64),
+        m_rows=jnp.zeros((), f64),
+    )
+
+
+def _cascade(state, y, first, gains, h):
+    """Two SIHD-2 in cascade (as ``differentiate(method="sihd2-cascade")``), any channel shape."""
+    (s1, s2) = state
+    g1 = (gains[0], gains[1], gains[4], gains[5])
+    g2 = (gains[2], gains[3], gains[4], gains[5])
+    # first sample: stage 1 starts at (y0, 0) and stage 2 at (0, 0), as the batch scan
+    s1 = (jnp.where(first, y, s1[0]), jnp.where(first, 0.0, s1[1]))
+    s2 = jax.tree_util.tree_map(lambda z: jnp.where(first, 0.0, z), s2)
+    s1, v = sihd2_step(s1, y, g1, h)
+    s2, a = sihd2_step(s2, v, g2, h)
+    return (s1, s2), v, a
+
+
+def _matched_filter(wf, y, first, gains, h, cfg):
+    """The SIHD cascade applied to the running integrals of the (scaled) wrench."""
+    I1, st1, I2, st2, y_prev, f1_prev, scale = wf
+    g1 = (gains[0], gains[1], gains[4], gains[5])
+    g2 = (gains[2], gains[3], gains[4], gains[5])
+    gnorm = jnp.linalg.norm(cfg.robot.gravity)
+    m_seen = jnp.maximum(jnp.linalg.norm(y[:3]) / gnorm, 1e-6)
+    radius = jnp.max(jnp.linalg.norm(cfg.robot.P_b, axis=1))
+    scale0 = jnp.concatenate([jnp.full(3, m_seen), jnp.full(3, m_seen * radius)])
+    scale = jnp.where(first, scale0, scale)
+    u = y / scale
+    # start in steady state: a constant wrench passes unchanged, as a platform at rest
+    # gives zero velocity and acceleration
+    y_prev = jnp.where(first, u, y_prev)
+    I1 = I1 + 0.5 * h * (u + y_prev)
+    st1 = (jnp.where(first, I1, st1[0]), jnp.where(first, u, st1[1]))
+    st1, f1 = sihd2_step(st1, I1, g1, h)
+    f1_prev = jnp.where(first, f1, f1_prev)
+    I2 = I2 + 0.5 * h * (f1 + f1_prev)
+    st2 = (jnp.where(first, I2, st2[0]), jnp.where(first, f1, st2[1]))
+    st2, f2 = sihd2_step(st2, I2, g2, h)
+    return (I1, st1, I2, st2, u, f1, scale), f2 * scale
+
+
+def _online_step(state: OnlineState, sample: OnlineSample):
+    cfg = state.config
+    robot, h, gains = cfg.robot, cfg.dt, cfg.gains
+    first = state.k == 0
+    p_meas = jnp.asarray(sample.position, h.dtype)
+    q = jnp.asarray(sample.quaternion, h.dtype)
+    tau = jnp.asarray(sample.tension, h.dtype)
+
+    # 1. motion (causal SIHD cascade)
+    sihd_p, v, a = _cascade(state.sihd_p, p_meas, first, gains, h)
+    q_prev = jnp.where(first, q, state.q_prev)
+    q = jnp.where(q @ q_prev < 0, -q, q)  # sign continuity
+    B_R_P = quat_to_matrix(q)
+    if cfg.model == "full":
+        sihd_q, qd, qdd = _cascade(state.sihd_q, q, first, gains, h)
+        om, al = angular_rates_from_quat(q, qd, qdd)
+        A = regressor_full(B_R_P, a, om, al, robot.gravity)
+    else:
+        sihd_q = state.sihd_q
+        om = al = jnp.zeros(3, h.dtype)
+        A = regressor_translation(B_R_P, a, robot.gravity)
+
+    # 2.-3. measured wrench and its lag compensation
+    y = wrench_matrix(robot, p_meas, B_R_P) @ tau
+    if cfg.wrench_filter == "matched":
+        wf, y = _matched_filter(state.wf, y, first, gains, h, cfg)
+    elif cfg.wrench_filter == "delay":
+        (buf,) = state.wf
+        buf = jnp.where(first, jnp.broadcast_to(y, buf.shape), buf)
+        y, buf = buf[0], jnp.concatenate([buf[1:], y[None]], axis=0)
+        wf = (buf,)
+    else:
+        wf = state.wf
+
+    # 4. recursive least squares (square-root information form)
+    use = state.k.astype(h.dtype) * h >= cfg.warmup - 1e-9 * h
+    S, n_rows = _rls_update(state.S, state.n_rows, A, y, cfg.forgetting, use)
+    x, sigma, sigma_rho = _rls_solution(S, n_rows)
+
+    # 5. excitation monitor
+    le = jnp.where(use, cfg.excitation_forgetting, 1.0)
+    M = le * state.M + jnp.where(use, 1.0, 0.0) * (A.T @ A)
+    m_rows = le * state.m_rows + jnp.where(use, 6.0, 0.0)
+    lam_min = jnp.linalg.eigvalsh(M / jnp.maximum(m_rows, 1.0))[0]
+    exc = jnp.sqrt(jnp.maximum(lam_min, 0.0))
+    ok = (exc >= cfg.excitation_threshold) & (m_rows > 0)
+
+    new = OnlineState(cfg, state.k + 1, sihd_p, sihd_q, q, wf, S, n_rows, M, m_rows)
+    return new, OnlineOutput(v, a, om, al, A, y, x, sigma, sigma_rho, exc, ok, use)
+
+
+online_step = jax.jit(_online_step)
+online_step.__doc__ = """Consume one sample; jitted (compiled once per model, wrench filter, robot).
+
+Parameters
+----------
+state : OnlineState
+    From :func:`online_init` or a previous call.
+sample : OnlineSample
+    ``(position (3,), quaternion (4,), tension (m,))``; pass ``[1, 0, 0, 0]`` when the
+    orientation is not measured.
+
+Returns
+-------
+state : OnlineState
+out : OnlineOutput
+
+Examples
+--------
+>>> st = online_init(robot, 0.01)                              # doctest: +SKIP
+>>> for p, q, tau in stream:                                    # doctest: +SKIP
+...     st, out = online_step(st, OnlineSample(p, q, tau))
+...     print(out.x, out.sigma, bool(out.excitation_ok))
+"""
+
+
+@jax.jit
+def _online_scan(state, samples):
+    return jax.lax.scan(_online_step, state, samples)
+
+
+# ----------------------------------------------------------------------------- batch driver
+
+
+def _as_arrays(signals):
+    if hasattr(signals, "position") and hasattr(signals, "tension"):
+        t, pos, tau = signals.t, signals.position, signals.tension
+        q = getattr(signals, "quaternion", None)
+    else:
+        d = dict(signals)
+        t, pos, tau, q = d["t"], d["position"], d["tension"], d.get("quaternion")
+    t = np.asarray(t, np.float64)
+    pos = np.asarray(pos, np.float64)
+    tau = np.asarray(tau, np.float64)
+    n = t.shape[0]
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)) if q is None else np.asarray(q, np.float64)
+    if pos.shape != (n, 3) or q.shape != (n, 4) or tau.ndim != 2 or tau.shape[0] != n:
+        raise ValueError(f"signals must hold t (n,), position (n, 3), quaternion (n, 4) and "
+                         f"tension (n, m); got {t.shape}, {pos.shape}, {q.shape}, {tau.shape}.")
+    if n < 3:
+        raise ValueError(f"online identification needs at least 3 samples, got {n}.")
+    return t, pos, q, tau
+
+
+def online_identify(signals, robot: CableRobot, model: str = "translation",
+                    forgetting: float = 1.0, gains: dict | None = None, **options) -> OnlineResult:
+    """Run the online identification over recorded signals (one ``lax.scan``).
+
+    Parameters
+    ----------
+    signals : AlignedSignals or mapping
+        :func:`cdprid.align` output, or a mapping with ``t`` (n,), ``position`` (n, 3),
+        ``tension`` (n, m) and optionally ``quaternion`` (n, 4); uniform sampling.
+    robot : CableRobot
+    model : {"translation", "full"}
+    forgetting : float
+        lambda in (0, 1].
+    gains : dict, optional
+        SIHD-2 cascade gains (default: the paper's, eq. 35).
+    **options
+        Further keywords of :func:`online_init` (``wrench_filter``, ``wrench_delay``, ``x0``,
+        ``prior_weight``, ``warmup``, ``excitation_window``, ``excitation_threshold``).
+
+    Returns
+    -------
+    OnlineResult
+    """
+    t, pos, q, tau = _as_arrays(signals)
+    if tau.shape[1] != robot.n_cables:
+        raise ValueError(f"the tensions have {tau.shape[1]} columns but the robot has "
+                         f"{robot.n_cables} cables.")
+    dt = float(np.median(np.diff(t)))
+    with _x64_scope():
+        st0 = online_init(robot, dt, model, forgetting, gains, **options)
+        st, out = _online_scan(st0, OnlineSample(jnp.asarray(pos), jnp.asarray(q),
+                                                 jnp.asarray(tau)))
+        o = OnlineOutput(*(np.asarray(v) for v in out))
+        S = np.asarray(st.S)
+    p = st0.config.n_params
+    R = S[:p, :p]
+    Rinv = np.linalg.solve(R, np.eye(p))
+    cov = float(o.sigma_rho[-1]) ** 2 * (Rinv @ Rinv.T)
+    return OnlineResult(
+        t=t, names=PARAMETER_NAMES[model], model=model, x=o.x, sigma=o.sigma,
+        sigma_rho=o.sigma_rho, excitation=o.excitation, excitation_ok=o.excitation_ok.astype(bool),
+        used=o.used.astype(bool), velocity=o.velocity, acceleration=o.acceleration,
+        omega=o.omega, alpha=o.alpha, A=o.A, y=o.y, cov=cov,
+        cond=condition_number(R), cond_scaled=condition_number(R, scaled=True),
+        n_samples=int(o.used.sum()), forgetting=float(forgetting),
+        wrench_filter=st0.config.wrench_filter,
+    )
+
+
+# ----------------------------------------------------------------------------- CLI
+
+
+def plot_online(res: OnlineResult, path, truth=None, title: str | None = None) -> Path:
+    """Parameters vs time with +-2 sigma bands (one panel per parameter), saved as PNG.
+
+    Parameters
+    ----------
+    res : OnlineResult
+    path : str or Path
+    truth : array (p,) or (n, p), optional
+        Reference values drawn as dashed lines.
+    title : str, optional
+    """
+    from .plots import _plt, save_fig
+
+    plt = _plt()
+    p = len(res.names)
+    ncol = 2 if p > 4 else 1
+    nrow = int(math.ceil(p / ncol)) + 1
+    fig, axs = plt.subplots(nrow, ncol, figsize=(9 if ncol == 1 else 12, 1.7 * nrow),
+                            sharex=True, squeeze=False)
+    t = res.t
+    u = res.used
+    for i, name in enumerate(res.names):
+        ax = axs[i // ncol if ncol == 1 else i // 2][0 if ncol == 1 else i % 2]
+        x, s = res.x[:, i], res.sigma[:, i]
+        ax.fill_between(t[u], (x - 2 * s)[u], (x + 2 * s)[u], color="C0", alpha=0.25, lw=0,
+                        label="+-2 sigma")
+        ax.plot(t[u], x[u], color="C0", lw=1.0, label="online estimate")
+        if truth is not None:
+            tr = np.asarray(truth, float)
+            ax.plot(t, tr[:, i] if tr.ndim == 2 else np.full_like(t, tr[i]), "k--", lw=0.8,
+                    label="reference")
+        final = x[-1]
+        span = 10 * max(np.nanmedian(s[u][len(s[u]) // 2:]) if u.any() else 0.0,
+                        1e-3 * abs(final), 1e-9)
+        lo, hi = final - span, final + span
+        if truth is not None:  # keep every reference value (e.g. before a payload step) in view
+            ref = tr[:, i] if tr.ndim == 2 else np.array([tr[i]])
+            pad = 0.1 * (max(hi, ref.max()) - min(lo, ref.min()))
+            lo, hi = min(lo, ref.min() - pad), max(hi, ref.max() + pad)
+        ax.set_ylim(lo, hi)
+        ax.set_ylabel(name)
+        ax.grid(alpha=0.3)
+    for j in range(p, (nrow - 1) * ncol):
+        axs[j // ncol][j % ncol].set_visible(False)
+    axs[0][0].legend(loc="upper right", fontsize=7)
+    for c in range(ncol):
+        ax = axs[-1][c]
+        ax.plot(t, res.excitation, color="C2", lw=0.8, label="excitation [m/s^2]")
+        ax.fill_between(t, 0, np.nanmax(res.excitation) if res.excitation.size else 1.0,
+                        where=~res.excitation_ok, color="C3", alpha=0.15, lw=0,
+                        label="not exciting")
+        ax.set_xlabel("t [s]")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize=7)
+    fig.suptitle(title or f"online identification ({res.model} model, lambda = "
+                          f"{res.forgetting:g}, wrench filter {res.wrench_filter})")
+    return save_fig(fig, path)
+
+
+def format_online_table(res: OnlineResult) -> str:
+    """Plain-text table of the final online estimate (like the paper's Table 1)."""
+    j = res.as_json()
+    lines = [
+        f"model: {res.model}   online RLS, lambda = {res.forgetting:g}   wrench filter: "
+        f"{res.wrench_filter}   samples: {res.n_samples}",
+        f"{'parameter':<10} {'estimate':>14} {'sigma':>12} {'%sigma':>9}",
+    ]
+    for n, d in j["parameters"].items():
+        lines.append(f"{n:<10} {d['value']:>14.6g} {d['std']:>12.4g} {d['rel_std_percent']:>9.3g}")
+    lines.append(f"sigma_rho = {j['sigma_rho']:.4g}   cond(W_ID) = {res.cond:.4g}   "
+                 f"cond scaled = {res.cond_scaled:.4g}   exciting at the end: "
+                 f"{'yes' if res.excitation_ok[-1] else 'no'} "
+                 f"({100 * res.excitation_ok[res.used].mean() if res.used.any() else 0:.0f} % "
+                 "of the used samples)")
+    return "\n".join(lines)
+
+
+def write_online_csv(res: OnlineResult, path) -> Path:
+    """CSV ``t, <names>, sigma_<names>, sigma_rho, excitation, excitation_ok`` (one row/sample)."""
+    path = Path(path)
+    cols = ["t", *res.names, *(f"sigma_{n}" for n in res.names), "sigma_rho", "excitation",
+            "excitation_ok"]
+    vals = np.column_stack([res.t, res.x, res.sigma, res.sigma_rho, res.excitation,
+                            res.excitation_ok.astype(float)])
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(",".join(cols) + "\n")
+        np.savetxt(fh, vals, delimiter=",", fmt="%.12g")
+    return path
+
+
+def _free_path(path: Path) -> Path:
+    """``path`` if it does not exist, else ``stem-1.suffix``, ``stem-2.suffix``, ..."""
+    if not path.exists():
+        return path
+    k = 1
+    while (cand := path.with_name(f"{path.stem}-{k}{path.suffix}")).exists():
+        k += 1
+    return cand
+
+
+def run_online_cli(ds, args, params) -> int:
+    """``cdprid identify DATASET --online``: online identification of a dataset.
+
+    Uses ``args.model``, ``args.differentiator`` (a SIHD-2 cascade; the identify default
+    ``euler-filtfilt`` is not causal and is replaced by it, with a note), ``args.t_start``,
+    ``args.t_end``, ``args.json``, and, when present, ``args.forgetting`` (default 1.0),
+    ``args.out_csv``, ``args.wrench_filter``. Writes the parameter trajectory CSV
+    (``args.out_csv``, else ``<json stem>.online.csv`` beside ``args.json``, else
+    ``online.csv`` in the working directory; an existing file the user did not name is never
+    overwritten: ``-1``, ``-2``... are appended), a PNG of the parameters with +-2 sigma bands
+    beside it, prints the final table and writes the JSON of ``cdprid identify --json`` plus
+    ``"online": {"forgetting", "csv", "figure", ...}``.
+
+    Returns
+    -------
+    int
+        Exit code 0.
+    """
+    from .io.dataset import align
+
+    method = getattr(args, "differentiator", None) or _SIHD
+    notes = []
+    if method != _SIHD:
+        if METHODS.get(method) is not None and method != "euler-filtfilt":
+            raise ValueError(f"--online runs the causal SIHD-2 cascade (sihd2-cascade); the "
+                             f"differentiator {method!r} is not available on line.")
+        notes.append(f"differentiator {method!r} is not causal; the online identification uses "
+                     "sihd2-cascade")
+        params = {}
+    forgetting = getattr(args, "forgetting", None)
+    forgetting = 1.0 if forgetting is None else float(forgetting)
+    wfilt = getattr(args, "wrench_filter", None) or "matched"
+    sig = align(ds, getattr(args, "t_start", None), getattr(args, "t_end", None))
+    if args.model == "full" and not sig.has_rotation:
+        raise ValueError(f"{ds.path}: the full model needs orientations (qw, qx, qy, qz in "
+                         "pose.csv) to identify the inertia; this dataset has none.")
+    res = online_identify(sig, ds.robot, model=args.model, forgetting=forgetting,
+                          gains=dict(params or {}), wrench_filter=wfilt)
+
+    out_csv = getattr(args, "out_csv", None)
+    json_path = getattr(args, "json", None)
+    if out_csv:
+        csv_path = Path(out_csv)
+    elif json_path:
+        jp = Path(json_path)
+        csv_path = _free_path(jp.with_name(jp.stem + ".online.csv"))
+    else:
+        csv_path = _free_path(Path("online.csv"))
+    csv_path.parent.mkdir(parents=True, exist_ok=True)
+    write_online_csv(res, csv_path)
+    png_path = csv_path.with_suffix(".png")
+    if not out_csv:
+        png_path = _free_path(png_path)
+    truth = None
+    tr = getattr(ds, "truth", {}) or {}
+    if "mass" in tr and "first_moment" in tr and args.model == "translation":
+        truth = np.r_[tr["mass"], tr["first_moment"]]
+    plot_online(res, png_path, truth=truth)
+
+    print(format_online_table(res))
+    for n in (*sig.notes, *notes):
+        print(f"note: {n}")
+    print(f"wrote {csv_path}")
+    print(f"wrote {png_path}")
+    if json_path:
+        import json
+
+        data = res.as_json()
+        data.update({"differentiator": _SIHD, "differentiator_params": dict(params or {}),
+                     "notes": [*sig.notes, *notes]})
+        data["online"] = {
+            "forgetting": forgetting,
+            "csv": str(csv_path),
+            "figure": str(png_path),
+            "wrench_filter": res.wrench_filter,
+            "excitation_ok_final": bool(res.excitation_ok[-1]),
+            "excitation_ok_fraction": float(res.excitation_ok[res.used].mean())
+            if res.used.any() else 0.0,
+        }
+        jp = Path(json_path)
+        jp.parent.mkdir(parents=True, exist_ok=True)
+        jp.write_text(json.dumps(data, indent=2, allow_nan=True) + "\n")
+        print(f"wrote {json_path}")
+    return 0
