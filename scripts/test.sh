@@ -1,7 +1,11 @@
 #!/usr/bin/env bash
-# Set up .venv with the test extras and run the whole test suite.
+# Set up .venv with the test extras and run the test suite.
+# Locally: the default selection (slow Monte-Carlo tests deselected, < 10 min on 2 cores).
+# In CI (CI=true): the slow tests run too. Extra arguments are passed to pytest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh test
-echo "[test] running the test suite"
-.venv/bin/python -m pytest -q -p no:cacheprovider "$@"
+SEL=()
+if [ "${CI:-}" = "true" ]; then SEL=(-m "slow or not slow"); fi
+echo "[test] running the test suite ${SEL[*]:-(slow tests deselected)}"
+.venv/bin/python -m pytest -q -p no:cacheprovider "${SEL[@]}" "$@"

@@ -32,4 +32,14 @@ from .io import read_dataset as read_dataset, write_dataset as write_dataset
 from .pipeline import IdentificationReport as IdentificationReport
 from .pipeline import identify_dataset as identify_dataset
 
+
+from .diagnose import DiagnosisResult as DiagnosisResult, diagnose as diagnose
+from .effects import VOCABULARY as VOCABULARY, Effect as Effect
+from .robots import craft_like_robot as craft_like_robot, craft_like_truth as craft_like_truth
+from .simulate import SensorNoise as SensorNoise, simulate as simulate
+from .simulate import write_simulation as write_simulation
+from .tensions import distribute_tensions as distribute_tensions
+from .tensions import feasibility_margin as feasibility_margin
+from .trajectories import load_trajectory_csv as load_trajectory_csv, preset as preset
+
 __version__ = "0.1.0"
