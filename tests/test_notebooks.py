@@ -64,6 +64,8 @@ def test_notebook_executes(path, tmp_path, monkeypatch):
     assert not any((ROOT / "notebooks").glob("results")), "notebook wrote into the repository"
     if path.name.startswith("01"):
         assert (tmp_path / "results" / "model_robot.png").is_file()
+    if path.name.startswith("05"):
+        assert (tmp_path / "results" / "diagnosis_example" / "report.md").is_file()
     if path.name.startswith("02"):
         for f in ("fig3_tensions_orientation.png", "fig4_velocity_acceleration.png",
                   "mzg_gap.png"):

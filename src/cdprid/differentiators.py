@@ -45,6 +45,8 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import signal as _signal
 
+from . import sihd_high as _sihd_high
+
 __all__ = [
     "METHODS",
     "MethodInfo",
@@ -151,6 +153,11 @@ METHODS: dict[str, MethodInfo] = {
         ),
     )
 }
+# higher-order SIHD (5 and 4 states), see cdprid.sihd_high and docs/sihd.md
+for _n in (4, 5):
+    _info = _sihd_high.METHOD_INFO[f"sihd{_n}"]
+    METHODS[f"sihd{_n}"] = MethodInfo(f"sihd{_n}", True, dict(_info["params"]),
+                                      _info["description"])
 
 #: Number of times each JAX kernel has been traced (a trace precedes every
 #: compilation); used by the tests to check that repeated calls do not recompile.
@@ -447,6 +454,8 @@ _CHANNEL_FNS = {
     "levant": _levant_channel,
     "kalman": lambda y, h, p: _kalman_channel(y, h, p[0], p[1]),
     "rts": lambda y, h, p: _rts_channel(y, h, p[0], p[1]),
+    "sihd4": _sihd_high.channel(4),
+    "sihd5": _sihd_high.channel(5),
 }
 
 
@@ -597,6 +606,9 @@ def _check_params(method, params):
         raise ValueError(f"sihd2-cascade needs 0.5 <= alpha <= 1, got {p['alpha']!r}.")
     if method == "sihd3" and not 2.0 / 3.0 <= p["alpha"] <= 1.0:
         raise ValueError(f"sihd3 needs 2/3 <= alpha <= 1, got {p['alpha']!r}.")
+    for _n in (4, 5):
+        if method == f"sihd{_n}" and not (_n - 1) / _n <= p["alpha"] <= 1.0:
+            raise ValueError(f"sihd{_n} needs {(_n - 1) / _n:g} <= alpha <= 1, got {p['alpha']!r}.")
     if method == "levant" and p["lambda0"] <= 1.0:
         raise ValueError(f"levant needs lambda0 > 1, got {p['lambda0']!r}.")
     return p
