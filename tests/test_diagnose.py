@@ -6,14 +6,18 @@ import json
 import sys
 from pathlib import Path
 
+import importlib
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid import diagnose as D
 from cdprid.differentiators import zero_phase_filter
 from cdprid.filters import make_zero_phase_filter
+
+# the package re-exports the function `diagnose`, so fetch the module itself
+D = importlib.import_module("cdprid.diagnose")
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
