@@ -153,7 +153,8 @@ def imported(uacdpr_files, tmp_path_factory):
     from cdprid.io.uacdpr import import_uacdpr
 
     out = tmp_path_factory.mktemp("uacdpr") / "ds"
-    return import_uacdpr(uacdpr_files["vicon"], uacdpr_files["log"], uacdpr_files["config"], out)
+    return import_uacdpr(uacdpr_files["vicon"], uacdpr_files["log"], uacdpr_files["config"], out,
+                         calibrate=False)
 
 
 def test_import_passes_reader_with_expected_streams(imported):
@@ -246,7 +247,7 @@ def small_inputs(tmp_path):
 def _argv(d, out, **over):
     files = {"vicon": d / "vicon.txt", "log": d / "log.mat", "config": d / "cfg.mat", **over}
     return ["import", "uacdpr", "--vicon", str(files["vicon"]), "--robot-log", str(files["log"]),
-            "--config", str(files["config"]), "--out", str(out)]
+            "--config", str(files["config"]), "--out", str(out), "--no-calibrate"]
 
 
 def test_small_synthetic_import_succeeds(small_inputs, capsys, monkeypatch):

@@ -12,15 +12,32 @@ __all__ = ["add_parser"]
 
 
 def _cmd_import_uacdpr(args) -> int:
+    import sys
+
     from .io.uacdpr import import_uacdpr
 
     out = import_uacdpr(args.vicon, args.robot_log, args.config, args.out,
-                        overwrite=args.force, swivel_axis=args.swivel_axis)
+                        overwrite=args.force, swivel_axis=args.swivel_axis,
+                        calibrate=not args.no_calibrate, subsample=args.subsample,
+                        dynamics=not args.no_nuisance,
+                        progress=lambda msg: print(msg, file=sys.stderr))
     import tomllib
 
     with open(out / "meta.toml", "rb") as fh:
-        fit = tomllib.load(fh)["marker_fit"]
+        meta = tomllib.load(fh)
+    fit = meta["marker_fit"]
     print(f"wrote {out} (marker fit RMS {fit['rms_mm']:.3f} mm, max {fit['max_mm']:.2f} mm)")
+    if "calibration" in meta:
+        c = meta["calibration"]["rms_after"]
+        print(f"pose in the robot base frame (calibration RMS: lengths "
+              f"{1e3 * c['length_m']:.3f} mm, swivel {1e3 * c.get('swivel_rad', 0.0):.2f} mrad)")
+    else:
+        print("pose of the marker frame in the Vicon frame (--no-calibrate)")
+    nu = meta.get("nuisance", {})
+    if "delay_s" in nu:
+        print(f"nuisances (informational, tensions not corrected): delay "
+              f"{1e3 * nu['delay_s']:.1f} +- {1e3 * nu['delay_std_s']:.1f} ms, offsets "
+              f"{[round(v, 2) for v in nu['offset_N']]} N")
     return 0
 
 
@@ -68,12 +85,21 @@ def add_parser(sub) -> None:
     fmt = p.add_subparsers(dest="format", metavar="FORMAT")
     fmt.required = True
     u = fmt.add_parser("uacdpr", help="UACDPR (Bologna): Vicon export + robot _exp.mat + config",
-                       description="Pose by a rigid-body fit of the raw Vicon markers (marker "
-                       "frame in the Vicon frame), tensions at 1 kHz, swivel and inclinometer "
+                       description="Pose by a rigid-body fit of the raw Vicon markers, then "
+                       "the geometric calibration: platform frame in the robot base frame "
+                       "(--no-calibrate: marker frame in the Vicon frame); tensions at 1 kHz, swivel and inclinometer "
                        "streams, robot.toml from the configuration .mat.")
     _inputs(u)
     u.add_argument("--out", required=True, help="dataset folder to create")
     u.add_argument("--force", action="store_true", help="overwrite an existing dataset")
+    u.add_argument("--no-calibrate", action="store_true",
+                   help="keep the raw frames (marker frame in the Vicon frame); by default the "
+                   "geometric calibration runs and the pose is the platform's in the base frame")
+    u.add_argument("--subsample", type=int, default=4,
+                   help="calibration uses every k-th Vicon frame (default 4)")
+    u.add_argument("--no-nuisance", action="store_true",
+                   help="skip the informational dynamic nuisance estimate (offsets, delay) "
+                   "written to meta.toml [nuisance]")
     u.set_defaults(func=_cmd_import_uacdpr, swivel_axis=DEFAULT_SWIVEL_AXIS)
 
     c = sub.add_parser("calibrate", help="geometric calibration of a locked-winch recording",

@@ -514,6 +514,30 @@ def _vocab_params(c: Candidate, th_values: np.ndarray, layout: ThetaLayout, extr
     raise KeyError(c.effect)
 
 
+#: plausibility bounds of a refitted effect (a larger value means a degenerate linearisation)
+_BOUNDS = {"delay_s": 0.5, "offset_N": 1e3, "displacement_m": 0.25, "coefficient_Ns_per_m": 1e3,
+           "radius_m": 0.25, "linear_density_kg_per_m": 5.0, "tilt_rad": 0.2}
+
+
+def _implausible(effect: str, params: dict) -> str:
+    """A reason string when a refitted effect is physically implausible, else ''."""
+    for k, v in params.items():
+        if k == "cable":
+            continue
+        if k == "gain":
+            if not 0.5 < v < 2.0:
+                return f"gain {v:.3g}"
+            continue
+        if k == "amplitude_rad":
+            continue
+        mag = float(np.linalg.norm(np.atleast_1d(v)))
+        if not np.isfinite(mag) or mag > _BOUNDS.get(k, np.inf):
+            return f"{k} = {v}"
+        if k in ("radius_m", "linear_density_kg_per_m", "coefficient_Ns_per_m") and v < 0:
+            return f"{k} = {v:.3g} < 0"
+    return ""
+
+
 def _vocab_interval(c: Candidate, th_values, th_std, layout, extra) -> dict:
     z = 1.959963984540054
     if c.effect == "rotational_dynamics":
@@ -544,6 +568,7 @@ def diagnose(
     max_effects: int = 3,
     min_gain: float = 0.01,
     seed: int = 0,
+    taut_N: float = 5.0,
     progress=None,
 ) -> DiagnosisResult:
     """Diagnose what the paper's model misses in a dataset.
@@ -570,6 +595,9 @@ def diagnose(
         Smallest relative held-out RMS reduction for an effect to be accepted.
     seed : int
         Seed of the null simulation.
+    taut_N : float
+        Samples where any cable is below this tension (N) within +-0.1 s are excluded
+        (slack phases are outside every model here).
     progress : callable, optional
         Called with progress strings.
 
@@ -613,6 +641,13 @@ def diagnose(
     # usable samples: trimmed ends, and delay margin inside the tension stream
     margin = max(trim, 0.1)
     use = (sig.t >= max(sig.t[0], grid_t[0]) + margin) & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin)
+    # taut phases only: every cable above taut_N within +-0.1 s (slack cables are not modelled)
+    from scipy.ndimage import minimum_filter1d
+
+    win = 2 * int(round(0.1 / dt)) + 1
+    taut = minimum_filter1d(sig.tension.min(axis=1), size=win, mode="nearest") > taut_N
+    n_slack = int((use & ~taut).sum())
+    use = use & taut
     if train_until is not None:
         train = use & (sig.t < train_until)
         test = use & (sig.t >= train_until)
@@ -624,7 +659,8 @@ def diagnose(
     else:
         train = use
         test = None
-    say(f"aligned {n} samples at {1 / dt:.4g} Hz; {int(train.sum())} used for fitting")
+    say(f"aligned {n} samples at {1 / dt:.4g} Hz; {int(train.sum())} used for fitting"
+        + (f" ({n_slack} samples with a cable below {taut_N:g} N excluded)" if n_slack else ""))
 
     # ---------------------------------------------------------------- model pieces
     # cable side (unfiltered) and its theta-Jacobian are jitted once, with the data as an
@@ -753,6 +789,7 @@ def diagnose(
     x_cur = np.concatenate([x_base, np.zeros(6)])
     rotational = False
     accepted: list[Candidate] = []
+    excluded: set = set()
     findings: list[Finding] = []
     ranking_json = []
     active_idx: list[int] = []
@@ -815,34 +852,48 @@ def diagnose(
             ranking_json = step_ranking
         if not scored:
             break
-        p_best, c_best, stat_best, q_best, beta_best, V_best = scored[0]
-        say(f"step {step + 1}: best candidate {c_best.label}: statistic {stat_best:.1f} "
-            f"(dof {q_best}), p = {p_best:.2e}, threshold p < {thr_p:.2e}")
-        if not p_best < thr_p:
-            break
-        # held-out check of the linearised extension
-        Zext = np.concatenate([Zbase, cand_cols[c_best]], axis=2)
-        rms_after_lin = heldout_rms(Zext, y_target)
-        if rms_after_lin > rms_before * (1 - min_gain):
-            say(f"step {step + 1}: {c_best.label} does not improve the held-out residual enough "
-                f"({rms_before:.4f} -> {rms_after_lin:.4f}); stop")
-            break
-        # aliases: nearly as good and nearly collinear after projecting out the base
-        aliases = _aliases(c_best, scored, pcols, yt)
-        # nonlinear refit of all accepted effects (optimistix Levenberg-Marquardt)
-        accepted.append(c_best)
-        if c_best.effect == "rotational_dynamics":
-            rotational = True
-            x_cur = x_cur.copy()
-        else:
-            active_idx = sorted(set(active_idx) | set(layout.candidate_indices(c_best.effect,
-                                                                               c_best.cable)))
-        for _, c, _, q, beta, _ in scored:
-            if c == c_best and c.effect != "rotational_dynamics":
+        chosen = False
+        for p_best, c_best, stat_best, q_best, beta_best, _ in scored[:6]:
+            if c_best in excluded:
+                continue
+            say(f"step {step + 1}: best candidate {c_best.label}: statistic {stat_best:.1f} "
+                f"(dof {q_best}), p = {p_best:.2e}, threshold p < {thr_p:.2e}")
+            if not p_best < thr_p:
+                break
+            # held-out check of the linearised extension
+            Zext = np.concatenate([Zbase, cand_cols[c_best]], axis=2)
+            rms_after_lin = heldout_rms(Zext, y_target)
+            if rms_after_lin > rms_before * (1 - min_gain):
+                say(f"step {step + 1}: {c_best.label} does not improve the held-out residual "
+                    f"enough ({rms_before:.4f} -> {rms_after_lin:.4f}); stop")
+                break
+            # aliases: nearly as good and nearly collinear after projecting out the base
+            aliases = _aliases(c_best, scored, pcols, yt)
+            saved = (theta.copy(), x_cur.copy(), list(active_idx), rotational)
+            if c_best.effect == "rotational_dynamics":
+                rotational = True
+            else:
+                active_idx = sorted(set(active_idx) | set(layout.candidate_indices(
+                    c_best.effect, c_best.cable)))
                 theta = theta.copy()
-                theta[layout.candidate_indices(c.effect, c.cable)] = beta[:q]
-        theta, x_cur, th_cov = _refit_gauss_newton(design, theta, x_cur, active_idx, rotational,
-                                                   wrow, train, lags)
+                theta[layout.candidate_indices(c_best.effect, c_best.cable)] = beta_best[:q_best]
+            # nonlinear refit of all accepted effects (Gauss-Newton, exact Jacobian)
+            theta, x_cur, th_cov = _refit_gauss_newton(design, theta, x_cur, active_idx,
+                                                       rotational, wrow, train, lags)
+            extra = {"rotation_amplitude": rot_amp, "rotation_amplitude_std": rot_std}
+            vocab = _vocab_params(c_best, theta, layout, extra, th_cov)
+            why = _implausible(c_best.effect, vocab)
+            if why:
+                say(f"step {step + 1}: {c_best.label} refits to an implausible value ({why}); "
+                    "rejected, trying the next candidate")
+                theta, x_cur, active_idx, rotational = saved
+                excluded.add(c_best)
+                continue
+            accepted.append(c_best)
+            chosen = True
+            break
+        if not chosen:
+            break
         # held-out after the nonlinear refit (same split)
         y_new, Am_new, C_new = design(theta, x_cur, rotational)
         Zn = np.concatenate([Am_new] + ([C_new[:, :, active_idx]] if active_idx else []),
@@ -850,10 +901,9 @@ def diagnose(
         yt_new = (y_new + np.einsum("nij,j->ni", C_new[:, :, active_idx], theta[active_idx])
                   if active_idx else y_new) * wrow
         rms_after = heldout_rms(Zn, yt_new)
-        extra = {"rotation_amplitude": rot_amp, "rotation_amplitude_std": rot_std}
         findings.append(Finding(
             effect=c_best.effect,
-            parameters=_vocab_params(c_best, theta, layout, extra, th_cov),
+            parameters=vocab,
             interval=_vocab_interval(c_best, theta, np.sqrt(np.clip(np.diag(th_cov), 0, None)),
                                      layout, extra),
             aliases=aliases,
@@ -900,6 +950,8 @@ def diagnose(
         "noise_position_m": sig_p,
         "noise_tension_N": [float(s) for s in sig_tau],
         "rotation_amplitude_rad": rot_amp,
+        "taut_threshold_N": taut_N,
+        "n_excluded_slack": n_slack,
         "row_weights": [float(w) for w in wrow],
         "hac_lags": lags,
         "n_candidates": n_tests,

@@ -307,11 +307,23 @@ def _meta(rec: UacdprRecording, sources: dict, swivel_axis: str) -> dict:
 
 def import_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
                   out: str | Path, overwrite: bool = False,
-                  swivel_axis: str = DEFAULT_SWIVEL_AXIS) -> Path:
+                  swivel_axis: str = DEFAULT_SWIVEL_AXIS, calibrate: bool = True,
+                  subsample: int = 4, yaw_starts: int = 4, dynamics: bool = True,
+                  progress=None) -> Path:
     """Convert a UACDPR recording into a spec-v1 dataset folder.
 
-    Writes robot.toml (configuration), pose.csv (marker frame in the Vicon frame, 100 Hz),
-    tensions.csv (1 kHz), swivel.csv, inclinometer.csv, cable_length.csv and meta.toml.
+    Writes robot.toml (configuration), pose.csv (100 Hz), tensions.csv (1 kHz, raw load-cell
+    readings), swivel.csv, inclinometer.csv, cable_length.csv and meta.toml.
+
+    With ``calibrate=True`` (default) the geometric calibration
+    (:func:`cdprid.calibration.calibrate_geometry`, ``anchors="config"``, on every
+    ``subsample``-th Vicon frame) runs first and pose.csv holds the pose of the
+    configuration's PLATFORM frame in the robot BASE frame, so robot.toml's anchors and
+    exits apply unchanged; meta.toml ``[calibration]`` holds the estimates and their standard
+    deviations. With ``dynamics=True`` meta.toml ``[nuisance]`` also holds the load-cell offsets
+    and the residual time delay estimated from the dynamics over the whole recording
+    (:func:`cdprid.real.identify_real`, full model, taut phases), for information only:
+    tensions.csv stays raw. ``calibrate=False`` writes the marker frame in the Vicon frame.
 
     Raises
     ------
@@ -323,9 +335,20 @@ def import_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
     from ..rotations import matrix_to_quat
     from .dataset import write_dataset
 
+    def say(msg):
+        if progress is not None:
+            progress(msg)
+
+    out = Path(out)
+    if out.exists() and not overwrite:  # fail before the (slow) calibration, as write_dataset
+        clash = [f for f in ("robot.toml", "pose.csv", "tensions.csv", "meta.toml")
+                 if (out / f).exists()]
+        if clash:
+            raise FileExistsError(f"{out}: already holds {', '.join(clash)}; refusing to "
+                                  "overwrite (use --force).")
     rec = load_uacdpr(vicon, robot_log, config, swivel_axis)
     v = rec.valid
-    q = matrix_to_quat(rec.fit.V_R_M[v])
+    R, p = rec.fit.V_R_M[v], rec.fit.V_p_M[v]
     log = rec.log
     m = rec.robot.n_cables
     extra = {
@@ -337,6 +360,70 @@ def import_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
     }
     sources = {"vicon": Path(vicon).name, "robot_log": Path(robot_log).name,
                "config": Path(config).name}
-    return write_dataset(out, rec.robot, rec.pose_t, rec.fit.V_p_M[v], log.t, log.tensions,
-                         quaternion=q, meta=_meta(rec, sources, swivel_axis), extra=extra,
-                         overwrite=overwrite)
+    meta = _meta(rec, sources, swivel_axis)
+    if calibrate:
+        from ..calibration import calibrate_geometry, platform_pose
+
+        data = rec.calibration_data().subsample(max(1, int(subsample)))
+        say(f"geometric calibration on {len(data.t)} Vicon frames ...")
+        res = calibrate_geometry(rec.robot, data, anchors="config", yaw_starts=yaw_starts)
+        say(f"calibration RMS: lengths {1e3 * res.rms_after['length_m']:.3f} mm, swivel "
+            f"{1e3 * res.rms_after.get('swivel_rad', float('nan')):.2f} mrad")
+        R, p = platform_pose(res, R, p)
+        meta["description"] = (
+            "UACDPR (Univ. Bologna) recording with locked winches, imported by "
+            "cdprid.io.uacdpr: pose of the configuration's platform frame in the robot base "
+            "frame (rigid-body fit of the raw markers + geometric calibration); raw load-cell "
+            "tensions at the robot's rate.")
+        meta["frames"]["pose"] = (
+            "platform frame P (the configuration's: robot.toml anchors apply) in the robot base "
+            "frame B, from the geometric calibration (cdprid.calibration, anchors='config')")
+        cal = res.as_dict()
+        cal["subsample"] = int(subsample)
+        cal["note"] = ("sigma: formal 1-sigma of the LM fit (consecutive samples correlate: "
+                       "lower bounds); rotation-vector sigmas in rad")
+        meta["calibration"] = cal
+    ds_path = write_dataset(out, rec.robot, rec.pose_t, p, log.t, log.tensions,
+                            quaternion=matrix_to_quat(R), meta=meta, extra=extra,
+                            overwrite=overwrite)
+    if calibrate and dynamics:
+        try:
+            meta["nuisance"] = _dynamic_nuisance(ds_path, say)
+        except Exception as exc:  # noqa: BLE001  (informational: never fail the import)
+            meta["nuisance"] = {"error": f"{type(exc).__name__}: {exc}"}
+        write_dataset(out, rec.robot, rec.pose_t, p, log.t, log.tensions,
+                      quaternion=matrix_to_quat(R), meta=meta, extra=extra, overwrite=True)
+    return ds_path
+
+
+def _dynamic_nuisance(path: Path, say) -> dict:
+    """Load-cell offsets and time delay from the dynamics over the whole recording."""
+    from ..real import identify_real, prepare_real, weight_at_rest
+    from .dataset import read_dataset
+
+    ds = read_dataset(path)
+    data = prepare_real(ds)
+    say("dynamic nuisances (offsets, delay) by nonlinear LS over the whole recording ...")
+    r = identify_real(data, model="full", train_until=float(data.t[-1]) + 1.0, offsets=True,
+                      delay=True, gains=False)
+    out = {
+        "note": ("estimated by cdprid.real.identify_real (full model, offsets + delay, taut "
+                 "phases, every cable > 5 N) over the whole recording; tensions.csv is NOT "
+                 "corrected. Model: tau_true(t) = tau_meas(t + delay) - offset. std inflated "
+                 "by the residual correlation length"),
+        "offset_N": r.offset.tolist(),
+        "offset_std_N": [r.std[f"offset_{i + 1}"] for i in range(len(r.offset))],
+        "delay_s": r.delay,
+        "delay_std_s": r.std["delay"],
+        "mass_from_motion_kg": r.values["m"],
+        "mass_from_motion_std_kg": r.std["m"],
+        "force_residual_rms_N": r.train_rms["force_N"],
+        "n_taut_samples": r.n_train,
+    }
+    try:
+        w = weight_at_rest(data, offset=r.offset)
+        out["mass_at_rest_kg"] = w["mass"]
+        out["rest_windows_s"] = [list(x) for x in w["windows"]]
+    except ValueError:
+        pass
+    return out
