@@ -98,14 +98,22 @@ def run_one(effect: str, seed: int, workdir: Path) -> dict:
     res = diagnose(read_dataset(out))
     t2 = time.perf_counter()
     f = res.findings
-    named = bool(f) and (f[0].effect == effect or effect in [a.split(":")[0] for a in f[0].aliases])
-    same_cable = (not f) or ("cable" not in params) or f[0].parameters.get("cable") == params.get("cable")
-    outcome = ("correct-none" if effect == "none" and not f else
-               "false-positive" if effect == "none" else
-               "missed" if not f else
-               "named" if named and f[0].effect == effect and same_cable and size_ok(effect, params, f[0].parameters) else
-               "named-wrong-size" if named and f[0].effect == effect else
-               "alias" if named else "wrong")
+    true_label = effect if "cable" not in params else f"{effect}:cable={params['cable']}"
+    if effect == "none":
+        outcome = "correct-none" if not f else "false-positive"
+    elif not f:
+        outcome = "missed"
+    else:
+        top = f[0]
+        exact = top.effect == effect and top.parameters.get("cable") == params.get("cable")
+        if exact:
+            outcome = "named" if size_ok(effect, params, top.parameters) else "named-wrong-size"
+        elif true_label in top.aliases or effect in top.aliases:
+            outcome = "alias"
+        elif top.effect == effect:
+            outcome = "named-wrong-size"  # right effect, wrong cable
+        else:
+            outcome = "wrong"
     return {"effect": effect, "seed": seed, "truth": params, "outcome": outcome,
             "found": [x.as_json() for x in f], "sim_s": t1 - t0, "diagnose_s": t2 - t1}
 
@@ -129,10 +137,16 @@ def main() -> int:
                 if args.jsonl:
                     with open(args.jsonl, "a") as fh:
                         fh.write(json.dumps(r) + "\n")
-    outcomes = ["named", "alias", "named-wrong-size", "missed", "wrong", "correct-none", "false-positive"]
+    outcomes = ["named", "alias", "named-wrong-size", "missed", "wrong", "correct-none",
+                "false-positive"]
     lines = ["# Diagnosis detection table", "",
              f"Command: `python benchmarks/diagnosis.py --seeds {args.seeds}`; machine: "
              f"{platform.platform()}, {platform.processor() or 'cpu'}; python {sys.version.split()[0]}.", "",
+             "Outcomes: `named` = right effect (and cable) with the size within tolerance (25 % "
+             "for scalars and tilt, 50 % of |d| for displacements); `alias` = the true effect is "
+             "listed among the aliases of the finding (the data cannot separate them); "
+             "`named-wrong-size` = right effect, wrong size or cable; `wrong` = another effect "
+             "named; `missed` = no finding.", "",
              "| effect | " + " | ".join(outcomes) + " | mean diagnose time [s] |",
              "|---|" + "---|" * (len(outcomes) + 1)]
     for eff in args.effects.split(","):

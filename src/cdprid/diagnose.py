@@ -566,7 +566,7 @@ def diagnose(
     alpha: float = 1e-3,
     n_null: int = 30,
     max_effects: int = 3,
-    min_gain: float = 0.01,
+    min_gain: float = 0.002,
     seed: int = 0,
     taut_N: float = 5.0,
     progress=None,
