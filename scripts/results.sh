@@ -12,5 +12,7 @@ run benchmarks/diagnosis.py --seeds "$([ -n "$QUICK" ] && echo 1 || echo 3)"
 run benchmarks/excitation.py
 [ -f benchmarks/tuning.py ] && run benchmarks/tuning.py ${QUICK:+--quick}
 [ -f benchmarks/online.py ] && run benchmarks/online.py
+run benchmarks/speed.py
+[ -f benchmarks/real_uacdpr.py ] && run benchmarks/real_uacdpr.py
 run benchmarks/make_index.py
 echo "[results] done: see results/README.md"
