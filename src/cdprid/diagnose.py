@@ -1012,24 +1012,22 @@ def _partial_wald_many(Ct, Y, lags):
     return out
 
 
-def _aliases(c_best, scored, pcols, yt, ratio: float = 0.8, corr: float = 0.9) -> list[str]:
-    """Candidates nearly as explanatory as the best and nearly collinear with it.
+def _aliases(c_best, scored, pcols, yt, corr: float = 0.8) -> list[str]:
+    """Candidates the data cannot tell apart from the winner.
 
-    Both criteria use the columns with the base model partialled out: the share of the
-    residual each candidate explains, and the largest canonical correlation between the two
-    column spaces.
+    An alternative is an alias when its HAC Wald statistic is within
+    ``max(25, 5 %)`` of the winner's (it explains the residual nearly as well, the difference
+    being of the order of the noise) and the largest canonical correlation between the two
+    column spaces, with the base model partialled out, is at least ``corr``.
     """
-    y = yt.reshape(-1)
+    stat_best = next(st for _, c, st, _, _, _ in scored if c == c_best)
+    margin = max(25.0, 0.05 * stat_best)
     Qb, _ = np.linalg.qr(pcols[c_best].reshape(-1, pcols[c_best].shape[2]))
-    expl_best = float(np.sum((Qb.T @ y) ** 2))
     out = []
-    for _, c, _, _, _, _ in scored[1:25]:
-        if c == c_best:
+    for _, c, st, _, _, _ in scored[:25]:
+        if c == c_best or st < stat_best - margin:
             continue
         Qc, _ = np.linalg.qr(pcols[c].reshape(-1, pcols[c].shape[2]))
-        expl = float(np.sum((Qc.T @ y) ** 2))
-        if expl < ratio * expl_best:
-            continue
         s = np.linalg.svd(Qb.T @ Qc, compute_uv=False)
         if s.max() >= corr:
             out.append(c.effect if c.cable is None else f"{c.effect}:cable={c.cable}")
