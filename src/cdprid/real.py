@@ -34,10 +34,10 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy import signal as _signal
 
 from .differentiators import differentiate
 from .dynamics import PARAMETER_NAMES, regressor_full, regressor_translation
+from .filters import make_zero_phase_filter
 from .geometry import CableRobot, wrench_matrix
 from .identification import least_squares
 from .io.dataset import Dataset, align
@@ -60,32 +60,9 @@ __all__ = [
 
 
 def jax_zero_phase_filter(x, dt: float, cutoff_hz: float = 4.0, order: int = 2):
-    """JAX twin of :func:`cdprid.differentiators.zero_phase_filter` (same padding and initial
-    conditions as scipy's ``filtfilt(padtype="odd")``), differentiable; ``x`` is (n, k)."""
-    b, a = _signal.butter(int(order), cutoff_hz, btype="low", fs=1.0 / dt)
-    b, a = b / a[0], a / a[0]
-    zi = _signal.lfilter_zi(b, a)
-    n = x.shape[0]
-    padlen = min(n - 1, int(math.ceil(5.0 / (cutoff_hz * float(dt)))))
-    bj, aj, zij = jnp.asarray(b), jnp.asarray(a), jnp.asarray(zi)
-    nz = len(b) - 1
-
-    def lfilter(u, z0):
-        def step(z, ui):
-            y = bj[0] * ui + z[0]
-            zn = [z[j + 1] + bj[j + 1] * ui - aj[j + 1] * y for j in range(nz - 1)]
-            zn.append(bj[nz] * ui - aj[nz] * y)
-            return jnp.stack(zn), y
-
-        _, y = jax.lax.scan(step, z0, u)
-        return y
-
-    left = 2 * x[0] - x[padlen:0:-1]
-    right = 2 * x[-1] - x[-2:-(padlen + 2):-1]
-    ext = jnp.concatenate([left, x, right], axis=0)
-    y = lfilter(ext, zij[:, None] * ext[0][None, :])
-    y = lfilter(y[::-1], zij[:, None] * y[-1][None, :])[::-1]
-    return y[padlen:padlen + n]
+    """JAX twin of :func:`cdprid.differentiators.zero_phase_filter` (differentiable);
+    ``x`` is (n, k). Thin wrapper of :class:`cdprid.filters.ZeroPhaseFilter`."""
+    return make_zero_phase_filter(float(dt), cutoff_hz, order)(x)
 
 
 # --------------------------------------------------------------------------- data
