@@ -25,9 +25,8 @@ def _enable_x64() -> None:
     jax.config.update("jax_enable_x64", True)
 
 
-def _parse_params(text: str | None, flag: str = "--params") -> dict:
-    if not text:
-        return {}
+def load_json_object(text: str, flag: str, expect: str) -> dict:
+    """A JSON object given inline or as a file path; one-sentence UserError otherwise."""
     p = Path(text)
     if not text.lstrip().startswith("{") and p.is_file():
         text = p.read_text()
@@ -36,7 +35,14 @@ def _parse_params(text: str | None, flag: str = "--params") -> dict:
     except json.JSONDecodeError as exc:
         raise UserError(f"{flag}: not valid JSON ({exc.msg} at position {exc.pos}).") from None
     if not isinstance(val, dict):
-        raise UserError(f"{flag}: must be a JSON object such as '{{\"cutoff_hz\": 4}}'.")
+        raise UserError(f"{flag}: must be {expect}.")
+    return val
+
+
+def _parse_params(text: str | None, flag: str = "--params") -> dict:
+    if not text:
+        return {}
+    val = load_json_object(text, flag, "a JSON object such as '{\"cutoff_hz\": 4}'")
     # accept the output of `cdprid tune --json` directly
     if "params" in val and isinstance(val["params"], dict) and "method" in val:
         val = val["params"]

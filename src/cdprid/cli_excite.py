@@ -83,16 +83,9 @@ def plot_trajectory(robot, traj, path, initial=None, title: str = "", n_cables_a
 def _initial_params(text, family):
     if not text:
         return None
-    p = Path(text)
-    if not text.lstrip().startswith("{") and p.is_file():
-        text = p.read_text()
-    try:
-        val = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"--initial: not valid JSON ({exc.msg} at position {exc.pos}).") from None
-    if not isinstance(val, dict):
-        raise ValueError("--initial: must be a JSON object of the family's parameters.")
-    return val
+    from .cli import load_json_object
+
+    return load_json_object(text, "--initial", "a JSON object of the family's parameters")
 
 
 def run(args) -> int:
