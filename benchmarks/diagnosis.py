@@ -74,6 +74,23 @@ def size_ok(effect: str, truth: dict, est: dict) -> bool:
     return abs(est[key] - truth[key]) <= 0.25 * abs(truth[key])
 
 
+def score(effect: str, params: dict, found: list) -> str:
+    """Outcome of one draw from the truth and the findings (JSON form, best first)."""
+    true_label = effect if "cable" not in params else f"{effect}:cable={params['cable']}"
+    if effect == "none":
+        return "correct-none" if not found else "false-positive"
+    if not found:
+        return "missed"
+    top = found[0]
+    if top["effect"] == effect and top["parameters"].get("cable") == params.get("cable"):
+        return "named" if size_ok(effect, params, top["parameters"]) else "named-wrong-size"
+    if true_label in top["aliases"] or effect in top["aliases"]:
+        return "alias"
+    if top["effect"] == effect:
+        return "named-wrong-size"  # right effect, wrong cable
+    return "wrong"
+
+
 def run_one(effect: str, seed: int, workdir: Path) -> dict:
     """Simulate, diagnose, score one draw."""
     import jax
@@ -99,25 +116,10 @@ def run_one(effect: str, seed: int, workdir: Path) -> dict:
     t1 = time.perf_counter()
     res = diagnose(read_dataset(out))
     t2 = time.perf_counter()
-    f = res.findings
-    true_label = effect if "cable" not in params else f"{effect}:cable={params['cable']}"
-    if effect == "none":
-        outcome = "correct-none" if not f else "false-positive"
-    elif not f:
-        outcome = "missed"
-    else:
-        top = f[0]
-        exact = top.effect == effect and top.parameters.get("cable") == params.get("cable")
-        if exact:
-            outcome = "named" if size_ok(effect, params, top.parameters) else "named-wrong-size"
-        elif true_label in top.aliases or effect in top.aliases:
-            outcome = "alias"
-        elif top.effect == effect:
-            outcome = "named-wrong-size"  # right effect, wrong cable
-        else:
-            outcome = "wrong"
+    found = [x.as_json() for x in res.findings]
+    outcome = score(effect, params, found)
     return {"effect": effect, "seed": seed, "truth": params, "outcome": outcome,
-            "found": [x.as_json() for x in f], "sim_s": t1 - t0, "diagnose_s": t2 - t1}
+            "found": found, "sim_s": t1 - t0, "diagnose_s": t2 - t1}
 
 
 def main() -> int:
@@ -125,11 +127,18 @@ def main() -> int:
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--effects", default=",".join(EFFECTS))
     ap.add_argument("--out", default="results/diagnosis.md")
-    ap.add_argument("--jsonl", default=None)
+    ap.add_argument("--jsonl", default=None, help="append every draw's record to this file")
+    ap.add_argument("--from-jsonl", default=None,
+                    help="re-score the records of an earlier run instead of running again")
     args = ap.parse_args()
     rows = []
+    if args.from_jsonl:
+        rows = [json.loads(line) for line in open(args.from_jsonl)]
+        for r in rows:
+            r["outcome"] = score(r["effect"], r["truth"], r["found"])
+        args.seeds = len({r["seed"] for r in rows})
     with tempfile.TemporaryDirectory() as tmp:
-        for seed in range(args.seeds):
+        for seed in range(0 if args.from_jsonl else args.seeds):
             for eff in args.effects.split(","):
                 r = run_one(eff, seed, Path(tmp))
                 rows.append(r)
@@ -142,7 +151,9 @@ def main() -> int:
     outcomes = ["named", "alias", "named-wrong-size", "missed", "wrong", "correct-none",
                 "false-positive"]
     lines = ["# Diagnosis detection table", "",
-             f"Command: `python benchmarks/diagnosis.py --seeds {args.seeds}`; machine: "
+             f"Command: `python benchmarks/diagnosis.py --seeds {args.seeds}`"
+             + (f" (outcomes re-scored from `{args.from_jsonl}` with `--from-jsonl`)"
+                if args.from_jsonl else "") + "; machine: "
              f"{platform.platform()}, {platform.processor() or 'cpu'}; python {sys.version.split()[0]}.", "",
              "Outcomes: `named` = right effect (and cable) with the size within tolerance (25 % "
              "for scalars and tilt; the norm within 35 % for displacements, whose component "
