@@ -282,9 +282,12 @@ def test_method_registry():
         "savgol",
         "kalman",
         "rts",
+        "sihd4",
+        "sihd5",
     }
     causal = {k for k, m in METHODS.items() if m.causal}
-    assert causal == {"sihd2-cascade", "sihd3", "euler-butter-causal", "levant", "kalman"}
+    assert causal == {"sihd2-cascade", "sihd3", "euler-butter-causal", "levant", "kalman",
+                      "sihd4", "sihd5"}
     p = METHODS["sihd2-cascade"].params
     assert (p["lambda1"], p["lambda2"], p["lambda3"], p["lambda4"]) == (210, 210, 525, 525)
     assert (p["alpha"], p["mu"]) == (0.95, 1.0)
