@@ -155,6 +155,13 @@ def main() -> int:
              + (f" (outcomes re-scored from `{args.from_jsonl}` with `--from-jsonl`)"
                 if args.from_jsonl else "") + "; machine: "
              f"{platform.platform()}, {platform.processor() or 'cpu'}; python {sys.version.split()[0]}.", "",
+             "Each draw: a CRAFT-like 8-cable robot on the `rich` trajectory (six orbits, "
+             "0.2-0.6 Hz, several planes, 52 s at 100 Hz, quaternions in pose.csv), position "
+             "noise 0.2-0.4 mm, tension noise 0.5-1 N, orientation noise 0.2 mrad, one effect "
+             "drawn at the issue's magnitudes (delay 10-40 ms, offset 2-8 N, gain 3-8 %, exit or "
+             "anchor 1-4 cm, drag 3-10 N s/m, pulley 2-6 cm, tilt 0.5-1.5 deg, cable mass "
+             "0.1-0.3 kg/m, rotation 0.05-0.15 rad), or none. Diagnose times are wall-clock with "
+             "other jobs sharing the 2 cores (see benchmarks.md for a quiet-machine figure).", "",
              "Outcomes: `named` = right effect (and cable) with the size within tolerance (25 % "
              "for scalars and tilt; the norm within 35 % for displacements, whose component "
              "along the cable is weakly observable); `alias` = the true effect is "
