@@ -144,6 +144,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog="cdprid",
         description="Dynamic identification of cable-driven parallel robots.",
     )
+    from . import __version__
+
+    parser.add_argument("--version", action="version", version=f"cdprid {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     _add_identify(sub)
