@@ -516,7 +516,7 @@ def _vocab_params(c: Candidate, th_values: np.ndarray, layout: ThetaLayout, extr
 
 #: plausibility bounds of a refitted effect (a larger value means a degenerate linearisation)
 _BOUNDS = {"delay_s": 0.5, "offset_N": 1e3, "displacement_m": 0.25, "coefficient_Ns_per_m": 1e3,
-           "radius_m": 0.25, "linear_density_kg_per_m": 5.0, "tilt_rad": 0.2}
+           "radius_m": 0.25, "linear_density_kg_per_m": 5.0, "tilt_rad": 0.05}
 
 
 def _implausible(effect: str, params: dict) -> str:
@@ -566,7 +566,7 @@ def diagnose(
     alpha: float = 1e-3,
     n_null: int = 30,
     max_effects: int = 3,
-    min_gain: float = 0.002,
+    min_gain: float = 0.01,
     seed: int = 0,
     taut_N: float = 5.0,
     progress=None,
@@ -889,18 +889,25 @@ def diagnose(
                 theta, x_cur, active_idx, rotational = saved
                 excluded.add(c_best)
                 continue
+            # held-out after the nonlinear refit (same split): the extension must still help
+            y_new, Am_new, C_new = design(theta, x_cur, rotational)
+            Zn = np.concatenate([Am_new] + ([C_new[:, :, active_idx]] if active_idx else []),
+                                axis=2) * wrow[None, :, None]
+            yt_new = (y_new + np.einsum("nij,j->ni", C_new[:, :, active_idx],
+                                        theta[active_idx]) if active_idx else y_new) * wrow
+            rms_after = heldout_rms(Zn, yt_new)
+            if rms_after > rms_before * (1 - min_gain):
+                say(f"step {step + 1}: after the nonlinear refit {c_best.label} improves the "
+                    f"held-out residual too little ({rms_before:.4f} -> {rms_after:.4f}); "
+                    "rejected, trying the next candidate")
+                theta, x_cur, active_idx, rotational = saved
+                excluded.add(c_best)
+                continue
             accepted.append(c_best)
             chosen = True
             break
         if not chosen:
             break
-        # held-out after the nonlinear refit (same split)
-        y_new, Am_new, C_new = design(theta, x_cur, rotational)
-        Zn = np.concatenate([Am_new] + ([C_new[:, :, active_idx]] if active_idx else []),
-                            axis=2) * wrow[None, :, None]
-        yt_new = (y_new + np.einsum("nij,j->ni", C_new[:, :, active_idx], theta[active_idx])
-                  if active_idx else y_new) * wrow
-        rms_after = heldout_rms(Zn, yt_new)
         findings.append(Finding(
             effect=c_best.effect,
             parameters=vocab,
