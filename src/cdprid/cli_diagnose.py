@@ -31,6 +31,11 @@ def _run(args) -> int:
               f"p = {f.p_value:.2e}{alias}")
     print(f"extended model: m = {res.extended_parameters['m']['value']:.5g} kg, held-out force "
           f"residual rms {res.extended_heldout_rms:.4g} N")
+    w = res.info.get("weight_at_rest")
+    if w:
+        print(f"weight at rest ({w['n_samples']} samples): {w['raw_kg']:.4g} kg from the raw "
+              f"tensions, {w['corrected_kg']:.4g} kg with the extended model's sensor "
+              "corrections (compare with the identified m)")
     if args.json:
         p = Path(args.json)
         p.parent.mkdir(parents=True, exist_ok=True)

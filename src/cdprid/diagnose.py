@@ -964,6 +964,7 @@ def diagnose(
         "n_candidates": n_tests,
         "alpha": alpha,
         "wall_time_s": time.perf_counter() - t0,
+        "weight_at_rest": _weight_at_rest(d, layout, theta, v, a, dt),
         "information_criterion": {"kind": "BIC (effective sample size)", "base": bic_b,
                                   "extended": bic_f, "n_eff": n_eff},
     }
@@ -974,6 +975,30 @@ def diagnose(
     say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
     return DiagnosisResult(base_params, base_rms, base_force_ho, findings, ext_params,
                            ext_force_ho, ranking_json, info, arrays)
+
+
+def _weight_at_rest(d, layout, theta, v, a, dt, min_rest_s: float = 0.5):
+    """Platform weight (kg) from the cable forces where the platform is at rest.
+
+    Rest: speed < 3 cm/s over at least ``min_rest_s`` (vibrations average out). Given
+    with the raw tensions and with the extended model's sensor corrections (offsets, gains,
+    delay), to compare with the mass identified from the motion: a common load-cell gain is
+    indistinguishable from the mass, the two must agree under the same sensor model.
+    """
+    from scipy.ndimage import minimum_filter1d
+
+    still = np.linalg.norm(v, axis=1) < 0.03
+    win = max(1, int(round(min_rest_s / dt)))
+    rest = minimum_filter1d(still.astype(int), size=win, mode="nearest") > 0
+    if rest.sum() < win:
+        return None
+    g = np.asarray(d.robot.gravity)
+    gn = np.linalg.norm(g)
+    out = {"n_samples": int(rest.sum()), "t_first": float(np.asarray(d.t)[rest][0])}
+    for key, th in (("raw_kg", np.zeros(layout.size)), ("corrected_kg", theta)):
+        y = np.asarray(_meas_and_jac(d, jnp.asarray(th), layout)[0])[rest]
+        out[key] = float(np.mean(-(y[:, :3] @ g)) / gn**2)
+    return out
 
 
 def _partial_wald(Ct, yt, lags):
@@ -1109,6 +1134,12 @@ def save_report(result: DiagnosisResult, out_dir, dataset_name: str = "dataset")
         lines.append(f"| {k} | {v['value']:.6g} | {v['std']:.3g} | {ch:+.4g} |")
     lines += ["", f"Held-out force residual RMS: base {result.base_heldout_rms:.4g} N -> "
               f"extended {result.extended_heldout_rms:.4g} N ({result.info['heldout']}).", ""]
+    w = result.info.get("weight_at_rest")
+    if w:
+        lines += [f"Weight at rest ({w['n_samples']} samples from t = {w['t_first']:.3g} s): "
+                  f"{w['raw_kg']:.4g} kg from the raw tensions, {w['corrected_kg']:.4g} kg with "
+                  "the extended model's sensor corrections; a common load-cell gain is "
+                  "indistinguishable from the mass, so compare m with the latter.", ""]
     ic = result.info["information_criterion"]
     lines += [f"Information criterion ({ic['kind']}): base {ic['base']:.1f}, extended "
               f"{ic['extended']:.1f}.", ""]
