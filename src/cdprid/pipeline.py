@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 
-import numpy as np
 
 from .differentiators import METHODS, zero_phase_filter
 from .dynamics import PARAMETER_NAMES
