@@ -18,6 +18,7 @@ DESCRIPTIONS = {
     "online.md": "Online identification: latency, convergence, payload tracking",
     "real-uacdpr.md": "Real UACDPR data: import, calibration, identification, diagnosis",
     "benchmarks.md": "Speed and memory figures",
+    "diagnosis_runs.jsonl": "Per-draw records behind diagnosis.md (truth, findings, times)",
 }
 
 
