@@ -58,7 +58,7 @@ import numpy as np
 from .dynamics import PARAMETER_NAMES, InertialParameters, platform_wrench, regressor
 from .geometry import CableRobot, wrench_matrix
 from .rotations import angular_rates_from_quat, quat_to_matrix, rotvec_to_quat
-from .trajectories import Trajectory, TrajectoryState
+from .trajectories import Trajectory, TrajectoryState, _smoothstep7_derivs
 
 __all__ = [
     "FAMILIES",
@@ -176,26 +176,13 @@ def _plane(azimuth, tilt):
     return e1, e2
 
 
-def _smooth_derivs(x, scale, sign):
-    """Septic smoothstep S(x) and its first three derivatives with ``dx/du = sign / scale``."""
-    inside = (x > 0.0) & (x < 1.0)
-    x = jnp.clip(x, 0.0, 1.0)
-    polys = [
-        x**4 * (35.0 + x * (-84.0 + x * (70.0 - 20.0 * x))),
-        x**3 * (140.0 + x * (-420.0 + x * (420.0 - 140.0 * x))),
-        x**2 * (420.0 + x * (-1680.0 + x * (2100.0 - 840.0 * x))),
-        x * (840.0 + x * (-5040.0 + x * (8400.0 - 4200.0 * x))),
-    ]
-    return [polys[0]] + [jnp.where(inside, polys[k], 0.0) * (sign / scale) ** k for k in (1, 2, 3)]
-
-
 _BINOM = ((1,), (1, 1), (1, 2, 1), (1, 3, 3, 1))
 
 
 def _envelope(u, T, ramp):
     """Envelope ``e(u) = S(u / ramp) S((T - u) / ramp)`` and 3 derivatives (Leibniz rule)."""
-    g1 = _smooth_derivs(u / ramp, ramp, 1.0)
-    g2 = _smooth_derivs((T - u) / ramp, ramp, -1.0)
+    g1 = _smoothstep7_derivs(u / ramp, ramp, 1.0, 3)
+    g2 = _smoothstep7_derivs((T - u) / ramp, ramp, -1.0, 3)
     return [sum(_BINOM[n][k] * g1[k] * g2[n - k] for k in range(n + 1)) for n in range(4)]
 
 
