@@ -342,3 +342,59 @@ def test_value_errors():
         differentiate(np.zeros((5, 2, 2)), H)
     with pytest.raises(ValueError):
         differentiate(y, H, "savgol", polyorder=2.5)
+
+
+@pytest.mark.parametrize("block", [2, 3, 7, 16])
+def test_scan_blocked_equals_lax_scan(block):
+    # the output blocking (one block of outputs per outer step, padded input)
+    # returns exactly what lax.scan returns, for lengths not multiple of block
+    rng = np.random.default_rng(3)
+    xs = jnp.asarray(rng.standard_normal((101, 2)))
+
+    def step(c, x):
+        c = 0.9 * c + jnp.sin(x)
+        return c, (c, c * x)
+
+    ref = jax.lax.scan(step, jnp.zeros(2), xs)[1]
+    got = D.scan_blocked(step, jnp.zeros(2), xs, block)
+    for r, g in zip(ref, got, strict=True):
+        assert g.shape == r.shape
+        np.testing.assert_array_equal(np.asarray(g), np.asarray(r))
+
+
+def test_block_size_keeps_output_blocks_small():
+    assert D._block_size(3) > 1
+    assert D._block_size(3) * 3 * 8 <= D._SMALL_BUFFER_BYTES
+    assert D._block_size(3000) == 1
+
+
+def test_sharded_batch_equals_single_device(tmp_path):
+    # with two host devices, wide arrays are split by channel; same numbers
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent(
+        """
+        import os
+        os.environ["XLA_FLAGS"] = "--xla_force_host_platform_device_count=2"
+        import jax
+        jax.config.update("jax_enable_x64", True)
+        import numpy as np
+        import jax.numpy as jnp
+        from cdprid import differentiators as D
+        assert jax.local_device_count() == 2
+        rng = np.random.default_rng(0)
+        y = np.cumsum(rng.standard_normal((300, 131)), axis=0) * 1e-3  # odd width: padding
+        for m in ("sihd2-cascade", "kalman"):
+            d1, d2 = D.differentiate(y, 0.01, m)
+            p = jnp.asarray(list(D.METHODS[m].params.values()))
+            r1, r2 = D._jax_kernel(m, jnp.asarray(y), jnp.asarray(0.01), p)
+            assert np.array_equal(d1, np.asarray(r1)) and np.array_equal(d2, np.asarray(r2)), m
+        assert ("sihd2-cascade", 2) in D._SHARDED
+        print("ok")
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().endswith("ok")
