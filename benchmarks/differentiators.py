@@ -36,10 +36,9 @@ import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
+import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy import signal  # noqa: E402
-
-import jax.numpy as jnp  # noqa: E402
 
 from cdprid import differentiators as D  # noqa: E402
 from cdprid.differentiators import METHODS, differentiate  # noqa: E402

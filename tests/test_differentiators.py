@@ -344,7 +344,7 @@ def test_value_errors():
         differentiate(y, H, "savgol", polyorder=2.5)
 
 
-@pytest.mark.parametrize("block", [2, 3, 7, 16])
+@pytest.mark.parametrize("block", [0, 1, 2, 3, 7, 16, 200])
 def test_scan_blocked_equals_lax_scan(block):
     # the output blocking (one block of outputs per outer step, padded input)
     # returns exactly what lax.scan returns, for lengths not multiple of block
@@ -355,17 +355,21 @@ def test_scan_blocked_equals_lax_scan(block):
         c = 0.9 * c + jnp.sin(x)
         return c, (c, c * x)
 
-    ref = jax.lax.scan(step, jnp.zeros(2), xs)[1]
-    got = D.scan_blocked(step, jnp.zeros(2), xs, block)
+    c_ref, ref = jax.lax.scan(step, jnp.zeros(2), xs)
+    c_got, got = D.scan_blocked(step, jnp.zeros(2), xs, block, return_carry=True)
+    np.testing.assert_array_equal(np.asarray(c_got), np.asarray(c_ref))
     for r, g in zip(ref, got, strict=True):
         assert g.shape == r.shape
         np.testing.assert_array_equal(np.asarray(g), np.asarray(r))
+    # pytree inputs
+    got2 = D.scan_blocked(lambda c, x: step(c, x[0] + x[1]), jnp.zeros(2), (xs, 0 * xs), block)
+    np.testing.assert_array_equal(np.asarray(got2[0]), np.asarray(ref[0]))
 
 
 def test_block_size_keeps_output_blocks_small():
     assert D._block_size(3) > 1
     assert D._block_size(3) * 3 * 8 <= D._SMALL_BUFFER_BYTES
-    assert D._block_size(3000) == 1
+    assert D._block_size(3000) == 0
 
 
 def test_sharded_batch_equals_single_device(tmp_path):

@@ -232,6 +232,28 @@ def test_scan_equals_python_loop_and_no_recompilation(robot, sim_noisy):
     np.testing.assert_allclose(acc, ref.acceleration, rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("model", ["translation", "full"])
+def test_stepper_equals_online_step(robot, sim_noisy, model):
+    from cdprid.online import OnlineStepper
+
+    n = 120
+    sig = _signals(sim_noisy)
+    st = online_init(robot, 0.01, model=model, forgetting=0.995, warmup=0.3)
+    stepper = OnlineStepper(st)
+    for k in range(n):
+        smp = (sig["position"][k], sig["quaternion"][k], sig["tension"][k])
+        st, ref = online_step(st, OnlineSample(*(jnp.asarray(v) for v in smp)))
+        got = stepper.step(*smp)
+        for name, r, g in zip(ref._fields, ref, got, strict=True):
+            r = np.asarray(r)
+            assert g.shape == r.shape and g.dtype == r.dtype, name
+            np.testing.assert_allclose(g, r, rtol=1e-12, atol=1e-12, err_msg=name)
+    # the unpacked state is the online_step state
+    for a, b in zip(jax.tree_util.tree_leaves(stepper.state), jax.tree_util.tree_leaves(st),
+                    strict=True):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-12, atol=1e-12)
+
+
 def test_bad_options_raise():
     r = craft_like_robot()
     with pytest.raises(ValueError, match="forgetting"):

@@ -426,16 +426,28 @@ _UNROLL = int(os.environ.get("CDPRID_SCAN_UNROLL", "1"))
 # the SIHD scans therefore collect their outputs in blocks of ``B`` steps held
 # in the carry (a shift register of ``B x k`` values) and emit one block per
 # outer step: 2-3x faster for one 3-channel signal, identical values.
-_SMALL_BUFFER_BYTES = 256
+_SMALL_BUFFER_BYTES = 384
 
 
 def _block_size(k: int, itemsize: int = 8) -> int:
-    """Output block length for ``k`` channels (1 = plain scan)."""
-    return max(1, min(16, _SMALL_BUFFER_BYTES // (itemsize * max(k, 1))))
+    """Output block length for ``k`` channels (0 = plain scan: buffers too wide)."""
+    return min(16, _SMALL_BUFFER_BYTES // (itemsize * max(k, 1)))
 
 
-def scan_blocked(step, init, xs, block: int = 1):
-    """``jax.lax.scan(step, init, xs)[1]`` with outputs gathered in blocks.
+def _tmap(f, *trees):
+    return jax.tree_util.tree_map(f, *trees)
+
+
+def scan_blocked(step, init, xs, block: int = 0, return_carry: bool = False):
+    """``jax.lax.scan(step, init, xs)`` with the outputs gathered in blocks.
+
+    XLA:CPU runs a while-loop body whose buffers are all small (about 512 bytes
+    or less) in order on the calling thread; a body that writes its per-step
+    outputs into the full ``(n, ...)`` output arrays goes through the concurrent
+    executor instead, which costs ~0.1 us per fused kernel per step.  This
+    driver keeps the last ``block`` outputs in the carry (a shift register),
+    emits one block per outer step, and returns exactly what ``lax.scan``
+    returns.
 
     Parameters
     ----------
@@ -444,42 +456,55 @@ def scan_blocked(step, init, xs, block: int = 1):
         pytree of arrays).
     init : pytree
         Initial carry.
-    xs : jax.Array
-        Inputs, time first.
+    xs : pytree of arrays
+        Inputs, time first (same leading length).
     block : int, optional
-        Steps per output block; 1 runs a plain ``lax.scan``.  The input is
-        padded with its last sample to a whole number of blocks and the
-        padded outputs are dropped, so the final carry is not returned.
+        Steps per output block; ``<= 0`` runs a plain ``lax.scan``.
+    return_carry : bool, optional
+        Return ``(final_carry, ys)`` instead of ``ys``.
 
     Returns
     -------
-    pytree
-        The stacked per-step outputs, exactly as ``lax.scan`` returns them.
+    ys or (carry, ys)
+        The stacked per-step outputs (and the final carry), as ``lax.scan``.
     """
-    if block <= 1:
-        return jax.lax.scan(step, init, xs, unroll=_UNROLL)[1]
-    n = xs.shape[0]
-    nb = -(-n // block)
-    pad = nb * block - n
-    xp = jnp.concatenate([xs, jnp.repeat(xs[-1:], pad, axis=0)]) if pad else xs
-    xb = xp.reshape((nb, block) + xs.shape[1:])
-    y_shape = jax.eval_shape(step, init, xs[0])[1]
-    buf0 = jax.tree_util.tree_map(lambda sd: jnp.zeros((block,) + sd.shape, sd.dtype), y_shape)
+    if block <= 0:
+        carry, ys = jax.lax.scan(step, init, xs, unroll=_UNROLL)
+        return (carry, ys) if return_carry else ys
+    n = jax.tree_util.tree_leaves(xs)[0].shape[0]
+    x0 = _tmap(lambda v: v[0], xs)
+    y_shape = jax.eval_shape(step, init, x0)[1]
 
-    def inner(c, x):
-        s, buf = c
-        s, y = step(s, x)
-        buf = jax.tree_util.tree_map(
-            lambda b, v: jnp.concatenate([b[1:], v[None]], axis=0), buf, y
-        )
-        return (s, buf), None
+    def run(carry, xpart, b):
+        """Scan ``xpart`` (length a multiple of ``b``) in blocks of ``b`` steps."""
+        m = jax.tree_util.tree_leaves(xpart)[0].shape[0]
+        xb = _tmap(lambda v: v.reshape((m // b, b) + v.shape[1:]), xpart)
+        buf0 = _tmap(lambda sd: jnp.zeros((b,) + sd.shape, sd.dtype), y_shape)
 
-    def outer(s, xblk):
-        (s, buf), _ = jax.lax.scan(inner, (s, buf0), xblk, unroll=_UNROLL)
-        return s, buf
+        def inner(c, x):
+            s, buf = c
+            s, y = step(s, x)
+            buf = _tmap(lambda bb, v: jnp.concatenate([bb[1:], v[None]], axis=0), buf, y)
+            return (s, buf), None
 
-    _, yb = jax.lax.scan(outer, init, xb)
-    return jax.tree_util.tree_map(lambda v: v.reshape((nb * block,) + v.shape[2:])[:n], yb)
+        def outer(s, xblk):
+            (s, buf), _ = jax.lax.scan(inner, (s, buf0), xblk, unroll=_UNROLL)
+            return s, buf
+
+        carry, yb = jax.lax.scan(outer, carry, xb)
+        return carry, _tmap(lambda v: v.reshape((m,) + v.shape[2:]), yb)
+
+    n_main = (n // block) * block
+    parts = []
+    carry = init
+    if n_main:
+        carry, ys = run(carry, _tmap(lambda v: v[:n_main], xs), block)
+        parts.append(ys)
+    if n_main < n:  # the tail as one shorter block: the final carry stays exact
+        carry, ys = run(carry, _tmap(lambda v: v[n_main:], xs), n - n_main)
+        parts.append(ys)
+    ys = parts[0] if len(parts) == 1 else _tmap(lambda *v: jnp.concatenate(v, axis=0), *parts)
+    return (carry, ys) if return_carry else ys
 
 
 def _sihd2_cascade_channel(y, h, p, block=1):

@@ -70,7 +70,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .differentiators import METHODS, sihd2_step
+from .differentiators import METHODS, scan_blocked, sihd2_step
 from .dynamics import PARAMETER_NAMES, regressor_full, regressor_translation
 from .geometry import CableRobot, wrench_matrix
 from .identification import condition_number
@@ -86,6 +86,7 @@ __all__ = [
     "RLSResult",
     "online_init",
     "online_step",
+    "OnlineStepper",
     "online_identify",
     "recursive_least_squares",
     "run_online_cli",
@@ -356,8 +357,8 @@ def _rls_solution(S, n_rows):
     """Estimate, standard deviations and sigma_rho from the factor (eqs. 15, 19, 20)."""
     p = S.shape[0] - 1
     R = S[:p, :p]
-    x = jax.scipy.linalg.solve_triangular(R, S[:p, p], lower=False)
     Rinv = jax.scipy.linalg.solve_triangular(R, jnp.eye(p, dtype=S.dtype), lower=False)
+    x = Rinv @ S[:p, p]
     diagP = jnp.sum(Rinv**2, axis=1)
     dof = n_rows - p
     s2 = jnp.where(dof > 0, S[p, p] ** 2 / jnp.where(dof > 0, dof, 1.0), jnp.nan)
@@ -646,9 +647,129 @@ Examples
 """
 
 
+def _step_without_regressor(state, sample):
+    new, out = _online_step(state, sample)
+    return new, out._replace(A=jnp.zeros((0,), out.A.dtype))
+
+
 @jax.jit
 def _online_scan(state, samples):
-    return jax.lax.scan(_online_step, state, samples)
+    """The online step over a record; outputs stacked as ``lax.scan`` does.
+
+    The per-step outputs are gathered in small blocks (:func:`cdprid.differentiators.
+    scan_blocked`: XLA:CPU then runs the step on its lean sequential path) and the regressor
+    rows ``A`` (the largest output) are recomputed afterwards, vectorised, from the
+    estimated motion: the same function of the same numbers.
+    """
+    cfg = state.config
+    # translation model: blocks of 2 steps, measured fastest (~16 vs ~20 us per sample; the
+    # shift register copies every output at each step, so longer blocks cost more than they
+    # save). The full model's (11, 11) factor is too large for XLA's small-buffer path, so it
+    # gains nothing from blocking: plain scan.
+    block = 2 if cfg.model == "translation" else 0
+    new, out = scan_blocked(_step_without_regressor, state, samples, block, return_carry=True)
+    q = samples.quaternion.astype(cfg.dt.dtype)
+    B_R_P = jax.vmap(quat_to_matrix)(q)
+    g = cfg.robot.gravity
+    if cfg.model == "full":
+        A = jax.vmap(lambda R, a, om, al: regressor_full(R, a, om, al, g))(
+            B_R_P, out.acceleration, out.omega, out.alpha)
+    else:
+        A = jax.vmap(lambda R, a: regressor_translation(R, a, g))(B_R_P, out.acceleration)
+    return new, out._replace(A=A)
+
+
+class OnlineStepper:
+    """Real-time driver of :func:`online_step`: one compiled call per sample, flat buffers.
+
+    Calling the jitted :func:`online_step` from Python moves the whole state (about 40
+    arrays, the robot included) through JAX's dispatch at every sample, ~0.3 ms. The stepper
+    compiles the step once, ahead of time, with the configuration closed over and the
+    recursive state packed into one float64 vector, so that each call passes one state vector
+    and one sample vector in and gets two vectors back (``benchmarks/online.py`` measures
+    both). Same numbers as :func:`online_step` (tested).
+
+    Parameters
+    ----------
+    state : OnlineState
+        From :func:`online_init` (or a later state).
+
+    Examples
+    --------
+    >>> stepper = OnlineStepper(online_init(robot, 0.01))            # doctest: +SKIP
+    >>> for p, q, tau in stream:                                      # doctest: +SKIP
+    ...     out = stepper.step(p, q, tau)        # OnlineOutput of numpy arrays
+    ...     print(out.x, out.sigma, bool(out.excitation_ok))
+    """
+
+    def __init__(self, state: OnlineState):
+        from jax.flatten_util import ravel_pytree
+
+        with _x64_scope():
+            self._config = cfg = state.config
+            rest = tuple(getattr(state, f.name) for f in dataclasses.fields(state))[1:]
+            flat, unravel = ravel_pytree(rest)
+            self._unravel = unravel
+            self._m = int(cfg.robot.n_cables)
+            sample0 = OnlineSample(jnp.zeros(3), jnp.asarray([1.0, 0, 0, 0]), jnp.zeros(self._m))
+            out_shape = jax.eval_shape(_online_step, state, sample0)[1]
+            self._out_fields = []
+            off = 0
+            for name, sd in zip(OnlineOutput._fields, out_shape, strict=True):
+                size = int(np.prod(sd.shape))
+                self._out_fields.append((name, off, size, sd.shape, np.dtype(sd.dtype)))
+                off += size
+
+            def flat_step(flat_state, sample):
+                st = OnlineState(cfg, *unravel(flat_state))
+                smp = OnlineSample(sample[:3], sample[3:7], sample[7:])
+                new, out = _online_step(st, smp)
+                new_flat, _ = ravel_pytree(tuple(getattr(new, f.name)
+                                                 for f in dataclasses.fields(new))[1:])
+                out_flat = jnp.concatenate([jnp.ravel(v).astype(flat_state.dtype) for v in out])
+                return new_flat, out_flat
+
+            n_out = off
+
+            def flat_step_in_loop(flat_state, sample, trips):
+                # a loop of ``trips`` (= 1) iterations whose count XLA cannot see: XLA:CPU
+                # runs a loop body on its lean executor path, a top-level program through
+                # its concurrent one (several times slower for ~100 tiny kernels); same
+                # operations, same numbers
+                def body(i, c):
+                    return flat_step(c[0], sample)
+
+                init = (flat_state, jnp.zeros(n_out, flat_state.dtype))
+                return jax.lax.fori_loop(0, trips, body, init)
+
+            self._flat = flat
+            self._one = jnp.ones((), jnp.int32)
+            self._compiled = (
+                jax.jit(flat_step_in_loop).lower(
+                    flat, jnp.zeros(7 + self._m, flat.dtype), jnp.ones((), jnp.int32)
+                ).compile()
+            )
+
+    def step(self, position, quaternion, tension) -> OnlineOutput:
+        """Consume one sample (position (3,), quaternion (4,) scalar first, tensions (m,)).
+
+        Returns
+        -------
+        OnlineOutput
+            numpy arrays for this sample.
+        """
+        sample = np.concatenate([np.asarray(position, np.float64).reshape(3),
+                                 np.asarray(quaternion, np.float64).reshape(4),
+                                 np.asarray(tension, np.float64).reshape(self._m)])
+        self._flat, out = self._compiled(self._flat, sample, self._one)
+        out = np.asarray(out)
+        return OnlineOutput(*(out[o:o + n].reshape(shape).astype(dt)
+                              for _, o, n, shape, dt in self._out_fields))
+
+    @property
+    def state(self) -> OnlineState:
+        """The current :class:`OnlineState` (unpacked from the flat vector)."""
+        return OnlineState(self._config, *self._unravel(self._flat))
 
 
 # ----------------------------------------------------------------------------- batch driver
