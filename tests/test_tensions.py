@@ -71,3 +71,28 @@ def test_feasibility_margin_certificate(W_w):
         distribute_tensions(Wc[None], w[None], 1.0 + m_ok + 1e-3, 150.0)
     both = feasibility_margin(np.stack([Wc, Wc]), np.stack([w, 20 * w]), 1.0, 150.0)
     np.testing.assert_allclose(both, [m_ok, m_bad], rtol=1e-6)
+
+
+def test_block_lp_equals_per_sample_lps(W_w, monkeypatch):
+    # many samples go through one block-diagonal LP per chunk; same margins as one LP per
+    # sample, including infeasible samples, a wrench outside the range of W and a padded tail
+    from cdprid import tensions as T
+
+    robot = craft_like_robot()
+    rng = np.random.default_rng(4)
+    n = 300
+    P = rng.uniform([-0.5, -0.4, 0.8], [0.5, 0.4, 1.6], size=(n, 3))
+    W = np.stack([np.asarray(wrench_matrix(robot, p, np.eye(3))) for p in P])
+    w = np.array([0.0, 0.0, 9.81 * 9.88, 0.0, 0.0, 0.0]) + rng.normal(0, 1, size=(n, 6)) * [10, 10, 10, 1, 1, 1]
+    w[::37] *= 15.0  # infeasible
+    monkeypatch.setattr(T, "_BLOCK", 128)
+    block = T.feasibility_margin(W, w, 1.0, 150.0)
+    monkeypatch.setattr(T, "_BLOCK_MIN", 10**9)
+    loop = T.feasibility_margin(W, w, 1.0, 150.0)
+    assert (loop < 0).sum() >= 5 and (loop > 0).sum() >= 100
+    np.testing.assert_allclose(block, loop, rtol=1e-7, atol=1e-7)
+    # a 4-cable W: W tau = w has no solution for a generic w -> -inf, in a block too
+    W4 = W[:20, :, :4]
+    monkeypatch.setattr(T, "_BLOCK_MIN", 8)
+    m4 = T.feasibility_margin(W4, w[:20], 1.0, 150.0)
+    assert np.all(m4 == -np.inf)
