@@ -35,6 +35,8 @@ from .pipeline import identify_dataset as identify_dataset
 
 from .diagnose import DiagnosisResult as DiagnosisResult, diagnose as diagnose
 from .effects import VOCABULARY as VOCABULARY, Effect as Effect
+from .online import OnlineStepper as OnlineStepper, online_identify as online_identify
+from .online import online_init as online_init
 from .robots import craft_like_robot as craft_like_robot, craft_like_truth as craft_like_truth
 from .simulate import SensorNoise as SensorNoise, simulate as simulate
 from .simulate import write_simulation as write_simulation
