@@ -584,23 +584,6 @@ def _cable_speeds(Wm, states):
 # =============================================================================== certificate
 
 
-_LP_CACHE: dict = {}
-
-
-def _lp_solver(m: int):
-    """CasADi conic (HiGHS) LP over x = [tau (m), s]: max s, W tau = w, tmin+s <= tau <= tmax-s."""
-    if m in _LP_CACHE:
-        return _LP_CACHE[m]
-    import casadi as ca
-
-    n = m + 1
-    A_sp = ca.Sparsity.dense(6 + 2 * m, n)
-    solver = ca.conic("tension_lp", "highs", {"a": A_sp, "h": ca.Sparsity(n, n)},
-                      {"highs": {"output_flag": False}, "error_on_fail": False})
-    _LP_CACHE[m] = solver
-    return solver
-
-
 def certify_tensions(W, w, tmin: float, tmax: float):
     """Per-sample largest tension margin (N) by a linear programme through CasADi (HiGHS).
 
@@ -621,46 +604,9 @@ def certify_tensions(W, w, tmin: float, tmax: float):
         ``-inf`` where even a negative s is infeasible (W tau = w has no solution).
         Positive means the sample is feasible with that margin.
     """
-    try:  # the project's certificate (cdprid.tensions), when present
-        from .tensions import feasibility_margin
-    except ImportError:  # pragma: no cover - private fallback, same LP
-        feasibility_margin = None
-    if feasibility_margin is not None:
-        return np.atleast_1d(feasibility_margin(np.asarray(W, float), np.asarray(w, float), tmin, tmax))
-    return _casadi_margin(W, w, tmin, tmax)
+    from .tensions import feasibility_margin
 
-
-def _casadi_margin(W, w, tmin: float, tmax: float):
-    """Private LP certificate (same formulation as cdprid.tensions.feasibility_margin)."""
-    W = np.asarray(W, float)
-    w = np.asarray(w, float)
-    n, _, m = W.shape
-    solver = _lp_solver(m)
-    nx = m + 1
-    g = np.zeros(nx)
-    g[-1] = -1.0
-    lbx = np.full(nx, -np.inf)
-    ubx = np.full(nx, np.inf)
-    lbx[-1] = -0.5 * (tmax - tmin) - 1e3
-    ubx[-1] = 0.5 * (tmax - tmin)
-    I = np.eye(m)
-    out = np.empty(n)
-    # rows: W tau = w; tau - s >= tmin; tau + s <= tmax
-    A = np.zeros((6 + 2 * m, nx))
-    A[6:6 + m, :m] = I
-    A[6:6 + m, m] = -1.0
-    A[6 + m:, :m] = I
-    A[6 + m:, m] = 1.0
-    lba = np.concatenate([np.zeros(6), np.full(m, tmin), np.full(m, -np.inf)])
-    uba = np.concatenate([np.zeros(6), np.full(m, np.inf), np.full(m, tmax)])
-    for k in range(n):
-        A[:6, :m] = W[k]
-        lba[:6] = w[k]
-        uba[:6] = w[k]
-        sol = solver(g=g, a=A, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
-        ok = solver.stats()["success"]
-        out[k] = float(sol["x"][-1]) if ok else -np.inf
-    return out
+    return np.atleast_1d(feasibility_margin(np.asarray(W, float), np.asarray(w, float), tmin, tmax))
 
 
 # =============================================================================== problem

@@ -131,13 +131,25 @@ def _solve_qp(W, w, tmin, tmax, tau_ref, plugin):
 
 
 def _lp_rows(W, w, tmin, tmax):
-    m = W.shape[1]
-    I = np.eye(m)
-    one = np.ones((m, 1))
-    A = np.block([[W, np.zeros((6, 1))], [I, -one], [I, one]])
-    lba = np.concatenate([w, np.full(m, tmin), np.full(m, -np.inf)])
-    uba = np.concatenate([w, np.full(m, np.inf), np.full(m, tmax)])
+    """Rows of the margin LP over ``[tau, s]`` for one sample (W (6, m)) or a stack (n, 6, m):
+    ``W tau = w``, ``tau - s >= tmin``, ``tau + s <= tmax``."""
+    *lead, _, m = W.shape
+    A = np.zeros((*lead, 6 + 2 * m, m + 1))
+    A[..., :6, :m] = W
+    A[..., 6:6 + m, :m] = np.eye(m)
+    A[..., 6:6 + m, m] = -1.0
+    A[..., 6 + m:, :m] = np.eye(m)
+    A[..., 6 + m:, m] = 1.0
+    lo = np.full((*lead, m), tmin)
+    lba = np.concatenate([w, lo, np.full_like(lo, -np.inf)], axis=-1)
+    uba = np.concatenate([w, np.full_like(lo, np.inf), np.full_like(lo, tmax)], axis=-1)
     return A, lba, uba
+
+
+def _equality_ok(W, w, tau):
+    """Whether ``W tau = w`` holds to 1e-6 relative (per sample for stacks)."""
+    resid = np.max(np.abs(np.einsum("...im,...m->...i", W, tau) - w), axis=-1)
+    return resid <= 1e-6 * (1.0 + np.max(np.abs(w), axis=-1))
 
 
 def feasibility_margin(W, w, tension_min, tension_max, cap: float = 1e6):
@@ -203,10 +215,7 @@ def feasibility_margin(W, w, tension_min, tension_max, cap: float = 1e6):
             out[k] = -np.inf
             continue
         x = np.asarray(sol["x"]).reshape(-1)
-        if np.max(np.abs(W[k] @ x[:m] - w[k])) > 1e-6 * (1.0 + np.max(np.abs(w[k]))):
-            out[k] = -np.inf
-        else:
-            out[k] = x[-1]
+        out[k] = x[-1] if _equality_ok(W[k], w[k], x[:m]) else -np.inf
     return float(out[0]) if single else out
 
 
@@ -220,20 +229,22 @@ _BLOCK_MIN = 8
 
 @functools.lru_cache(maxsize=8)
 def _block_solver(m: int, nb: int):
+    """CasADi/HiGHS LP with ``nb`` dense (6 + 2m, m + 1) blocks on the diagonal, and its
+    sparsity (CSC: block by block, column by column)."""
     import casadi as ca
-    import scipy.sparse as sps
 
-    nx = m + 1
-    blk = np.ones((6 + 2 * m, nx))
-    A = sps.block_diag([sps.csc_matrix(blk)] * nb, format="csc")
-    sp = ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist())
+    rows, cols = 6 + 2 * m, m + 1
+    colind = np.arange(nb * cols + 1) * rows
+    row = (np.arange(rows)[None, None, :] + rows * np.arange(nb)[:, None, None]
+           + np.zeros((1, cols, 1), int)).reshape(-1)
+    sp = ca.Sparsity(nb * rows, nb * cols, colind.tolist(), row.tolist())
     solver = ca.conic(
         "tension_margin_block",
         "highs",
-        {"h": ca.Sparsity(A.shape[1], A.shape[1]), "a": sp},
+        {"h": ca.Sparsity(nb * cols, nb * cols), "a": sp},
         {"error_on_fail": False, "highs": {"output_flag": False}},
     )
-    return solver, A
+    return solver, sp
 
 
 def _block_margins(W, w, tmin, tmax, s_upper):
@@ -241,30 +252,16 @@ def _block_margins(W, w, tmin, tmax, s_upper):
     import casadi as ca
 
     nb, _, m = W.shape
-    nx = m + 1
-    solver, pattern = _block_solver(m, nb)
-    # the dense blocks of _lp_rows for every sample, in the CSC order of the pattern
-    # (block by block, column by column)
-    blocks = np.zeros((nb, 6 + 2 * m, nx))
-    blocks[:, :6, :m] = W
-    blocks[:, 6:6 + m, :m] = np.eye(m)
-    blocks[:, 6:6 + m, m] = -1.0
-    blocks[:, 6 + m:, :m] = np.eye(m)
-    blocks[:, 6 + m:, m] = 1.0
-    data = blocks.transpose(0, 2, 1).reshape(-1)
-    a_dm = ca.DM(ca.Sparsity(pattern.shape[0], pattern.shape[1], pattern.indptr.tolist(),
-                             pattern.indices.tolist()), data)
-    lba = np.concatenate([w, np.full((nb, m), tmin), np.full((nb, m), -np.inf)], axis=1)
-    uba = np.concatenate([w, np.full((nb, m), np.inf), np.full((nb, m), tmax)], axis=1)
+    solver, sp = _block_solver(m, nb)
+    A, lba, uba = _lp_rows(W, w, tmin, tmax)
     g = np.tile(np.r_[np.zeros(m), -1.0], nb)
-    lbx = np.full(nb * nx, -np.inf)
     ubx = np.tile(np.r_[np.full(m, np.inf), s_upper], nb)
-    sol = solver(g=g, a=a_dm, lba=lba.reshape(-1), uba=uba.reshape(-1), lbx=lbx, ubx=ubx)
+    sol = solver(g=g, a=ca.DM(sp, A.transpose(0, 2, 1).reshape(-1)), lba=lba.reshape(-1),
+                 uba=uba.reshape(-1), lbx=np.full(nb * (m + 1), -np.inf), ubx=ubx)
     if not solver.stats().get("success", False):
         return None
-    x = np.asarray(sol["x"]).reshape(nb, nx)
-    resid = np.max(np.abs(np.einsum("nim,nm->ni", W, x[:, :m]) - w), axis=1)
-    if np.any(resid > 1e-6 * (1.0 + np.max(np.abs(w), axis=1))):
+    x = np.asarray(sol["x"]).reshape(nb, m + 1)
+    if not np.all(_equality_ok(W, w, x[:, :m])):
         return None
     return x[:, m]
 
