@@ -49,11 +49,12 @@ def _parse_params(text: str | None, flag: str = "--params") -> dict:
     return val
 
 
-def _write_json(path: str, data: dict) -> None:
+def write_json(path, data: dict) -> Path:
+    """Write ``data`` as indented JSON (creating the parent folder); returns the path."""
     out = Path(path)
-    if out.parent and not out.parent.exists():
-        out.parent.mkdir(parents=True, exist_ok=True)
+    out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(data, indent=2, allow_nan=True) + "\n")
+    return out
 
 
 # ----------------------------------------------------------------------------- identify
@@ -85,7 +86,7 @@ def _cmd_identify(args) -> int:
     )
     print(format_table(rep))
     if args.json:
-        _write_json(args.json, rep.as_json())
+        write_json(args.json, rep.as_json())
         print(f"wrote {args.json}")
     return 0
 

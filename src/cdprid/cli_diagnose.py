@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import json
 import sys
-from pathlib import Path
 
 __all__ = ["add_parser"]
 
@@ -37,10 +35,9 @@ def _run(args) -> int:
               f"tensions, {w['corrected_kg']:.4g} kg with the extended model's sensor "
               "corrections (compare with the identified m)")
     if args.json:
-        p = Path(args.json)
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(json.dumps(res.as_json(), indent=2) + "\n")
-        print(f"wrote {p}")
+        from .cli import write_json
+
+        print(f"wrote {write_json(args.json, res.as_json())}")
     if args.report:
         path = save_report(res, args.report, dataset_name=str(args.dataset))
         print(f"wrote {path}")

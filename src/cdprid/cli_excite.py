@@ -9,7 +9,6 @@ Writes ``DIR/trajectory.csv`` (100 Hz, columns of :mod:`cdprid.trajectories`),
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
@@ -155,10 +154,9 @@ def run(args) -> int:
     print(f"wrote {out / 'trajectory.csv'}, {out / 'trajectory.png'}"
           + ("" if data["outputs"]["dataset"] is None else f", {out / 'dataset'}"))
     if args.json:
-        jp = Path(args.json)
-        jp.parent.mkdir(parents=True, exist_ok=True)
-        jp.write_text(json.dumps(data, indent=2) + "\n")
-        print(f"wrote {jp}")
+        from .cli import write_json
+
+        print(f"wrote {write_json(args.json, data)}")
     return 0
 
 

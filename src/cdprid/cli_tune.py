@@ -14,7 +14,6 @@ from __future__ import annotations
 import json
 import math
 import sys
-from pathlib import Path
 
 __all__ = ["add_parser"]
 
@@ -77,10 +76,9 @@ def _run(args) -> int:
           f"(tuning {res.wall_s:.1f} s wall, {res.cpu_s:.1f} s CPU)")
     print("params: " + json.dumps(res.params))
     if args.json:
-        p = Path(args.json)
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(json.dumps(out, indent=2) + "\n")
-        print(f"wrote {p}")
+        from .cli import write_json
+
+        print(f"wrote {write_json(args.json, out)}")
     return 0
 
 

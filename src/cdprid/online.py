@@ -1012,8 +1012,6 @@ def run_online_cli(ds, args, params) -> int:
     print(f"wrote {csv_path}")
     print(f"wrote {png_path}")
     if json_path:
-        import json
-
         data = res.as_json()
         data.update({"differentiator": _SIHD, "differentiator_params": dict(params or {}),
                      "notes": [*sig.notes, *notes]})
@@ -1026,8 +1024,8 @@ def run_online_cli(ds, args, params) -> int:
             "excitation_ok_fraction": float(res.excitation_ok[res.used].mean())
             if res.used.any() else 0.0,
         }
-        jp = Path(json_path)
-        jp.parent.mkdir(parents=True, exist_ok=True)
-        jp.write_text(json.dumps(data, indent=2, allow_nan=True) + "\n")
+        from .cli import write_json
+
+        write_json(json_path, data)
         print(f"wrote {json_path}")
     return 0
