@@ -248,6 +248,8 @@ def test_stepper_equals_online_step(robot, sim_noisy, model):
             r = np.asarray(r)
             assert g.shape == r.shape and g.dtype == r.dtype, name
             np.testing.assert_allclose(g, r, rtol=1e-12, atol=1e-12, err_msg=name)
+    with pytest.raises(ValueError, match="tension must have 8 values, got 3"):
+        stepper.step(sig["position"][0], sig["quaternion"][0], [1.0, 2.0, 3.0])
     # the unpacked state is the online_step state
     for a, b in zip(jax.tree_util.tree_leaves(stepper.state), jax.tree_util.tree_leaves(st),
                     strict=True):

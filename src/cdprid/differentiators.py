@@ -419,13 +419,9 @@ def _rts_channel(y, h, q, r):
 # so it is opt-in through the environment variable.
 _UNROLL = int(os.environ.get("CDPRID_SCAN_UNROLL", "1"))
 
-# Per-step outputs of a scan are written into (n, k) buffers.  XLA:CPU runs a
-# while-loop body whose buffers are all small (<= 512 bytes) in order on the
-# calling thread, and dispatches the body's ~10 fused kernels through its
-# concurrent executor otherwise, which costs ~1 us per step.  For few channels
-# the SIHD scans therefore collect their outputs in blocks of ``B`` steps held
-# in the carry (a shift register of ``B x k`` values) and emit one block per
-# outer step: 2-3x faster for one 3-channel signal, identical values.
+# Output blocks (see scan_blocked) for few channels: the SIHD scans collect their
+# outputs in blocks of ``B`` steps, each block buffer at most this many bytes
+# (benchmarks/differentiators.py times one signal with and without blocking).
 _SMALL_BUFFER_BYTES = 384
 
 
@@ -444,7 +440,7 @@ def scan_blocked(step, init, xs, block: int = 0, return_carry: bool = False):
     XLA:CPU runs a while-loop body whose buffers are all small (about 512 bytes
     or less) in order on the calling thread; a body that writes its per-step
     outputs into the full ``(n, ...)`` output arrays goes through the concurrent
-    executor instead, which costs ~0.1 us per fused kernel per step.  This
+    executor instead, at a cost per fused kernel and step.  This
     driver keeps the last ``block`` outputs in the carry (a shift register),
     emits one block per outer step, and returns exactly what ``lax.scan``
     returns.
@@ -507,7 +503,7 @@ def scan_blocked(step, init, xs, block: int = 0, return_carry: bool = False):
     return (carry, ys) if return_carry else ys
 
 
-def _sihd2_cascade_channel(y, h, p, block=1):
+def _sihd2_cascade_channel(y, h, p, block=0):
     g1 = (p[0], p[1], p[4], p[5])
     g2 = (p[2], p[3], p[4], p[5])
 
@@ -524,13 +520,13 @@ def _sihd2_cascade_channel(y, h, p, block=1):
     return scan_blocked(step, init, y, block)
 
 
-def _sihd3_channel(y, h, p, block=1):
+def _sihd3_channel(y, h, p, block=0):
     zero = jnp.zeros((), y.dtype)
     g = (p[0], p[1], p[2], p[3], p[4])
     return scan_blocked(lambda s, yk: sihd3_step(s, yk, g, h), (y[0], zero, zero), y, block)
 
 
-def _levant_channel(y, h, p, block=1):
+def _levant_channel(y, h, p, block=0):
     zero = jnp.zeros((), y.dtype)
     g = (p[0], p[1], p[2], p[3])
     return scan_blocked(lambda s, fk: levant_step(s, fk, g, h), (y[0], zero, zero), y, block)
@@ -540,10 +536,11 @@ _CHANNEL_FNS = {
     "sihd2-cascade": _sihd2_cascade_channel,
     "sihd3": _sihd3_channel,
     "levant": _levant_channel,
-    "kalman": lambda y, h, p, block=1: _kalman_channel(y, h, p[0], p[1]),
-    "rts": lambda y, h, p, block=1: _rts_channel(y, h, p[0], p[1]),
-    "sihd4": lambda y, h, p, block=1: _sihd_high.channel(4)(y, h, p),
-    "sihd5": lambda y, h, p, block=1: _sihd_high.channel(5)(y, h, p),
+    # no output blocking for these (block ignored)
+    "kalman": lambda y, h, p, block=0: _kalman_channel(y, h, p[0], p[1]),
+    "rts": lambda y, h, p, block=0: _rts_channel(y, h, p[0], p[1]),
+    "sihd4": lambda y, h, p, block=0: _sihd_high.channel(4)(y, h, p),
+    "sihd5": lambda y, h, p, block=0: _sihd_high.channel(5)(y, h, p),
 }
 
 

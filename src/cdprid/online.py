@@ -662,10 +662,10 @@ def _online_scan(state, samples):
     estimated motion: the same function of the same numbers.
     """
     cfg = state.config
-    # translation model: blocks of 2 steps, measured fastest (~16 vs ~20 us per sample; the
-    # shift register copies every output at each step, so longer blocks cost more than they
-    # save). The full model's (11, 11) factor is too large for XLA's small-buffer path, so it
-    # gains nothing from blocking: plain scan.
+    # translation model: blocks of 2 steps, the fastest in our measurements (the shift
+    # register copies every output at each step, so longer blocks cost more than they save).
+    # The full model's (11, 11) factor is too large for XLA's small-buffer path, so it gains
+    # nothing from blocking: plain scan.
     block = 2 if cfg.model == "translation" else 0
     new, out = scan_blocked(_step_without_regressor, state, samples, block, return_carry=True)
     q = samples.quaternion.astype(cfg.dt.dtype)
@@ -679,11 +679,17 @@ def _online_scan(state, samples):
     return new, out._replace(A=A)
 
 
+def _recursive_part(state: OnlineState) -> tuple:
+    """Every field of the state but its (constant) configuration."""
+    return tuple(getattr(state, f.name) for f in dataclasses.fields(state))[1:]
+
+
 class OnlineStepper:
     """Real-time driver of :func:`online_step`: one compiled call per sample, flat buffers.
 
     Calling the jitted :func:`online_step` from Python moves the whole state (about 40
-    arrays, the robot included) through JAX's dispatch at every sample, ~0.3 ms. The stepper
+    arrays, the robot included) through JAX's dispatch at every sample (results/online.md
+    gives both costs). The stepper
     compiles the step once, ahead of time, with the configuration closed over and the
     recursive state packed into one float64 vector, so that each call passes one state vector
     and one sample vector in and gets two vectors back (``benchmarks/online.py`` measures
@@ -707,8 +713,7 @@ class OnlineStepper:
 
         with _x64_scope():
             self._config = cfg = state.config
-            rest = tuple(getattr(state, f.name) for f in dataclasses.fields(state))[1:]
-            flat, unravel = ravel_pytree(rest)
+            flat, unravel = ravel_pytree(_recursive_part(state))
             self._unravel = unravel
             self._m = int(cfg.robot.n_cables)
             sample0 = OnlineSample(jnp.zeros(3), jnp.asarray([1.0, 0, 0, 0]), jnp.zeros(self._m))
@@ -724,8 +729,7 @@ class OnlineStepper:
                 st = OnlineState(cfg, *unravel(flat_state))
                 smp = OnlineSample(sample[:3], sample[3:7], sample[7:])
                 new, out = _online_step(st, smp)
-                new_flat, _ = ravel_pytree(tuple(getattr(new, f.name)
-                                                 for f in dataclasses.fields(new))[1:])
+                new_flat, _ = ravel_pytree(_recursive_part(new))
                 out_flat = jnp.concatenate([jnp.ravel(v).astype(flat_state.dtype) for v in out])
                 return new_flat, out_flat
 
@@ -746,7 +750,7 @@ class OnlineStepper:
             self._one = jnp.ones((), jnp.int32)
             self._compiled = (
                 jax.jit(flat_step_in_loop).lower(
-                    flat, jnp.zeros(7 + self._m, flat.dtype), jnp.ones((), jnp.int32)
+                    flat, jnp.zeros(7 + self._m, flat.dtype), self._one
                 ).compile()
             )
 
@@ -758,9 +762,13 @@ class OnlineStepper:
         OnlineOutput
             numpy arrays for this sample.
         """
-        sample = np.concatenate([np.asarray(position, np.float64).reshape(3),
-                                 np.asarray(quaternion, np.float64).reshape(4),
-                                 np.asarray(tension, np.float64).reshape(self._m)])
+        parts = [np.asarray(v, np.float64).ravel() for v in (position, quaternion, tension)]
+        for name, v, size in zip(("position", "quaternion", "tension"), parts,
+                                 (3, 4, self._m), strict=True):
+            if v.size != size:
+                raise ValueError(f"OnlineStepper.step: {name} must have {size} values, "
+                                 f"got {v.size}.")
+        sample = np.concatenate(parts)
         self._flat, out = self._compiled(self._flat, sample, self._one)
         out = np.asarray(out)
         return OnlineOutput(*(out[o:o + n].reshape(shape).astype(dt)
