@@ -223,10 +223,9 @@ def main(argv=None) -> int:
         "`OnlineStepper` compiles the step ahead of time with the configuration closed over and "
         "the state packed in one vector, and runs it as a one-iteration loop (XLA:CPU executes "
         "loop bodies on its lean sequential path): what a real-time loop driven from Python "
-        "pays. A call of a trivial compiled JAX function costs ~20 us on this machine. Timings "
-        "of this 2-core VM drift by up to ~1.5x between runs minutes apart (the same step "
-        "measured 13 to 23 us per sample today); CPU above wall time is XLA's thread pool "
-        "spinning while the loop runs on the main thread.",
+        "pays. Timings of this 2-core VM drift between runs minutes apart, hence the best and "
+        "the median columns; CPU above wall time is XLA's thread pool spinning while the "
+        "loop runs on the main thread.",
         "",
         "## Convergence (paper-orbits, 52 s, 0.2 mm / 0.5 N noise, lambda = 1)",
         "",
