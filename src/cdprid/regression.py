@@ -22,7 +22,10 @@ from .dynamics import regressor
 from .geometry import CableRobot, wrench_matrix
 from .motion import Motion
 
-__all__ = ["Regression", "build_regression", "cable_wrench"]
+__all__ = [
+    "Regression", "build_regression", "cable_wrench", "measured_wrench", "regressors",
+    "wrench_matrices",
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,27 +67,43 @@ class Regression:
         return Regression(self.t[mask], self.A[mask], self.y[mask], self.model)
 
 
-@jax.jit
-def _cable_wrench(robot, B_p, B_R_P, tau):
-    def one(p, R, ta):
-        return wrench_matrix(robot, p, R) @ ta
+def wrench_matrices(robot: CableRobot, B_p, B_R_P):
+    """Wrench matrices ``W`` (eq. 2) per sample, (n, 6, m); pure JAX, traceable.
 
-    return jax.vmap(one)(B_p, B_R_P, tau)
+    The one place where ``W`` is evaluated over a time series: every feature calls this.
+    """
+    return jax.vmap(lambda p, R: wrench_matrix(robot, p, R))(B_p, B_R_P)
+
+
+def measured_wrench(robot: CableRobot, B_p, B_R_P, tau):
+    """Measured cable wrench ``y = W(pose) tau`` per sample, (n, 6); pure JAX, traceable.
+
+    The one place where ``W tau`` is formed: every feature (identification, diagnosis,
+    online, real-data fitting, excitation) calls this instead of its own copy.
+    """
+    return jnp.einsum("nij,nj->ni", wrench_matrices(robot, B_p, B_R_P), tau)
+
+
+def regressors(model: str, B_R_P, B_a, B_omega, B_alpha, gravity):
+    """Regressor ``A`` per sample (eq. 10 or the full model), (n, 6, p); pure JAX, traceable.
+
+    ``model`` is static ("translation" or "full"). The one place where the regressor is
+    vmapped over time: every feature calls this.
+    """
+    if model not in ("translation", "full"):
+        raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+    return jax.vmap(lambda R, a, w, al: regressor(model, R, a, w, al, gravity))(
+        B_R_P, B_a, B_omega, B_alpha)
+
+
+_measured_wrench_jit = jax.jit(measured_wrench)
+_regressors_jit = jax.jit(regressors, static_argnums=0)
 
 
 def cable_wrench(robot: CableRobot, B_p, B_R_P, tau) -> np.ndarray:
-    """Measured cable wrench ``W(pose) tau`` per sample (n, 6)."""
-    return np.asarray(_cable_wrench(robot, jnp.asarray(B_p), jnp.asarray(B_R_P), jnp.asarray(tau)))
-
-
-@jax.jit
-def _regressors_translation(B_R_P, a, om, al, g):
-    return jax.vmap(lambda R, x, w, y: regressor("translation", R, x, w, y, g))(B_R_P, a, om, al)
-
-
-@jax.jit
-def _regressors_full(B_R_P, a, om, al, g):
-    return jax.vmap(lambda R, x, w, y: regressor("full", R, x, w, y, g))(B_R_P, a, om, al)
+    """Measured cable wrench ``W(pose) tau`` per sample (n, 6), as numpy (jit-compiled)."""
+    return np.asarray(_measured_wrench_jit(robot, jnp.asarray(B_p), jnp.asarray(B_R_P),
+                                           jnp.asarray(tau)))
 
 
 def build_regression(robot: CableRobot, motion: Motion, tension, model: str = "translation",
@@ -106,7 +125,7 @@ def build_regression(robot: CableRobot, motion: Motion, tension, model: str = "t
     y = cable_wrench(robot, motion.position, motion.B_R_P, tension)
     if wrench_filter is not None:
         y = np.asarray(wrench_filter(y))
-    fn = _regressors_translation if model == "translation" else _regressors_full
-    A = np.asarray(fn(jnp.asarray(motion.B_R_P), jnp.asarray(motion.acceleration),
-                      jnp.asarray(motion.omega), jnp.asarray(motion.alpha), robot.gravity))
+    A = np.asarray(_regressors_jit(model, jnp.asarray(motion.B_R_P),
+                                   jnp.asarray(motion.acceleration), jnp.asarray(motion.omega),
+                                   jnp.asarray(motion.alpha), robot.gravity))
     return Regression(motion.t, A, y, model)
