@@ -15,8 +15,7 @@ from pathlib import Path
 __all__ = ["main", "UserError"]
 
 
-class UserError(Exception):
-    """An error in what the user gave; printed as one sentence, exit code 2."""
+from .errors import UserError  # noqa: E402  (re-exported: cdprid.cli.UserError)
 
 
 def _enable_x64() -> None:
@@ -49,12 +48,16 @@ def _parse_params(text: str | None, flag: str = "--params") -> dict:
     return val
 
 
-def write_json(path, data: dict) -> Path:
-    """Write ``data`` as indented JSON (creating the parent folder); returns the path."""
+def write_json(path, data: dict, force: bool = True) -> Path:
+    """Write ``data`` as indented JSON atomically (creating the parent folder); returns the path.
+
+    Check the path with :func:`cdprid.outputs.check_output` before the work starts.
+    """
+    from .outputs import write_json as _write
+
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(data, indent=2, allow_nan=True) + "\n")
-    return out
+    return _write(out, data, force=force)
 
 
 # ----------------------------------------------------------------------------- identify

@@ -1,0 +1,22 @@
+"""Error types that separate a user's mistake (exit code 2) from an internal failure (exit 1).
+
+Library code raises :class:`UserError` (or a subclass) only for a problem in what the user
+gave: a file, a field, an option. Everything else is an internal error that the CLI reports
+as such ("please report it"), never as bad input.
+"""
+
+from __future__ import annotations
+
+__all__ = ["ConvergenceError", "OutputError", "UserError"]
+
+
+class UserError(Exception):
+    """A problem in what the user gave; the CLI prints it as one sentence and exits with 2."""
+
+
+class OutputError(UserError):
+    """An output path that cannot be written (exists without --force, missing folder, ...)."""
+
+
+class ConvergenceError(RuntimeError):
+    """A numerical solver did not converge; the message says which solver and what to try."""
