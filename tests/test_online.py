@@ -85,8 +85,8 @@ def test_rls_equals_weighted_batch_least_squares(forgetting, rng):
     np.testing.assert_allclose(r.x[-1], b.x, rtol=1e-8, atol=1e-10)
     if forgetting == 1.0:
         np.testing.assert_allclose(r.sigma_rho[-1], b.sigma_rho, rtol=1e-8)
-        np.testing.assert_allclose(r.sigma[-1], b.std, rtol=1e-8)
-        np.testing.assert_allclose(r.cov, b.cov, rtol=1e-7, atol=1e-14)
+        np.testing.assert_allclose(r.sigma[-1], b.std_iid, rtol=1e-8)
+        np.testing.assert_allclose(r.cov, b.cov_iid, rtol=1e-7, atol=1e-14)
     # every intermediate estimate is the batch estimate of the rows seen so far
     k = 37
     bk = least_squares(A[:k].reshape(-1, p), y[:k].reshape(-1),
@@ -118,7 +118,7 @@ def test_online_batch_identity_on_the_same_rows(robot, sim_noisy):
     u = res.used
     b = least_squares(res.A[u].reshape(-1, 4), res.y[u].reshape(-1))
     np.testing.assert_allclose(res.x_final, b.x, rtol=1e-8, atol=1e-10)
-    np.testing.assert_allclose(res.std_final, b.std, rtol=1e-6)
+    np.testing.assert_allclose(res.std_final, b.std_iid, rtol=1e-6)
     np.testing.assert_allclose(res.cond, b.cond, rtol=1e-6)
     np.testing.assert_allclose(res.cond_scaled, b.cond_scaled, rtol=1e-6)
     assert res.n_samples == u.sum() == len(u) - 100  # 1 s warm-up at 100 Hz

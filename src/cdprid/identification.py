@@ -2,7 +2,10 @@
 
 ``Y_ID = W_ID x + rho`` is solved by a thin QR of the (optionally weighted) stacked regressor
 — never through the normal-equation inverse. The covariance ``sigma_rho^2 (W^T W)^-1`` (eq. 20)
-is formed from R as ``sigma_rho^2 R^-1 R^-T``.
+is formed from R as ``sigma_rho^2 R^-1 R^-T`` (:func:`cdprid.covariance.iid_covariance`); the
+default reported covariance is the HAC sandwich of :func:`cdprid.covariance.hac_covariance`,
+because filtered residuals are correlated over many samples and eq. 20 then understates the
+spread of the estimate several times.
 """
 
 from __future__ import annotations
@@ -10,6 +13,8 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+
+from .covariance import hac_covariance, iid_covariance, std_from_cov
 
 __all__ = ["LSResult", "least_squares", "condition_number", "group_weights"]
 
@@ -25,7 +30,7 @@ class LSResult:
     x : ndarray (p,)
         Estimates (eq. 15).
     cov : ndarray (p, p)
-        Covariance of the estimate (eq. 20).
+        Covariance of the estimate used for ``std``: HAC (default) or eq. 20 (``covariance``).
     sigma_rho : float
         Residual standard deviation (eq. 19), in the units of the (weighted) rows.
     cond : float
@@ -38,6 +43,12 @@ class LSResult:
         Unweighted residual ``Y_ID - W_ID x``.
     weights : ndarray or None
         Row weights used (None for ordinary LS).
+    cov_iid : ndarray (p, p) or None
+        Eq. 20's covariance ``sigma_rho^2 (W^T W)^-1`` (i.i.d. residuals), always kept.
+    covariance : str
+        Which covariance ``cov`` is: ``"hac"`` or ``"iid"``.
+    hac_bandwidth : float
+        Bartlett bandwidth (time samples) of the HAC covariance.
     """
 
     names: tuple
@@ -49,11 +60,19 @@ class LSResult:
     n_rows: int
     residual: np.ndarray
     weights: np.ndarray | None = None
+    cov_iid: np.ndarray | None = None
+    covariance: str = "hac"
+    hac_bandwidth: float = float("nan")
 
     @property
     def std(self) -> np.ndarray:
         """Standard deviation of each parameter (square root of the covariance diagonal)."""
-        return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
+        return std_from_cov(self.cov)
+
+    @property
+    def std_iid(self) -> np.ndarray:
+        """Eq. 20's standard deviations (i.i.d. residuals); understated on filtered data."""
+        return std_from_cov(self.cov if self.cov_iid is None else self.cov_iid)
 
     @property
     def rel_std_percent(self) -> np.ndarray:
@@ -62,10 +81,12 @@ class LSResult:
             return 100.0 * self.std / np.abs(self.x)
 
     def as_dict(self) -> dict:
-        """``{name: {"value", "std", "rel_std_percent"}}`` (the CLI's JSON contract)."""
+        """``{name: {"value", "std", "rel_std_percent", "std_iid"}}`` (the CLI's JSON contract)."""
         return {
-            n: {"value": float(v), "std": float(s), "rel_std_percent": float(r)}
-            for n, v, s, r in zip(self.names, self.x, self.std, self.rel_std_percent)
+            n: {"value": float(v), "std": float(s), "rel_std_percent": float(r),
+                "std_iid": float(si)}
+            for n, v, s, r, si in zip(self.names, self.x, self.std, self.rel_std_percent,
+                                      self.std_iid, strict=True)
         }
 
 
@@ -113,7 +134,8 @@ def _check_rank(A, names, tol: float = 1e-10) -> None:
         )
 
 
-def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None) -> LSResult:
+def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None, rows_per_sample: int = 1,
+                  covariance: str = "hac", bandwidth: float | None = None) -> LSResult:
     """Ordinary or weighted least squares with the paper's statistics.
 
     Parameters
@@ -128,6 +150,16 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None) -> LSResult
     groups : array (N,) of int, optional
         If given and ``weights`` is None: two-step weighted LS, each group's weight the
         inverse of its first-pass residual RMS (force and moment rows differ in units).
+    rows_per_sample : int
+        Consecutive rows that belong to one time sample (6 for stacked wrenches); the HAC
+        covariance sums their scores before weighting lags in time.
+    covariance : {"hac", "iid"}
+        Which covariance is reported as ``cov`` / ``std``. ``"hac"`` (default): the
+        autocorrelation-consistent sandwich with a data-driven bandwidth
+        (:func:`cdprid.covariance.hac_covariance`); ``"iid"``: the paper's eq. 20. Both are
+        kept (``cov_iid``).
+    bandwidth : float, optional
+        HAC bandwidth in time samples; default data-driven (Andrews 1991).
 
     Returns
     -------
@@ -137,7 +169,11 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None) -> LSResult
     -----
     sigma_rho^2 = ||W (Y - A x)||^2 / (N - p) (eq. 19) and ``cov = sigma_rho^2 (A_w^T A_w)^-1``
     (eq. 20) are computed from the thin QR ``A_w = Q R``: ``cov = sigma_rho^2 R^-1 R^-T``.
+    With weights, the HAC sandwich uses the weighted rows and residuals (the weighted LS
+    score ``A^T w^2 e``).
     """
+    if covariance not in ("hac", "iid"):
+        raise ValueError(f"unknown covariance {covariance!r}; use 'hac' or 'iid'.")
     A = np.asarray(W_ID, float)
     y = np.asarray(Y_ID, float).reshape(-1)
     if A.ndim != 2 or A.shape[0] != y.shape[0]:
@@ -148,7 +184,7 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None) -> LSResult
     if names is None:
         names = tuple(f"x{i}" for i in range(p))
     if weights is None and groups is not None:
-        first = least_squares(A, y, names)
+        first = least_squares(A, y, names, covariance="iid")
         weights = group_weights(first.residual, groups)
     w = np.ones(N) if weights is None else np.asarray(weights, float)
     Aw = A * w[:, None]
@@ -158,8 +194,14 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None) -> LSResult
     x = np.linalg.solve(R, Q.T @ yw)
     rw = yw - Aw @ x
     sigma2 = float(rw @ rw) / (N - p)
-    Rinv = np.linalg.solve(R, np.eye(p))
-    cov = sigma2 * (Rinv @ Rinv.T)
+    cov_iid = iid_covariance(R, sigma2)
+    k = int(rows_per_sample)
+    if k < 1 or N % k:
+        raise ValueError(f"rows_per_sample={k} does not divide the {N} rows.")
+    cov, bw = cov_iid, float("nan")
+    if covariance == "hac":
+        cov, bw = hac_covariance(Aw.reshape(N // k, k, p), rw.reshape(N // k, k),
+                                 bandwidth=bandwidth, R=R)
     return LSResult(
         names=tuple(names),
         x=x,
@@ -170,4 +212,7 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None) -> LSResult
         n_rows=N,
         residual=y - A @ x,
         weights=None if weights is None else w,
+        cov_iid=cov_iid,
+        covariance=covariance,
+        hac_bandwidth=bw,
     )

@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 
-
 from .differentiators import METHODS, zero_phase_filter
 from .dynamics import PARAMETER_NAMES
 from .identification import LSResult, least_squares
@@ -65,6 +64,8 @@ class IdentificationReport:
             "differentiator": self.differentiator,
             "differentiator_params": self.params,
             "weighting": "groups" if r.weights is not None else "none",
+            "covariance": r.covariance,
+            "hac_bandwidth_samples": r.hac_bandwidth if r.covariance == "hac" else None,
             "notes": list(self.notes),
         }
 
@@ -79,6 +80,7 @@ def identify_dataset(
     trim: float = DEFAULT_TRIM_S,
     weighting: str = "none",
     matched_filter: bool | None = None,
+    covariance: str = "hac",
 ) -> IdentificationReport:
     """Identify the platform's dynamic parameters from a dataset.
 
@@ -100,6 +102,9 @@ def identify_dataset(
     matched_filter : bool, optional
         Apply the differentiator's zero-phase filter to ``W tau`` too. Default: on for
         ``euler-filtfilt`` (whose accelerations carry that filter), off otherwise.
+    covariance : {"hac", "iid"}
+        Which standard deviation is ``std``: HAC (default, honest on correlated residuals) or
+        the paper's eq. 20. Both are in the JSON (``std`` and ``std_iid``).
 
     Returns
     -------
@@ -142,7 +147,8 @@ def identify_dataset(
         )
     reg = reg.select(keep)
     res = least_squares(reg.W_ID, reg.Y_ID, PARAMETER_NAMES[model],
-                        groups=reg.groups if weighting == "groups" else None)
+                        groups=reg.groups if weighting == "groups" else None,
+                        rows_per_sample=6, covariance=covariance)
     return IdentificationReport(res, model, differentiator, params, int(keep.sum()), sig, motion,
                                 reg, tuple(notes))
 
