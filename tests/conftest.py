@@ -74,6 +74,15 @@ def robot(request):
     return robot_from_dict(SAMPLE_ROBOTS[request.param], source=request.param)
 
 
+@pytest.fixture(scope="session")
+def sample_dataset(tmp_path_factory):
+    """Folder of the package sample dataset (simulated 8-cable robot with rotation, truth in
+    meta.toml); written once per session from ``cdprid.data`` (no ../shared needed)."""
+    from cdprid.data import write_sample
+
+    return write_sample(tmp_path_factory.mktemp("sample") / "sample-8cable")
+
+
 @pytest.fixture
 def rng():
     """A seeded numpy generator (no global random state)."""

@@ -136,6 +136,7 @@ _OPTIONAL_COMMANDS = (
     ("cdprid.cli_diagnose", "add_parser"),
     ("cdprid.cli_excite", "add_parser"),
     ("cdprid.cli_import", "add_parser"),
+    ("cdprid.cli_example", "add_parser"),
     ("cdprid.cli_tune", "add_parser"),
 )
 

@@ -1,0 +1,439 @@
+"""ROS 1 and ROS 2 bags -> spec-v1 dataset (``cdprid import rosbag``), pure Python (``rosbags``).
+
+ROS 1 ``.bag`` files and ROS 2 bag folders (SQLite ``.db3`` or MCAP storage) are opened with
+``rosbags.highlevel.AnyReader``; messages are deserialised with the type definitions the bag
+carries.
+
+Pose topic (one), by message type:
+
+- ``geometry_msgs/PoseStamped``, ``geometry_msgs/PoseWithCovarianceStamped``,
+  ``nav_msgs/Odometry``: the pose, at the header stamp;
+- ``geometry_msgs/TransformStamped`` and ``tf2_msgs/TFMessage``: the transform of the frame
+  pair given by ``frames=(parent, child)`` (required for TFMessage, which mixes frames).
+
+Tension topics: one ``sensor_msgs/JointState`` (``effort``, at the header stamp) or
+``std_msgs/Float64MultiArray`` (``data``) topic with one element per cable in robot.toml's
+order (or reordered by ``joints``), or one topic per cable in robot.toml's order, each
+``std_msgs/Float64`` or ``geometry_msgs/WrenchStamped`` (the force's norm, or one component).
+Per-cable topics are linearly interpolated onto the first cable's times (within their common
+range; this is stated in meta.toml).
+
+Times are header stamps, never receipt times, except for messages that carry no header
+(``Float64``, ``Float64MultiArray``): their bag receipt time is used, and meta.toml says so.
+Times are written relative to the first pose stamp; that stamp (ns since the epoch) is in
+meta.toml ``[import] t0_ns``. Units: ROS uses SI (REP 103): m, s and N.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError
+
+__all__ = ["POSE_TYPES", "TENSION_TYPES", "import_rosbag", "list_topics", "read_pose_topic",
+           "read_tension_topics", "write_rosbag"]
+
+POSE_TYPES = ("geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped",
+              "nav_msgs/msg/Odometry", "geometry_msgs/msg/TransformStamped",
+              "tf2_msgs/msg/TFMessage")
+ARRAY_TENSION_TYPES = ("sensor_msgs/msg/JointState", "std_msgs/msg/Float64MultiArray")
+CABLE_TENSION_TYPES = ("std_msgs/msg/Float64", "geometry_msgs/msg/WrenchStamped")
+TENSION_TYPES = ARRAY_TENSION_TYPES + CABLE_TENSION_TYPES
+HEADERLESS = ("std_msgs/msg/Float64", "std_msgs/msg/Float64MultiArray")
+
+
+def _open(bag: str | Path):
+    from rosbags.highlevel import AnyReader
+    from rosbags.highlevel.anyreader import AnyReaderError
+
+    path = Path(bag)
+    if not path.exists():
+        raise UserError(f"{path}: bag is missing.")
+    try:
+        reader = AnyReader([path])
+        reader.open()
+    except (AnyReaderError, Exception) as exc:  # noqa: BLE001 - any failure to parse the bag
+        raise UserError(f"{path}: cannot be read as a ROS 1 .bag or a ROS 2 bag folder "
+                        f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__}).") \
+            from None
+    return reader
+
+
+def list_topics(bag: str | Path) -> list[tuple[str, str, int]]:
+    """Topics of a bag as ``(topic, message type, message count)``, sorted by topic."""
+    reader = _open(bag)
+    try:
+        return [(name, info.msgtype or "?", int(info.msgcount))
+                for name, info in sorted(reader.topics.items())]
+    finally:
+        reader.close()
+
+
+def _topic(reader, bag, topic: str, allowed: tuple[str, ...], option: str):
+    topics = reader.topics
+    if topic not in topics:
+        raise UserError(f"{option} {topic}: the bag {bag} has no such topic; its topics are "
+                        f"{', '.join(sorted(topics)) or 'none'} (see --list).")
+    typ = topics[topic].msgtype
+    if typ not in allowed:
+        raise UserError(f"{option} {topic}: has type {typ}, not one of "
+                        f"{', '.join(t.replace('/msg/', '/') for t in allowed)}.")
+    return typ, [c for c in reader.connections if c.topic == topic]
+
+
+def _ns(stamp) -> int:
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def _pose_of(msg, typ: str, frames):
+    """(stamp_ns, x, y, z, qw, qx, qy, qz) or None when the message holds no matching frame."""
+    if typ == "tf2_msgs/msg/TFMessage":
+        for tr in msg.transforms:
+            if (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/")) == frames:
+                return _pose_of(tr, "geometry_msgs/msg/TransformStamped", None)
+        return None
+    if typ == "geometry_msgs/msg/TransformStamped":
+        if frames is not None and \
+                (msg.header.frame_id.lstrip("/"), msg.child_frame_id.lstrip("/")) != frames:
+            return None
+        p, q = msg.transform.translation, msg.transform.rotation
+    elif typ == "geometry_msgs/msg/PoseStamped":
+        p, q = msg.pose.position, msg.pose.orientation
+    else:  # Odometry, PoseWithCovarianceStamped
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    return (_ns(msg.header.stamp), p.x, p.y, p.z, q.w, q.x, q.y, q.z)
+
+
+def read_pose_topic(reader, bag, topic: str, frames=None):
+    """Pose stream of a topic: ``stamps_ns (n,) int64, values (n, 7)`` (x, y, z, qw..qz).
+
+    Messages are sorted by stamp; duplicated stamps are reported as an error.
+    """
+    typ, conns = _topic(reader, bag, topic, POSE_TYPES, "--pose-topic")
+    if typ == "tf2_msgs/msg/TFMessage" and frames is None:
+        raise UserError(f"--frames: is required for the tf2_msgs/TFMessage topic {topic} "
+                        "(give the pair as --frames parent,child).")
+    rows = []
+    seen = set()
+    for conn, _, raw in reader.messages(connections=conns):
+        msg = reader.deserialize(raw, conn.msgtype)
+        if typ == "tf2_msgs/msg/TFMessage":
+            seen.update((tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
+                        for tr in msg.transforms)
+        elif typ == "geometry_msgs/msg/TransformStamped":
+            seen.add((msg.header.frame_id.lstrip("/"), msg.child_frame_id.lstrip("/")))
+        r = _pose_of(msg, typ, frames)
+        if r is not None:
+            rows.append(r)
+    if not rows:
+        pairs = ", ".join(f"{a},{b}" for a, b in sorted(seen)) or "none"
+        raise UserError(f"--frames {','.join(frames or ())}: no transform of this frame pair on "
+                        f"{topic}; the pairs seen are {pairs}.")
+    arr = np.asarray(rows, dtype=object)
+    stamps = np.asarray(arr[:, 0], dtype=np.int64)
+    vals = np.asarray(arr[:, 1:], dtype=float)
+    return typ, stamps, vals
+
+
+def _array_of(msg, typ: str, joints, topic: str):
+    if typ == "sensor_msgs/msg/JointState":
+        eff = np.asarray(msg.effort, float)
+        if joints is not None:
+            names = list(msg.name)
+            missing = [j for j in joints if j not in names]
+            if missing:
+                raise UserError(f"--joints: {missing[0]!r} is not a joint name on {topic} "
+                                f"(names: {', '.join(names)}).")
+            eff = eff[[names.index(j) for j in joints]] if eff.size else eff
+        return _ns(msg.header.stamp), eff
+    return None, np.asarray(msg.data, float)
+
+
+def _read_array_topic(reader, bag, topic, m, joints):
+    typ, conns = _topic(reader, bag, topic, ARRAY_TENSION_TYPES, "--tension-topic")
+    stamps, rows = [], []
+    for conn, t_rx, raw in reader.messages(connections=conns):
+        stamp, vals = _array_of(reader.deserialize(raw, conn.msgtype), typ, joints, topic)
+        if vals.size != m:
+            raise UserError(f"--tension-topic {topic}: a message holds {vals.size} values but "
+                            f"robot.toml has {m} cables (one value per cable is expected).")
+        stamps.append(t_rx if stamp is None else stamp)
+        rows.append(vals)
+    if not rows:
+        raise UserError(f"--tension-topic {topic}: holds no message.")
+    return typ, np.asarray(stamps, np.int64), np.asarray(rows, float)
+
+
+def _read_cable_topic(reader, bag, topic, component):
+    typ, conns = _topic(reader, bag, topic, CABLE_TENSION_TYPES, "--tension-topic")
+    stamps, vals = [], []
+    for conn, t_rx, raw in reader.messages(connections=conns):
+        msg = reader.deserialize(raw, conn.msgtype)
+        if typ == "std_msgs/msg/Float64":
+            stamps.append(t_rx)
+            vals.append(float(msg.data))
+        else:
+            f = msg.wrench.force
+            v = np.array([f.x, f.y, f.z])
+            stamps.append(_ns(msg.header.stamp))
+            vals.append(float(np.linalg.norm(v)) if component == "norm"
+                        else float(v["xyz".index(component)]))
+    if not vals:
+        raise UserError(f"--tension-topic {topic}: holds no message.")
+    return typ, np.asarray(stamps, np.int64), np.asarray(vals, float)
+
+
+def _sorted_unique(stamps, vals, topic, option):
+    order = np.argsort(stamps, kind="stable")
+    stamps, vals = stamps[order], vals[order]
+    dup = np.nonzero(np.diff(stamps) <= 0)[0]
+    if dup.size:
+        raise UserError(f"{option} {topic}: two messages carry the same stamp "
+                        f"({stamps[dup[0]]} ns); the stream has no strictly increasing time.")
+    return stamps, vals
+
+
+def read_tension_topics(reader, bag, topics: list[str], m: int, joints=None,
+                        component: str = "norm"):
+    """Tension stream: ``stamps_ns (k,), tension (k, m), types, notes``."""
+    notes = []
+    if len(topics) == 1:
+        typ, st, tau = _read_array_topic(reader, bag, topics[0], m, joints)
+        st, tau = _sorted_unique(st, tau, topics[0], "--tension-topic")
+        if typ in HEADERLESS:
+            notes.append(f"{topics[0]} ({typ}) has no header: the bag receipt time is used as "
+                         "the tension time")
+        return st, tau, [typ], notes
+    if len(topics) != m:
+        raise UserError(f"--tension-topic: given {len(topics)} times but robot.toml has {m} "
+                        "cables (give one array topic, or one topic per cable in order).")
+    streams, types = [], []
+    for i, topic in enumerate(topics):
+        typ, st, v = _read_cable_topic(reader, bag, topic, component)
+        st, v = _sorted_unique(st, v, topic, "--tension-topic")
+        if typ in HEADERLESS:
+            notes.append(f"{topic} (cable {i + 1}, {typ}) has no header: the bag receipt time is "
+                         "used as its tension time")
+        streams.append((st, v))
+        types.append(typ)
+    base = streams[0][0]
+    lo = max(s[0] for s, _ in streams)
+    hi = min(s[-1] for s, _ in streams)
+    base = base[(base >= lo) & (base <= hi)]
+    if base.size < 2:
+        raise UserError("--tension-topic: the per-cable topics do not overlap in time.")
+    t0 = base[0]
+    tau = np.column_stack([np.interp((base - t0).astype(float), (s - t0).astype(float), v)
+                           for s, v in streams])
+    if any(not np.array_equal(s, streams[0][0]) for s, _ in streams[1:]):
+        notes.append(f"per-cable tensions linearly interpolated onto the times of {topics[0]}")
+    return base, tau, types, notes
+
+
+def import_rosbag(bag: str | Path, robot: str | Path, out: str | Path, pose_topic: str,
+                  tension_topics: list[str], frames: tuple[str, str] | None = None,
+                  joints: list[str] | None = None, wrench_component: str = "norm",
+                  force: bool = False) -> Path:
+    """Convert a ROS 1 or ROS 2 bag into a spec-v1 dataset folder.
+
+    Parameters
+    ----------
+    bag : path
+        ROS 1 ``.bag`` file or ROS 2 bag folder (SQLite or MCAP).
+    robot : path
+        robot.toml (copied into the dataset).
+    out : path
+        Dataset folder to create.
+    pose_topic : str
+        Topic of the platform pose in the base frame (see the module docstring for types).
+    tension_topics : list of str
+        One array topic, or one topic per cable in robot.toml's order.
+    frames : (parent, child), optional
+        Frame pair of a TransformStamped / TFMessage topic (parent = base, child = platform).
+    joints : list of str, optional
+        JointState names in robot.toml's cable order (default: the message's order).
+    wrench_component : {"norm", "x", "y", "z"}
+        What a WrenchStamped topic contributes as the tension.
+    force : bool
+        Replace an existing ``out``.
+
+    Returns
+    -------
+    Path
+    """
+    from ..geometry import load_robot
+    from ..outputs import check_output
+    from .table import write_imported
+
+    check_output(out, force, "--out", kind="dir")
+    rob = load_robot(robot)
+    if wrench_component not in ("norm", "x", "y", "z"):
+        raise UserError(f"--wrench-component: {wrench_component!r} is not norm, x, y or z.")
+    if frames is not None:
+        frames = tuple(f.strip().lstrip("/") for f in frames)
+    reader = _open(bag)
+    try:
+        ptyp, pst, pv = read_pose_topic(reader, bag, pose_topic, frames)
+        pst, pv = _sorted_unique(pst, pv, pose_topic, "--pose-topic")
+        tst, tau, ttypes, notes = read_tension_topics(reader, bag, list(tension_topics),
+                                                      rob.n_cables, joints, wrench_component)
+    finally:
+        reader.close()
+    if len(pst) < 2:
+        raise UserError(f"--pose-topic {pose_topic}: fewer than 2 pose messages.")
+    q = pv[:, 3:]
+    norm = np.linalg.norm(q, axis=1)
+    if np.any(np.abs(norm - 1.0) > 1e-3):
+        k = int(np.argmax(np.abs(norm - 1.0)))
+        raise UserError(f"--pose-topic {pose_topic}: message {k + 1} has an orientation "
+                        f"quaternion of norm {norm[k]:.6g}, not 1 within 1e-3.")
+    t0 = int(pst[0])
+    meta = {
+        "description": f"imported from the bag {Path(bag).name} by `cdprid import rosbag`",
+        "source": "imported",
+        "import": {
+            "format": "rosbag",
+            "bag": str(bag),
+            "pose_topic": pose_topic,
+            "pose_type": ptyp,
+            "tension_topics": list(tension_topics),
+            "tension_types": ttypes,
+            "t0_ns": t0,
+            "time": "header stamps relative to t0_ns (the first pose stamp)",
+            "units": "ROS (REP 103): positions m, forces N, times s; no conversion",
+            "notes": notes,
+        },
+        "units": {"t": "s", "position": "m", "quaternion": "scalar first, platform -> base",
+                  "tension": "N"},
+    }
+    if frames is not None:
+        meta["import"]["frames"] = list(frames)
+    if joints is not None:
+        meta["import"]["joints"] = list(joints)
+    if any(t == "geometry_msgs/msg/WrenchStamped" for t in ttypes):
+        meta["import"]["wrench_component"] = wrench_component
+    return write_imported(out, rob, (pst - t0) * 1e-9, pv[:, :3], (tst - t0) * 1e-9, tau,
+                          quaternion=q / norm[:, None], meta=meta, force=force)
+
+
+def _stamp(types, t_ns: int):
+    return types["builtin_interfaces/msg/Time"](sec=int(t_ns // 1_000_000_000),
+                                                nanosec=int(t_ns % 1_000_000_000))
+
+
+def _header(types, ros1: bool, t_ns: int, frame: str):
+    kw = {"seq": 0} if ros1 else {}
+    return types["std_msgs/msg/Header"](**kw, stamp=_stamp(types, t_ns), frame_id=frame)
+
+
+def _pose_msg(types, ros1, typ, t_ns, p, q, frames):
+    H = _header(types, ros1, t_ns, frames[0])
+    P = types["geometry_msgs/msg/Point"](x=p[0], y=p[1], z=p[2])
+    Q = types["geometry_msgs/msg/Quaternion"](x=q[1], y=q[2], z=q[3], w=q[0])
+    if typ == "geometry_msgs/msg/PoseStamped":
+        return types[typ](header=H, pose=types["geometry_msgs/msg/Pose"](position=P, orientation=Q))
+    if typ == "nav_msgs/msg/Odometry":
+        cov = np.zeros(36)
+        pose = types["geometry_msgs/msg/PoseWithCovariance"](
+            pose=types["geometry_msgs/msg/Pose"](position=P, orientation=Q), covariance=cov)
+        V3 = types["geometry_msgs/msg/Vector3"]
+        tw = types["geometry_msgs/msg/TwistWithCovariance"](
+            twist=types["geometry_msgs/msg/Twist"](linear=V3(x=0.0, y=0.0, z=0.0),
+                                                  angular=V3(x=0.0, y=0.0, z=0.0)),
+            covariance=cov)
+        return types[typ](header=H, child_frame_id=frames[1], pose=pose, twist=tw)
+    tr = types["geometry_msgs/msg/TransformStamped"](
+        header=H, child_frame_id=frames[1],
+        transform=types["geometry_msgs/msg/Transform"](
+            translation=types["geometry_msgs/msg/Vector3"](x=p[0], y=p[1], z=p[2]), rotation=Q))
+    if typ == "tf2_msgs/msg/TFMessage":
+        return types[typ](transforms=[tr])
+    return tr
+
+
+def write_rosbag(ds, path: str | Path, kind: str = "ros2-mcap",
+                 pose_type: str = "geometry_msgs/msg/PoseStamped",
+                 tension_type: str = "sensor_msgs/msg/JointState",
+                 t0_ns: int = 1_700_000_000_000_000_000,
+                 frames: tuple[str, str] = ("base", "platform")) -> Path:
+    """Write a dataset's pose and tension streams as a bag (for tests, benchmarks and demos).
+
+    Parameters
+    ----------
+    ds : Dataset
+    path : path
+        ``.bag`` file (``kind="ros1"``) or ROS 2 bag folder (``ros2-mcap``, ``ros2-sqlite``);
+        must not exist.
+    pose_type : str
+        One of :data:`POSE_TYPES` (topic ``/platform/pose``, or ``/tf`` for TFMessage).
+    tension_type : str
+        JointState / Float64MultiArray on ``/cable/tensions``, or Float64 / WrenchStamped:
+        one topic ``/cable{i}/tension`` per cable.
+    t0_ns : int
+        Epoch stamp of t = 0. Headerless messages get their stamp as receipt time.
+    frames : (parent, child)
+
+    Returns
+    -------
+    Path
+    """
+    from rosbags.typesys import Stores, get_typestore
+
+    ros1 = kind == "ros1"
+    ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if "tf2_msgs/msg/TFMessage" not in ts.types:  # the ROS 1 store lacks it
+        from rosbags.typesys import get_types_from_msg
+
+        ts.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms",
+                                       "tf2_msgs/msg/TFMessage"))
+    T = ts.types
+    ser = ts.serialize_ros1 if ros1 else ts.serialize_cdr
+    if ros1:
+        from rosbags.rosbag1 import Writer
+
+        writer = Writer(Path(path))
+    else:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        plugin = StoragePlugin.MCAP if kind == "ros2-mcap" else StoragePlugin.SQLITE3
+        writer = Writer(Path(path), version=9, storage_plugin=plugin)
+    q = ds.quaternion if ds.quaternion is not None else \
+        np.tile([1.0, 0.0, 0.0, 0.0], (len(ds.pose_t), 1))
+    m = ds.tension.shape[1]
+    pose_ns = t0_ns + np.round(ds.pose_t * 1e9).astype(np.int64)
+    tens_ns = t0_ns + np.round(ds.tension_t * 1e9).astype(np.int64)
+    with writer as w:
+        pc = w.add_connection("/tf" if pose_type == "tf2_msgs/msg/TFMessage" else
+                              "/platform/pose", pose_type, typestore=ts)
+        for k in range(len(pose_ns)):
+            msg = _pose_msg(T, ros1, pose_type, int(pose_ns[k]), ds.position[k], q[k], frames)
+            w.write(pc, int(pose_ns[k]), ser(msg, pose_type))
+        if tension_type in ARRAY_TENSION_TYPES:
+            tc = w.add_connection("/cable/tensions", tension_type, typestore=ts)
+            names = [f"cable{i + 1}" for i in range(m)]
+            for k in range(len(tens_ns)):
+                if tension_type == "sensor_msgs/msg/JointState":
+                    msg = T[tension_type](header=_header(T, ros1, int(tens_ns[k]), ""),
+                                          name=names, position=np.zeros(m),
+                                          velocity=np.zeros(m), effort=ds.tension[k].copy())
+                else:
+                    lay = T["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
+                    msg = T[tension_type](layout=lay, data=ds.tension[k].copy())
+                w.write(tc, int(tens_ns[k]), ser(msg, tension_type))
+        else:
+            V3 = T["geometry_msgs/msg/Vector3"]
+            for i in range(m):
+                tc = w.add_connection(f"/cable{i + 1}/tension", tension_type, typestore=ts)
+                for k in range(len(tens_ns)):
+                    v = float(ds.tension[k, i])
+                    if tension_type == "std_msgs/msg/Float64":
+                        msg = T[tension_type](data=v)
+                    else:
+                        msg = T[tension_type](
+                            header=_header(T, ros1, int(tens_ns[k]), f"cable{i + 1}"),
+                            wrench=T["geometry_msgs/msg/Wrench"](force=V3(x=0.0, y=0.0, z=v),
+                                                                 torque=V3(x=0.0, y=0.0, z=0.0)))
+                    w.write(tc, int(tens_ns[k]), ser(msg, tension_type))
+    return Path(path)

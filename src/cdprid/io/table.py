@@ -1,0 +1,375 @@
+# ruff: noqa: F722  (jaxtyping shape strings)
+"""Pose and tension tables from any logger (CSV/TSV) -> spec-v1 dataset (``cdprid import table``).
+
+A table is one header line and numeric rows. The delimiter is detected from the header line
+(tab, then semicolon, then comma, else runs of whitespace); a UTF-8 byte-order mark and quoted
+header names are handled. Columns are chosen by a mapping such as ``t=time,x=px,y=py,z=pz``
+(:func:`parse_mapping`); units are given per quantity (:data:`UNITS`) and converted to SI.
+Orientation comes from quaternion columns ``qw,qx,qy,qz`` (scalar first, platform -> base) or
+from three Euler angles ``e1,e2,e3`` with a scipy sequence (``Rotation.from_euler``: upper
+case intrinsic, lower case extrinsic, angles in the order of the sequence).
+
+Data are never invented: a row with an empty or non-numeric field in a used column is dropped
+and counted (the count goes to meta.toml ``[import]``), never interpolated. Everything the
+importer assumed (files, delimiters, column mapping, units, time offset, rotation convention)
+is written to meta.toml ``[import]``; the dataset itself is in SI units.
+
+This module also holds the parts every importer shares: unit tables (:func:`unit_scale`) and
+the writer of an imported dataset (:func:`write_imported`).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+from pathlib import Path
+
+import numpy as np
+from jaxtyping import Float
+
+from ..errors import UserError
+
+__all__ = ["UNITS", "Table", "import_table", "parse_mapping", "parse_units", "read_table",
+           "read_tension_table", "unit_scale", "euler_to_quaternion", "write_imported"]
+
+#: quantity -> unit -> factor to SI (s, m, rad, N).
+UNITS: dict = {
+    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "min": 60.0},
+    "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254},
+    "angle": {"rad": 1.0, "deg": np.pi / 180.0},
+    "force": {"N": 1.0, "kN": 1e3, "mN": 1e-3, "kgf": 9.80665, "lbf": 4.4482216152605},
+}
+
+POSE_KEYS = ("t", "x", "y", "z")
+QUAT_KEYS = ("qw", "qx", "qy", "qz")
+EULER_KEYS = ("e1", "e2", "e3")
+
+
+def unit_scale(quantity: str, unit: str, option: str) -> float:
+    """Factor from ``unit`` of ``quantity`` to SI; UserError naming ``option`` if unknown."""
+    table = UNITS[quantity]
+    if unit not in table:
+        raise UserError(f"{option}: unknown {quantity} unit {unit!r}; use one of "
+                        f"{', '.join(table)}.")
+    return float(table[unit])
+
+
+def parse_mapping(text: str | None, option: str) -> dict[str, str]:
+    """Parse ``key=COL,key=COL`` into a dict (column names may hold spaces, not commas or '=')."""
+    out: dict[str, str] = {}
+    if not text:
+        return out
+    for item in text.split(","):
+        if not item.strip():
+            continue
+        key, sep, col = item.partition("=")
+        key, col = key.strip(), col.strip()
+        if not sep or not key or not col:
+            raise UserError(f"{option}: {item.strip()!r} is not of the form key=COLUMN.")
+        if key in out:
+            raise UserError(f"{option}: the key {key!r} is given twice.")
+        out[key] = col
+    return out
+
+
+def parse_units(text: str | None, option: str, allowed: tuple[str, ...]) -> dict[str, str]:
+    """Parse ``time=ms,length=mm`` into {quantity: unit} (SI for the quantities not given)."""
+    si = {"time": "s", "length": "m", "angle": "rad", "force": "N"}
+    out = {q: si[q] for q in allowed}
+    for q, u in parse_mapping(text, option).items():
+        if q not in allowed:
+            raise UserError(f"{option}: unknown quantity {q!r}; use {', '.join(allowed)}.")
+        unit_scale(q, u, option)
+        out[q] = u
+    return out
+
+
+@dataclasses.dataclass(frozen=True)
+class Table:
+    """A numeric table read from a text file.
+
+    Attributes
+    ----------
+    path : Path
+    columns : tuple of str
+        Header names (quotes and surrounding spaces removed).
+    values : ndarray (n, c)
+        NaN where a field was empty or not a number.
+    delimiter : str
+        ``","``, ``";"``, ``"\\t"`` or ``"whitespace"``.
+    """
+
+    path: Path
+    columns: tuple
+    values: np.ndarray
+    delimiter: str
+
+    def column(self, name: str, option: str) -> np.ndarray:
+        """The column called ``name``; UserError naming the file and ``option`` if absent."""
+        if name not in self.columns:
+            raise UserError(f"{self.path}: has no column {name!r} (asked by {option}); its "
+                            f"columns are {', '.join(self.columns)}.")
+        return self.values[:, self.columns.index(name)]
+
+
+def _detect_delimiter(header: str) -> str:
+    for d in ("\t", ";", ","):
+        if d in header:
+            return d
+    return "whitespace"
+
+
+def _to_float(field: str) -> float:
+    try:
+        return float(field)
+    except ValueError:
+        return float("nan")
+
+
+def read_table(path: str | Path, option: str = "--pose") -> Table:
+    """Read a delimited text table (see the module docstring for the detection rules).
+
+    Raises
+    ------
+    UserError
+        A missing or empty file, a file that is not text, or duplicate header names.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(f"{option} {path}: file is missing.")
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        raise UserError(f"{option} {path}: not UTF-8 text (a CSV/TSV table was expected).") \
+            from None
+    lines = [ln for ln in text.splitlines() if ln.strip()]
+    if len(lines) < 2:
+        raise UserError(f"{option} {path}: needs a header line and at least one data row.")
+    delim = _detect_delimiter(lines[0])
+    if delim == "whitespace":
+        rows = [ln.split() for ln in lines]
+        header = [h.strip().strip('"').strip("'") for h in rows[0]]
+    else:
+        rows = list(csv.reader(io.StringIO("\n".join(lines)), delimiter=delim))
+        header = [h.strip() for h in rows[0]]
+    if len(set(header)) != len(header):
+        dup = next(h for h in header if header.count(h) > 1)
+        raise UserError(f"{option} {path}: the header names the column {dup!r} twice.")
+    ncol = len(header)
+    values = np.full((len(rows) - 1, ncol), np.nan)
+    for i, row in enumerate(rows[1:]):
+        for j, f in enumerate(row[:ncol]):
+            values[i, j] = _to_float(f.strip())
+    return Table(path, tuple(header), values, delim)
+
+
+def euler_to_quaternion(angles: Float[np.ndarray, "n 3"], seq: str,
+                        option: str = "--euler") -> Float[np.ndarray, "n 4"]:
+    """Scalar-first quaternions (platform -> base) of Euler angles in rad (scipy convention)."""
+    from scipy.spatial.transform import Rotation
+
+    try:
+        q = Rotation.from_euler(seq, angles).as_quat()  # scalar last
+    except ValueError as exc:
+        raise UserError(f"{option} {seq!r}: not a valid Euler sequence ({exc}).") from None
+    return np.concatenate([q[:, 3:], q[:, :3]], axis=1)
+
+
+def _keep_finite(t, cols: np.ndarray, path: Path, option: str):
+    ok = np.isfinite(t) & np.all(np.isfinite(cols), axis=1)
+    if ok.sum() < 2:
+        raise UserError(f"{option} {path}: fewer than 2 rows have numbers in every mapped column.")
+    t, cols = t[ok], cols[ok]
+    bad = np.nonzero(np.diff(t) <= 0)[0]
+    if bad.size:
+        k = int(bad[0])
+        raise UserError(f"{option} {path}: the time column is not strictly increasing at "
+                        f"data row {k + 2} (t = {t[k + 1]:g} after {t[k]:g}).")
+    return t, cols, int((~ok).sum())
+
+
+def _quaternion_columns(tab: Table, cmap: dict, euler: str | None, units: dict):
+    """(n, 4) quaternions or None, and a description of the convention."""
+    has_q = [k in cmap for k in QUAT_KEYS]
+    has_e = [k in cmap for k in EULER_KEYS]
+    if any(has_q) and any(has_e):
+        raise UserError("--pose-columns: give either qw,qx,qy,qz or e1,e2,e3, not both.")
+    if any(has_q) and not all(has_q):
+        raise UserError(f"--pose-columns: lacks {[k for k in QUAT_KEYS if k not in cmap][0]!r} "
+                        "(qw, qx, qy, qz go together).")
+    if any(has_e) and not all(has_e):
+        raise UserError(f"--pose-columns: lacks {[k for k in EULER_KEYS if k not in cmap][0]!r} "
+                        "(e1, e2, e3 go together).")
+    if all(has_e) and not euler:
+        raise UserError("--euler: is required with Euler-angle columns e1, e2, e3 "
+                        "(e.g. --euler ZYX for intrinsic yaw-pitch-roll).")
+    if euler and not all(has_e):
+        raise UserError("--euler: given but --pose-columns maps no e1, e2, e3 columns.")
+    if all(has_q):
+        q = np.column_stack([tab.column(cmap[k], "--pose-columns") for k in QUAT_KEYS])
+        return q, "quaternion columns (qw, qx, qy, qz), scalar first, platform -> base"
+    if all(has_e):
+        a = np.column_stack([tab.column(cmap[k], "--pose-columns") for k in EULER_KEYS])
+        a = a * unit_scale("angle", units["angle"], "--pose-units")
+        return a, (f"Euler angles e1, e2, e3 = {', '.join(cmap[k] for k in EULER_KEYS)} in "
+                   f"{units['angle']}, scipy Rotation.from_euler({euler!r}) "
+                   f"({'intrinsic' if euler.isupper() else 'extrinsic'}), platform -> base")
+    return None, "none (pure translation: identity orientation)"
+
+
+def _read_pose(path, cmap, euler, units):
+    tab = read_table(path, "--pose")
+    missing = [k for k in POSE_KEYS if k not in cmap]
+    if missing:
+        raise UserError(f"--pose-columns: lacks {missing[0]!r} (t, x, y, z are required).")
+    unknown = [k for k in cmap if k not in POSE_KEYS + QUAT_KEYS + EULER_KEYS]
+    if unknown:
+        raise UserError(f"--pose-columns: unknown key {unknown[0]!r}; use t, x, y, z and "
+                        "qw, qx, qy, qz or e1, e2, e3.")
+    t = tab.column(cmap["t"], "--pose-columns") * unit_scale("time", units["time"], "--pose-units")
+    xyz = np.column_stack([tab.column(cmap[k], "--pose-columns") for k in "xyz"])
+    xyz = xyz * unit_scale("length", units["length"], "--pose-units")
+    rot, convention = _quaternion_columns(tab, cmap, euler, units)
+    cols = xyz if rot is None else np.hstack([xyz, rot])
+    t, cols, dropped = _keep_finite(t, cols, tab.path, "--pose")
+    q = None
+    if rot is not None:
+        q = cols[:, 3:]
+        if q.shape[1] == 3:
+            q = euler_to_quaternion(q, euler)
+        norm = np.linalg.norm(q, axis=1)
+        if np.any(np.abs(norm - 1.0) > 1e-3):
+            k = int(np.argmax(np.abs(norm - 1.0)))
+            raise UserError(f"--pose {tab.path}: a quaternion has norm {norm[k]:.6g} (t = "
+                            f"{t[k]:g} s), not 1 within 1e-3; check the qw, qx, qy, qz mapping.")
+        q = q / norm[:, None]
+    return tab, t, cols[:, :3], q, convention, dropped
+
+
+def read_tension_table(path, cmap: dict, m: int, units: dict, offset: float):
+    """Tension table -> (Table, t (k,) s on the pose clock, tension (k, m) N, rows dropped)."""
+    tab = read_table(path, "--tensions")
+    want = ["t"] + [f"tau_{i}" for i in range(1, m + 1)]
+    missing = [k for k in want if k not in cmap]
+    if missing:
+        raise UserError(f"--tension-columns: lacks {missing[0]!r} (robot.toml has {m} cables: "
+                        f"t and tau_1..tau_{m} are required).")
+    extra = [k for k in cmap if k not in want]
+    if extra:
+        raise UserError(f"--tension-columns: {extra[0]!r} is not one of t, tau_1..tau_{m} "
+                        f"(robot.toml has {m} cables).")
+    t = tab.column(cmap["t"], "--tension-columns") * unit_scale("time", units["time"],
+                                                                  "--tension-units")
+    tau = np.column_stack([tab.column(cmap[k], "--tension-columns") for k in want[1:]])
+    tau = tau * unit_scale("force", units["force"], "--tension-units")
+    t, tau, dropped = _keep_finite(t, tau, tab.path, "--tensions")
+    return tab, t + offset, tau, dropped
+
+
+def write_imported(out: str | Path, robot, pose_t, position, tension_t, tension,
+                   quaternion=None, meta: dict | None = None, force: bool = False,
+                   extra: dict | None = None) -> Path:
+    """Write an imported dataset folder atomically (whole or not at all).
+
+    Checks that the pose and tension time ranges overlap (UserError otherwise), then writes
+    with :func:`cdprid.io.write_dataset` inside :func:`cdprid.outputs.atomic_dir`.
+    """
+    from ..outputs import atomic_dir
+    from .dataset import write_dataset
+
+    if pose_t[-1] < tension_t[0] or tension_t[-1] < pose_t[0]:
+        raise UserError(f"the pose time range [{pose_t[0]:g}, {pose_t[-1]:g}] s and the tension "
+                        f"time range [{tension_t[0]:g}, {tension_t[-1]:g}] s do not overlap; "
+                        "check the time units and the time offset.")
+    with atomic_dir(out, force=force) as tmp:
+        write_dataset(tmp, robot, pose_t, position, tension_t, tension, quaternion=quaternion,
+                      meta=meta, extra=extra, overwrite=True)
+    return Path(out)
+
+
+def import_table(pose: str | Path, tensions: str | Path, robot: str | Path, out: str | Path,
+                 pose_columns: str | None = None, tension_columns: str | None = None,
+                 euler: str | None = None, pose_units: str | None = None,
+                 tension_units: str | None = None, tension_time_offset: float = 0.0,
+                 force: bool = False) -> Path:
+    """Convert a pose table and a tension table into a spec-v1 dataset folder.
+
+    Parameters
+    ----------
+    pose, tensions : path
+        CSV/TSV files (see the module docstring).
+    robot : path
+        robot.toml of the robot (copied into the dataset).
+    out : path
+        Dataset folder to create.
+    pose_columns : str, optional
+        ``t=COL,x=COL,y=COL,z=COL`` plus ``qw=,qx=,qy=,qz=`` or ``e1=,e2=,e3=``; default: the
+        spec-v1 names (``t,x,y,z`` and ``qw..qz`` when the file has them).
+    tension_columns : str, optional
+        ``t=COL,tau_1=COL,...``; default ``t`` and ``tau_1..tau_m``.
+    euler : str, optional
+        scipy Euler sequence of e1, e2, e3 (e.g. ``ZYX`` intrinsic, ``xyz`` extrinsic).
+    pose_units, tension_units : str, optional
+        ``time=ms,length=mm,angle=deg`` and ``time=s,force=kN``; SI by default.
+    tension_time_offset : float
+        Seconds (SI) added to the tension clock, after its unit conversion, to put it on the
+        pose clock.
+    force : bool
+        Replace an existing ``out``.
+
+    Returns
+    -------
+    Path
+        The dataset folder.
+    """
+    from ..geometry import load_robot
+    from ..outputs import check_output
+
+    check_output(out, force, "--out", kind="dir")
+    rob = load_robot(robot)
+    pu = parse_units(pose_units, "--pose-units", ("time", "length", "angle"))
+    tu = parse_units(tension_units, "--tension-units", ("time", "force"))
+    if not np.isfinite(tension_time_offset):
+        raise UserError(f"--tension-time-offset: {tension_time_offset} is not a finite number.")
+    m = rob.n_cables
+    pmap = parse_mapping(pose_columns, "--pose-columns")
+    if not pmap:
+        head = read_table(pose, "--pose").columns
+        pmap = {k: k for k in POSE_KEYS + (QUAT_KEYS if "qw" in head else ())}
+    tmap = parse_mapping(tension_columns, "--tension-columns") or \
+        {k: k for k in ["t"] + [f"tau_{i}" for i in range(1, m + 1)]}
+    ptab, pt, pos, q, convention, pdrop = _read_pose(pose, pmap, euler, pu)
+    ttab, tt, tau, tdrop = read_tension_table(tensions, tmap, m, tu, float(tension_time_offset))
+    names = {",": "comma", ";": "semicolon", "\t": "tab", "whitespace": "whitespace"}
+    meta = {
+        "description": f"imported from the tables {ptab.path.name} and {ttab.path.name} by "
+                       "`cdprid import table`",
+        "source": "imported",
+        "import": {
+            "format": "table",
+            "pose_file": str(ptab.path),
+            "tension_file": str(ttab.path),
+            "pose_delimiter": names[ptab.delimiter],
+            "tension_delimiter": names[ttab.delimiter],
+            "pose_columns": pmap,
+            "tension_columns": tmap,
+            "pose_units": pu,
+            "tension_units": tu,
+            "orientation": convention,
+            "tension_time_offset_s": float(tension_time_offset),
+            "pose_rows_dropped": pdrop,
+            "tension_rows_dropped": tdrop,
+            "assumptions": [
+                "positions are of the platform reference point P in the robot's base frame",
+                "tensions are in robot.toml's cable order",
+                "rows with an empty or non-numeric mapped field were dropped, not interpolated",
+                "the tension clock plus tension_time_offset_s is the pose clock",
+            ],
+        },
+        "units": {"t": "s", "position": "m", "quaternion": "scalar first, platform -> base",
+                  "tension": "N"},
+    }
+    if euler:
+        meta["import"]["euler"] = euler
+    return write_imported(out, rob, pt, pos, tt, tau, quaternion=q, meta=meta, force=force)
