@@ -297,3 +297,27 @@ def test_c3d_estimated_layout_and_bad_input(native, sample_dataset, tmp_path, ca
     assert main(["import", "c3d", str(tmp_path / "none.c3d"), "--robot", robot, "--out",
                  str(tmp_path / "x"), "--analog-tensions", tensions]) == 2
     assert "missing" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("kind", ["ros1", "ros2-sqlite"])
+def test_rosbag_fast_decoder_matches_rosbags_deserialiser(native, tmp_path, kind):
+    from cdprid.io.rosbag import fast_decode, open_bag, pose_values, write_rosbag
+
+    ds = native[0]
+    bag = write_rosbag(ds, tmp_path / ("b.bag" if kind == "ros1" else "b"), kind=kind)
+    reader = open_bag(bag)
+    try:
+        for topic, what in (("/platform/pose", "pose"), ("/cable/tensions", "effort")):
+            conns = [c for c in reader.connections if c.topic == topic]
+            msgs = list(reader.messages(connections=conns))
+            st, v = fast_decode([raw for _, _, raw in msgs], not reader.is2, what)
+            for k in (0, len(msgs) // 2, len(msgs) - 1):
+                conn, _, raw = msgs[k]
+                msg = reader.deserialize(raw, conn.msgtype)
+                if what == "pose":
+                    ref = pose_values(msg, conn.msgtype, None)
+                    assert st[k] == ref[0] and np.array_equal(v[k], ref[1:])
+                else:
+                    assert np.array_equal(v[k], msg.effort)
+    finally:
+        reader.close()

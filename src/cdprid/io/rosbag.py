@@ -26,6 +26,7 @@ meta.toml ``[import] t0_ns``. Units: ROS uses SI (REP 103): m, s and N.
 
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +34,8 @@ import numpy as np
 from ..errors import UserError
 
 __all__ = ["POSE_TYPES", "TENSION_TYPES", "import_rosbag", "list_topics", "read_pose_topic",
-           "read_tension_topics", "write_rosbag"]
+           "read_tension_topics", "write_rosbag", "open_bag", "pose_values", "fast_decode",
+           "decode_topic"]
 
 POSE_TYPES = ("geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped",
               "nav_msgs/msg/Odometry", "geometry_msgs/msg/TransformStamped",
@@ -44,7 +46,8 @@ TENSION_TYPES = ARRAY_TENSION_TYPES + CABLE_TENSION_TYPES
 HEADERLESS = ("std_msgs/msg/Float64", "std_msgs/msg/Float64MultiArray")
 
 
-def _open(bag: str | Path):
+def open_bag(bag: str | Path):
+    """Open a ROS 1 .bag or ROS 2 bag folder with rosbags' AnyReader (UserError if unreadable)."""
     from rosbags.highlevel import AnyReader
     from rosbags.highlevel.anyreader import AnyReaderError
 
@@ -63,7 +66,7 @@ def _open(bag: str | Path):
 
 def list_topics(bag: str | Path) -> list[tuple[str, str, int]]:
     """Topics of a bag as ``(topic, message type, message count)``, sorted by topic."""
-    reader = _open(bag)
+    reader = open_bag(bag)
     try:
         return [(name, info.msgtype or "?", int(info.msgcount))
                 for name, info in sorted(reader.topics.items())]
@@ -83,16 +86,128 @@ def _topic(reader, bag, topic: str, allowed: tuple[str, ...], option: str):
     return typ, [c for c in reader.connections if c.topic == topic]
 
 
+# ------------------------------------------------------------- fast decoders of common types
+# PoseStamped and JointState dominate long recordings; decoding their bytes directly (CDR for
+# ROS 2, ROS 1 serialisation) is ~5x faster than the generic deserialiser. Each topic checks
+# the fast decoder against rosbags' deserialiser on its first messages and falls back to the
+# generic path on any difference.
+
+
+def _align(off: int, a: int, ros1: bool) -> int:
+    return off if ros1 else 4 + (off - 4 + a - 1) // a * a
+
+
+def _layout(raw, ros1: bool, kind: str):
+    """Byte layout of one message: (fixed regions [(start, end)], values offset, count).
+
+    The fixed regions (frame id, joint names, array counts) must be byte-identical in every
+    message decoded with this layout; the stamp is at bytes 4-12 (ROS 1) or 4-12 after the
+    CDR encapsulation (ROS 2).
+    """
+    if not ros1 and raw[1] != 1:
+        raise ValueError("big-endian CDR")
+    (n,) = struct.unpack_from("<I", raw, 12)
+    off = 16 + n
+    fixed = [(12, off)]
+    if kind == "pose":
+        return fixed, _align(off, 8, ros1), 7
+    off = _align(off, 4, ros1)
+    start = off
+    (k,) = struct.unpack_from("<I", raw, off)
+    off += 4
+    for _ in range(k):
+        off = _align(off, 4, ros1)
+        (n,) = struct.unpack_from("<I", raw, off)
+        off += 4 + n
+    fixed.append((start, off))
+    for _ in range(3):  # position, velocity, effort
+        off = _align(off, 4, ros1)
+        fixed.append((off, off + 4))
+        (n,) = struct.unpack_from("<I", raw, off)
+        off += 4
+        if n:
+            off = _align(off, 8, ros1)
+        if _ < 2:
+            off += 8 * n
+    return fixed, off, n
+
+
+def fast_decode(raws: list, ros1: bool, kind: str):
+    """Vectorised decoding of PoseStamped (``kind="pose"``) or JointState effort
+    (``kind="effort"``) messages: ``stamps_ns (n,), values (n, c)`` in bag order.
+
+    Messages are grouped by byte length; within a group the layout of its first message is
+    used after checking that the frame id, joint names and array counts are byte-identical
+    in every message. Raises ValueError when they are not (the caller then uses rosbags'
+    generic deserialiser).
+    """
+    lens = np.fromiter((len(r) for r in raws), np.int64, len(raws))
+    stamps = np.empty(len(raws), np.int64)
+    vals = None
+    for L in np.unique(lens):
+        idx = np.nonzero(lens == L)[0]
+        buf = np.frombuffer(b"".join(raws[i] for i in idx), np.uint8).reshape(len(idx), L)
+        fixed, off, n = _layout(raws[idx[0]], ros1, kind)
+        for a, b in fixed:
+            if not np.all(buf[:, a:b] == buf[0, a:b]):
+                raise ValueError("message layouts differ")
+        sec = buf[:, 4:8].copy().view("<u4" if ros1 else "<i4")[:, 0].astype(np.int64)
+        nsec = buf[:, 8:12].copy().view("<u4")[:, 0].astype(np.int64)
+        stamps[idx] = sec * 1_000_000_000 + nsec
+        v = buf[:, off:off + 8 * n].copy().view("<f8")
+        if vals is None:
+            vals = np.empty((len(raws), n))
+        if v.shape[1] != vals.shape[1]:
+            raise ValueError("value counts differ")
+        vals[idx] = v
+    if kind == "pose":  # x, y, z, qx, qy, qz, qw -> x, y, z, qw, qx, qy, qz
+        vals = vals[:, [0, 1, 2, 6, 3, 4, 5]]
+    return stamps, vals
+
+
+def decode_topic(reader, conns, generic, kind: str | None = None, n_check: int = 3):
+    """Decode every message of ``conns`` in bag order: ``(stamps_ns (n,), values (n, c))``.
+
+    ``generic(msg, t_rx) -> (stamp_ns, values)`` runs on rosbags' deserialised messages;
+    with ``kind`` ("pose", "effort") :func:`fast_decode` is used instead when it reproduces
+    ``generic`` on the first ``n_check`` messages and finds one layout per message length.
+    """
+    raws, gen = [], []
+    for i, (conn, t_rx, raw) in enumerate(reader.messages(connections=conns)):
+        raws.append(raw)
+        if kind is None or i < n_check:
+            gen.append(generic(reader.deserialize(raw, conn.msgtype), t_rx))
+    if kind is not None and raws:
+        try:
+            st, v = fast_decode(raws, not reader.is2, kind)
+            same = all(st[i] == g[0] and np.array_equal(v[i], np.asarray(g[1], float))
+                       for i, g in enumerate(gen))
+            if same:
+                return st, v
+        except (ValueError, struct.error, IndexError):
+            pass
+        gen = [generic(reader.deserialize(raw, conn.msgtype), t_rx)
+               for conn, t_rx, raw in reader.messages(connections=conns)]
+    if not gen:
+        return np.zeros(0, np.int64), np.zeros((0, 0))
+    sizes = {np.size(g[1]) for g in gen}
+    if len(sizes) != 1:
+        raise UserError("a topic's messages hold different numbers of values "
+                        f"({', '.join(str(x) for x in sorted(sizes))}).")
+    return (np.fromiter((g[0] for g in gen), np.int64, len(gen)),
+            np.array([np.asarray(g[1], float) for g in gen]))
+
 def _ns(stamp) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
-def _pose_of(msg, typ: str, frames):
-    """(stamp_ns, x, y, z, qw, qx, qy, qz) or None when the message holds no matching frame."""
+def pose_values(msg, typ: str, frames):
+    """Pose of a message: ``(stamp_ns, x, y, z, qw, qx, qy, qz)``; None when the message
+    holds no transform of the frame pair."""
     if typ == "tf2_msgs/msg/TFMessage":
         for tr in msg.transforms:
             if (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/")) == frames:
-                return _pose_of(tr, "geometry_msgs/msg/TransformStamped", None)
+                return pose_values(tr, "geometry_msgs/msg/TransformStamped", None)
         return None
     if typ == "geometry_msgs/msg/TransformStamped":
         if frames is not None and \
@@ -115,25 +230,32 @@ def read_pose_topic(reader, bag, topic: str, frames=None):
     if typ == "tf2_msgs/msg/TFMessage" and frames is None:
         raise UserError(f"--frames: is required for the tf2_msgs/TFMessage topic {topic} "
                         "(give the pair as --frames parent,child).")
+    if typ not in ("tf2_msgs/msg/TFMessage", "geometry_msgs/msg/TransformStamped"):
+        def generic(msg, t_rx):
+            r = pose_values(msg, typ, frames)
+            return r[0], r[1:]
+
+        kind = "pose" if typ == "geometry_msgs/msg/PoseStamped" else None
+        stamps, vals = decode_topic(reader, conns, generic, kind)
+        if not len(stamps):
+            raise UserError(f"--pose-topic {topic}: holds no message.")
+        return typ, stamps, vals
     rows = []
     seen = set()
     for conn, _, raw in reader.messages(connections=conns):
         msg = reader.deserialize(raw, conn.msgtype)
-        if typ == "tf2_msgs/msg/TFMessage":
-            seen.update((tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
-                        for tr in msg.transforms)
-        elif typ == "geometry_msgs/msg/TransformStamped":
-            seen.add((msg.header.frame_id.lstrip("/"), msg.child_frame_id.lstrip("/")))
-        r = _pose_of(msg, typ, frames)
+        trs = msg.transforms if typ == "tf2_msgs/msg/TFMessage" else [msg]
+        seen.update((tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
+                    for tr in trs)
+        r = pose_values(msg, typ, frames)
         if r is not None:
             rows.append(r)
     if not rows:
         pairs = ", ".join(f"{a},{b}" for a, b in sorted(seen)) or "none"
         raise UserError(f"--frames {','.join(frames or ())}: no transform of this frame pair on "
                         f"{topic}; the pairs seen are {pairs}.")
-    arr = np.asarray(rows, dtype=object)
-    stamps = np.asarray(arr[:, 0], dtype=np.int64)
-    vals = np.asarray(arr[:, 1:], dtype=float)
+    stamps = np.fromiter((r[0] for r in rows), np.int64, len(rows))
+    vals = np.array([r[1:] for r in rows], dtype=float)
     return typ, stamps, vals
 
 
@@ -153,17 +275,19 @@ def _array_of(msg, typ: str, joints, topic: str):
 
 def _read_array_topic(reader, bag, topic, m, joints):
     typ, conns = _topic(reader, bag, topic, ARRAY_TENSION_TYPES, "--tension-topic")
-    stamps, rows = [], []
-    for conn, t_rx, raw in reader.messages(connections=conns):
-        stamp, vals = _array_of(reader.deserialize(raw, conn.msgtype), typ, joints, topic)
-        if vals.size != m:
-            raise UserError(f"--tension-topic {topic}: a message holds {vals.size} values but "
-                            f"robot.toml has {m} cables (one value per cable is expected).")
-        stamps.append(t_rx if stamp is None else stamp)
-        rows.append(vals)
-    if not rows:
+
+    def generic(msg, t_rx):
+        stamp, vals = _array_of(msg, typ, joints, topic)
+        return (t_rx if stamp is None else stamp), vals
+
+    kind = "effort" if typ == "sensor_msgs/msg/JointState" and joints is None else None
+    stamps, vals = decode_topic(reader, conns, generic, kind)
+    if not len(stamps):
         raise UserError(f"--tension-topic {topic}: holds no message.")
-    return typ, np.asarray(stamps, np.int64), np.asarray(rows, float)
+    if vals.shape[1] != m:
+        raise UserError(f"--tension-topic {topic}: its messages hold {vals.shape[1]} values but "
+                        f"robot.toml has {m} cables (one value per cable is expected).")
+    return typ, stamps, vals
 
 
 def _read_cable_topic(reader, bag, topic, component):
@@ -273,7 +397,7 @@ def import_rosbag(bag: str | Path, robot: str | Path, out: str | Path, pose_topi
         raise UserError(f"--wrench-component: {wrench_component!r} is not norm, x, y or z.")
     if frames is not None:
         frames = tuple(f.strip().lstrip("/") for f in frames)
-    reader = _open(bag)
+    reader = open_bag(bag)
     try:
         ptyp, pst, pv = read_pose_topic(reader, bag, pose_topic, frames)
         pst, pv = _sorted_unique(pst, pv, pose_topic, "--pose-topic")
