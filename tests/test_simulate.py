@@ -119,6 +119,18 @@ def test_tension_offset_and_gain(robot, traj, clean):
     np.testing.assert_array_equal(diff[:, others], 0.0)
 
 
+def test_pulley_friction_reads_on_the_winch_side(robot, traj, clean):
+    e = Effect("pulley_friction", {"cable": 2, "coulomb_N": 1.5, "viscous_Ns_per_m": 4.0})
+    res = run(robot, traj, [e, Effect("tension_gain", {"cable": 2, "gain": 1.1})])
+    W = np.asarray(res.W_true)
+    mt = res.motion_tension
+    ldot = -np.einsum("nim,ni->nm", W, np.concatenate([np.asarray(mt.v), np.asarray(mt.omega)],
+                                                      axis=1))
+    want = 1.1 * (clean.tension[:, 1] - 1.5 * np.sign(ldot[:, 1]) - 4.0 * ldot[:, 1])
+    np.testing.assert_allclose(res.tension[:, 1], want, atol=1e-9)
+    np.testing.assert_array_equal(res.tension[:, [0, 2]], clean.tension[:, [0, 2]])
+
+
 @pytest.mark.parametrize("name,field", [("exit_point_error", "B_A"), ("anchor_point_error", "P_b")])
 def test_geometry_errors_use_the_true_geometry(robot, traj, name, field):
     dx = np.array([0.01, 0.0, -0.02])

@@ -42,6 +42,7 @@ from .dynamics import PARAMETER_NAMES, regressor_full, regressor_translation
 from .geometry import CableRobot, _one_cable, cable_vectors, wrench_matrix
 from .identification import least_squares
 from .io.dataset import Dataset, align
+from .regression import wrench_matrices
 from .rotations import quat_to_matrix
 
 __all__ = ["DiagnosisResult", "diagnose", "CANDIDATE_EFFECTS", "estimate_noise"]
@@ -58,6 +59,7 @@ CANDIDATE_EFFECTS = (
     "cable_mass",
     "frame_tilt",
     "rotational_dynamics",
+    "pulley_friction",
 )
 
 # ----------------------------------------------------------------------------- theta layout
@@ -71,7 +73,8 @@ class ThetaLayout:
         sl = {}
         i = 0
         for name, size in (("delay", 1), ("offset", m), ("gain", m), ("exit", 3 * m),
-                           ("anchor", 3 * m), ("drag", 1), ("pulley", 1), ("rho", 1), ("tilt", 2)):
+                           ("anchor", 3 * m), ("drag", 1), ("pulley", 1), ("rho", 1), ("tilt", 2),
+                           ("coulomb", m), ("pvisc", m)):
             sl[name] = slice(i, i + size)
             i += size
         self.slices = sl
@@ -90,6 +93,8 @@ class ThetaLayout:
             "pulley": theta[s["pulley"]][0],
             "rho": theta[s["rho"]][0],
             "tilt": theta[s["tilt"]],
+            "coulomb": theta[s["coulomb"]],
+            "pvisc": theta[s["pvisc"]],
         }
 
     def candidate_indices(self, effect: str, cable: int | None = None) -> list[int]:
@@ -113,6 +118,8 @@ class ThetaLayout:
             return [s["rho"].start]
         if effect == "frame_tilt":
             return list(range(s["tilt"].start, s["tilt"].stop))
+        if effect == "pulley_friction":
+            return [s["coulomb"].start + cable - 1, s["pvisc"].start + cable - 1]
         raise KeyError(effect)
 
 
@@ -130,7 +137,8 @@ class Candidate:
 
 def _candidates(m: int, has_rotation: bool) -> list[Candidate]:
     out = [Candidate("time_delay")]
-    for eff in ("tension_offset", "tension_gain", "exit_point_error", "anchor_point_error"):
+    for eff in ("tension_offset", "tension_gain", "exit_point_error", "anchor_point_error",
+                "pulley_friction"):
         out += [Candidate(eff, i) for i in range(1, m + 1)]
     out += [Candidate("viscous_drag"), Candidate("pulley"), Candidate("cable_mass"),
             Candidate("frame_tilt")]
@@ -154,6 +162,7 @@ class DiagData(eqx.Module):
     om: jnp.ndarray
     al: jnp.ndarray
     tau_grid: jnp.ndarray  # raw tension stream (uniform grid), (k, m)
+    ldot: jnp.ndarray  # cable length rates dl/dt of the nominal geometry, (n, m)
     tau_t0: float = eqx.field(static=True)
     tau_dt: float = eqx.field(static=True)
 
@@ -192,6 +201,7 @@ def _measured_side(d: DiagData, th):
     """Unfiltered cable-side wrench (n, 6): W_true tau_true + cable-weight load."""
     tau = _tension_at(d, d.t + th["delay"])
     tau = (tau - th["offset"]) / (1.0 + th["gain"])
+    tau = tau + th["coulomb"] * jnp.sign(d.ldot) + th["pvisc"] * d.ldot
     rob = _true_robot(d.robot, th)
     g = _tilt_gravity(d.robot.gravity, th["tilt"])
 
@@ -225,17 +235,19 @@ def _tension_rate_at(d: DiagData, s):
     return jax.jacfwd(lambda h: _tension_at(d, s + h))(0.0)
 
 
-def _cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c):
+def _cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c, ldot_c):
     """Wrench (6,) of one cable on the platform, with its own effect parameters.
 
-    ``local = [dA (3), db (3), offset, gain, delay, pulley, rho, tilt (2)]``; the delay enters
+    ``local = [dA (3), db (3), offset, gain, delay, pulley, rho, tilt (2), coulomb, viscous]``
+    (the last two: load-cell friction of ``pulley_friction`` with the cable rate ``ldot_c``);
+    the delay enters
     through the first-order expansion of the tension about the current delay ``local_c[8]``,
     exact in value and first derivative at the linearisation point.
     """
     dA, db = local[0:3], local[3:6]
     off, gain, delay, pul, rho = local[6], local[7], local[8], local[9], local[10]
     tau = tau_c + (delay - local_c[8]) * taud_c
-    tau = (tau - off) / (1.0 + gain)
+    tau = (tau - off) / (1.0 + gain) + local[13] * jnp.sign(ldot_c) + local[14] * ldot_c
     bb = R @ (b + db)
     T, _, _ = _one_cable(A + dA, bb, p, r + pul, k, ref)
     L = T - (p + bb)
@@ -247,13 +259,14 @@ def _cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c
 
 
 def _locals(d: DiagData, th):
-    """Per-cable local parameter vectors (m, 13) at theta."""
+    """Per-cable local parameter vectors (m, 15) at theta."""
     m = d.robot.n_cables
     glob = jnp.stack([th["delay"], th["pulley"], th["rho"]])
     return jnp.concatenate([
         th["exit"], th["anchor"], th["offset"][:, None], th["gain"][:, None],
         jnp.broadcast_to(glob, (m, 3))[:, :1], jnp.broadcast_to(glob, (m, 3))[:, 1:],
-        jnp.broadcast_to(th["tilt"], (m, 2))], axis=1)
+        jnp.broadcast_to(th["tilt"], (m, 2)), th["coulomb"][:, None], th["pvisc"][:, None]],
+        axis=1)
 
 
 @functools.partial(jax.jit, static_argnums=(2,))
@@ -264,26 +277,26 @@ def _meas_and_jac(d, theta, layout):
     """
     th = layout.unpack(theta)
     m = layout.m
-    loc = _locals(d, th)  # (m, 13)
+    loc = _locals(d, th)  # (m, 15)
     tau_c = _tension_at(d, d.t + th["delay"])  # (n, m)
     taud_c = _tension_rate_at(d, d.t + th["delay"])
     rob = d.robot
 
-    def per_sample(p, R, tc, tdc):
-        def per_cable(lc, A, b, r, k, ref, ti, tdi):
+    def per_sample(p, R, tc, tdc, ld):
+        def per_cable(lc, A, b, r, k, ref, ti, tdi, li):
             f = functools.partial(_cable_contribution, A=A, b=b, r=r, k=k, ref=ref, p=p, R=R,
-                                  tau_c=ti, taud_c=tdi, g0=rob.gravity, local_c=lc)
+                                  tau_c=ti, taud_c=tdi, g0=rob.gravity, local_c=lc, ldot_c=li)
             return f(lc), jax.jacfwd(f)(lc)
 
         w, J = jax.vmap(per_cable)(loc, rob.B_A, rob.P_b, rob.pulley_radius, rob.pulley_axis,
-                                   rob.pulley_reference, tc, tdc)
-        return w.sum(0), J  # (6,), (m, 6, 13)
+                                   rob.pulley_reference, tc, tdc, ld)
+        return w.sum(0), J  # (6,), (m, 6, 15)
 
-    y, Jl = jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c)
+    y, Jl = jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot)
     n = y.shape[0]
     s = layout.slices
     J = jnp.zeros((n, 6, layout.size))
-    Jl = jnp.moveaxis(Jl, 1, 3)  # (n, 6, 13, m)
+    Jl = jnp.moveaxis(Jl, 1, 3)  # (n, 6, 15, m)
     J = J.at[:, :, s["exit"]].set(jnp.moveaxis(Jl[:, :, 0:3, :], 3, 2).reshape(n, 6, 3 * m))
     J = J.at[:, :, s["anchor"]].set(jnp.moveaxis(Jl[:, :, 3:6, :], 3, 2).reshape(n, 6, 3 * m))
     J = J.at[:, :, s["offset"]].set(Jl[:, :, 6, :])
@@ -292,6 +305,8 @@ def _meas_and_jac(d, theta, layout):
     J = J.at[:, :, s["pulley"]].set(Jl[:, :, 9, :].sum(-1, keepdims=True))
     J = J.at[:, :, s["rho"]].set(Jl[:, :, 10, :].sum(-1, keepdims=True))
     J = J.at[:, :, s["tilt"]].set(Jl[:, :, 11:13, :].sum(-1))
+    J = J.at[:, :, s["coulomb"]].set(Jl[:, :, 13, :])
+    J = J.at[:, :, s["pvisc"]].set(Jl[:, :, 14, :])
     return y, J
 
 
@@ -313,9 +328,6 @@ def _regs_jit(d, theta, layout, rotational):
     return jax.vmap(lambda R, a: regressor_translation(R, a, g))(d.R, d.a)
 
 
-@jax.jit
-def _wrench_all_jit(robot, p, R):
-    return jax.vmap(lambda p_, R_: wrench_matrix(robot, p_, R_))(p, R)
 
 
 # ----------------------------------------------------------------------------- statistics
@@ -397,7 +409,7 @@ def estimate_noise(x, order: int = 4) -> np.ndarray:
 # ----------------------------------------------------------------------------- results
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(frozen=True)
 class Finding:
     """One accepted effect."""
 
@@ -425,7 +437,7 @@ class Finding:
         }
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(frozen=True)
 class DiagnosisResult:
     """Everything :func:`diagnose` found; ``as_json()`` is the CLI's JSON contract."""
 
@@ -438,6 +450,9 @@ class DiagnosisResult:
     ranking: list
     info: dict
     arrays: dict = dataclasses.field(default_factory=dict, repr=False)
+    #: residual structure the extended model leaves, and hints (vocabulary effects removed
+    #: by backward elimination): ``where``, ``size`` (N), ``correlates_with``, ``p_value``
+    unexplained: list = dataclasses.field(default_factory=list)
 
     def as_json(self) -> dict:
         return {
@@ -453,6 +468,8 @@ class DiagnosisResult:
                 "effects": [f.effect for f in self.findings],
                 "information_criterion": self.info.get("information_criterion", {}),
             },
+            "unexplained": [{k: v for k, v in u.items() if k != "significant"}
+                            for u in self.unexplained],
             "ranking": self.ranking,
             "info": {k: v for k, v in self.info.items() if k != "information_criterion"},
         }
@@ -511,12 +528,14 @@ def _vocab_params(c: Candidate, th_values: np.ndarray, layout: ThetaLayout, extr
         return {"tilt_rad": [float(v[0]), float(v[1])]}
     if c.effect == "rotational_dynamics":
         return {"amplitude_rad": float(extra["rotation_amplitude"])}
+    if c.effect == "pulley_friction":
+        return {"cable": c.cable, "coulomb_N": float(v[0]), "viscous_Ns_per_m": float(v[1])}
     raise KeyError(c.effect)
 
 
 #: plausibility bounds of a refitted effect (a larger value means a degenerate linearisation)
-_BOUNDS = {"delay_s": 0.5, "offset_N": 1e3, "displacement_m": 0.25, "coefficient_Ns_per_m": 1e3,
-           "radius_m": 0.25, "linear_density_kg_per_m": 5.0, "tilt_rad": 0.05}
+_BOUNDS = {"coulomb_N": 100.0, "viscous_Ns_per_m": 1e3, "delay_s": 0.5, "offset_N": 1e3,
+           "displacement_m": 0.25, "coefficient_Ns_per_m": 1e3, "radius_m": 0.25, "linear_density_kg_per_m": 5.0, "tilt_rad": 0.05}
 
 
 def _implausible(effect: str, params: dict) -> str:
@@ -535,6 +554,8 @@ def _implausible(effect: str, params: dict) -> str:
             return f"{k} = {v}"
         if k in ("radius_m", "linear_density_kg_per_m", "coefficient_Ns_per_m") and v < 0:
             return f"{k} = {v:.3g} < 0"
+        if k in ("coulomb_N", "viscous_Ns_per_m") and v < 0:
+            return f"{k} = {v:.3g} < 0"
     return ""
 
 
@@ -549,12 +570,15 @@ def _vocab_interval(c: Candidate, th_values, th_std, layout, extra) -> dict:
     lo, hi = v - z * s, v + z * s
     if c.effect == "tension_gain":
         return {"gain": [float(1 + lo[0]), float(1 + hi[0])]}
+    if c.effect == "pulley_friction":
+        return {"coulomb_N": [float(lo[0]), float(hi[0])],
+                "viscous_Ns_per_m": [float(lo[1]), float(hi[1])]}
     name = {"time_delay": "delay_s", "tension_offset": "offset_N", "viscous_drag":
             "coefficient_Ns_per_m", "pulley": "radius_m", "cable_mass": "linear_density_kg_per_m"}
     if c.effect in name:
         return {name[c.effect]: [float(lo[0]), float(hi[0])]}
     key = "tilt_rad" if c.effect == "frame_tilt" else "displacement_m"
-    return {key: [[float(a), float(b)] for a, b in zip(lo, hi)]}
+    return {key: [[float(a), float(b)] for a, b in zip(lo, hi, strict=True)]}
 
 
 def diagnose(
@@ -633,14 +657,18 @@ def diagnose(
         tau_grid = np.column_stack([np.interp(grid_t, tt, ds.tension[:, i]) for i in range(m)])
     else:
         grid_t, tau_grid = tt, ds.tension
+    W_all = np.asarray(jax.jit(wrench_matrices)(robot, jnp.asarray(sig.position),
+                                                 jnp.asarray(R)))
+    ldot = -np.einsum("nim,ni->nm", W_all, np.concatenate([v, om], axis=1))
     d = DiagData(robot, jnp.asarray(sig.t), jnp.asarray(sig.position), jnp.asarray(R),
                  jnp.asarray(v), jnp.asarray(a), jnp.asarray(om), jnp.asarray(al),
-                 jnp.asarray(tau_grid), float(grid_t[0]), tdt)
+                 jnp.asarray(tau_grid), jnp.asarray(ldot), float(grid_t[0]), tdt)
     layout = ThetaLayout(m)
     n = len(sig.t)
     # usable samples: trimmed ends, and delay margin inside the tension stream
     margin = max(trim, 0.1)
-    use = (sig.t >= max(sig.t[0], grid_t[0]) + margin) & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin)
+    use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
+           & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))
     # taut phases only: every cable above taut_N within +-0.1 s (slack cables are not modelled)
     from scipy.ndimage import minimum_filter1d
 
@@ -717,7 +745,7 @@ def diagnose(
     base_params = {
         nm: {"value": float(v_), "std": float(np.sqrt(Vb[i, i])),
              "rel_std_percent": float(100 * np.sqrt(Vb[i, i]) / abs(v_))}
-        for i, (nm, v_) in enumerate(zip(PARAMETER_NAMES["translation"], x_base))
+        for i, (nm, v_) in enumerate(zip(PARAMETER_NAMES["translation"], x_base, strict=True))
     }
     say(f"base fit: m = {x_base[0]:.4f} kg, force residual rms "
         f"{np.sqrt(np.mean(np.square(base_rms[:3]))):.3f} N")
@@ -734,7 +762,6 @@ def diagnose(
     say(f"noise estimated from the data: position {1e3 * sig_p:.3f} mm, tensions "
         f"{np.mean(sig_tau):.3f} N (rms over cables)")
     rng = np.random.default_rng(seed)
-    W_all = np.asarray(_wrench_all_jit(robot, d.p, d.R))
 
     def null_residuals(x):
         """Residual replicates of the base model under sensor noise alone (n, 6) each."""
@@ -793,6 +820,9 @@ def diagnose(
     findings: list[Finding] = []
     ranking_json = []
     active_idx: list[int] = []
+    extra = {"rotation_amplitude": rot_amp, "rotation_amplitude_std": rot_std}
+    th_cov = np.zeros((layout.size, layout.size))
+    thr_first = alpha / n_tests
 
     for step in range(max_effects):
         y_now, Am, C = design(theta, x_cur, rotational)
@@ -821,7 +851,7 @@ def diagnose(
         Q = np.linalg.qr(Zbase[train].reshape(-1, pb))[0]
         ntr = int(train.sum())
 
-        def partial(M):
+        def partial(M, Q=Q, ntr=ntr):
             M2 = M.reshape(-1, M.shape[-1]) if M.ndim == 3 else M.reshape(-1, 1)
             return (M2 - Q @ (Q.T @ M2)).reshape(ntr, 6, -1)
 
@@ -850,6 +880,7 @@ def diagnose(
         ]
         if step == 0:
             ranking_json = step_ranking
+            thr_first = thr_p
         if not scored:
             break
         chosen = False
@@ -923,6 +954,71 @@ def diagnose(
         say(f"step {step + 1}: accepted {c_best.label}: {findings[-1].parameters}; held-out "
             f"rms {rms_before:.4f} -> {rms_after:.4f} (weighted units)")
 
+    # ---------------------------------------------------------------- backward elimination
+    feats = {k: zf(F.reshape(n, -1)).reshape(F.shape) * wrow[None, :, None] for k, F in
+             structure_features(W_all, v, om, sig.tension, sig.position, sig.t, use).items()}
+
+    def linear_model(theta, x_cur, active_idx, rotational):
+        y_now, Am, C = design(theta, x_cur, rotational)
+        Ca = C[:, :, active_idx]
+        Z = np.concatenate([Am, Ca], axis=2) * wrow[None, :, None]
+        y = (y_now + np.einsum("nij,j->ni", Ca, theta[active_idx])) * wrow
+        return Z, y, Am.shape[2]
+
+    hints = []
+    while accepted:
+        Z, y, n_model = linear_model(theta, x_cur, active_idx, rotational)
+        struct = structure_tests({k: F[train] for k, F in feats.items()}, Z[train], y[train],
+                                 wrow, lags, alpha)
+        S = [feats[u["correlates_with"]] for u in struct if u["significant"]]
+        Zs = np.concatenate([Z] + S, axis=2)
+        cols_of = functools.partial(finding_columns, layout=layout, active_idx=active_idx,
+                                    n_model=n_model)
+        k, why = weakest_finding(accepted, Zs, y, cols_of, heldout_rms, train, lags, min_gain,
+                                 thr_first)
+        if k is None:
+            break
+        c = accepted.pop(k)
+        f = findings.pop(k)
+        cols = cols_of(c)
+        beta_s, *_ = np.linalg.lstsq(Zs[train].reshape(-1, Zs.shape[2]), y[train].reshape(-1),
+                                     rcond=None)
+        part = np.einsum("nip,p->ni", Zs[use][:, :, cols], beta_s[cols]) / wrow[None, :]
+        hints.append({
+            "where": c.label,
+            "size": float(np.sqrt(np.mean(part[:, :3] ** 2))),
+            "correlates_with": f"the vocabulary effect {c.effect} {f.parameters} fits part of the "
+            "residual but is not needed given " + (
+                "the other findings and the unexplained structure ("
+                + ", ".join(u["correlates_with"] for u in struct if u["significant"]) + ")"
+                if S else "the other findings"),
+            "p_value": f.p_value,
+        })
+        say(f"backward elimination: {why}; removed (kept as a hint in 'unexplained')")
+        if c.effect == "rotational_dynamics":
+            rotational = False
+            x_cur[4:] = 0.0
+        else:
+            idx = layout.candidate_indices(c.effect, c.cable)
+            theta[idx] = 0.0
+            active_idx = [i for i in active_idx if i not in idx]
+        theta, x_cur, th_cov = _refit_gauss_newton(design, theta, x_cur, active_idx, rotational,
+                                                   wrow, train, lags)
+        th_std = np.sqrt(np.clip(np.diag(th_cov), 0, None))
+        findings = [dataclasses.replace(
+            fi, parameters=_vocab_params(ci, theta, layout, extra, th_cov),
+            interval=_vocab_interval(ci, theta, th_std, layout, extra))
+            for ci, fi in zip(accepted, findings, strict=True)]
+
+    # ---------------------------------------------------------------- unexplained structure
+    Z, y, _ = linear_model(theta, x_cur, active_idx, rotational)
+    struct = structure_tests({k: F[train] for k, F in feats.items()}, Z[train], y[train], wrow,
+                             lags, alpha)
+    unexplained = [u for u in struct if u["significant"]] + hints
+    for u in unexplained:
+        say(f"unexplained: {u['where']}, {u['size']:.3g} N, like {u['correlates_with']}, "
+            f"p = {u['p_value']:.2e}")
+
     # ---------------------------------------------------------------- extended model summary
     y_fin, Am_fin, C_fin = design(theta, x_cur, rotational)
     Zf = np.concatenate([Am_fin] + ([C_fin[:, :, active_idx]] if active_idx else []), axis=2)
@@ -974,7 +1070,7 @@ def diagnose(
               "tension": sig.tension, "position": sig.position, "train": train, "use": use}
     say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
     return DiagnosisResult(base_params, base_rms, base_force_ho, findings, ext_params,
-                           ext_force_ho, ranking_json, info, arrays)
+                           ext_force_ho, ranking_json, info, arrays, unexplained=unexplained)
 
 
 def _weight_at_rest(d, layout, theta, v, a, dt, min_rest_s: float = 0.5):
@@ -1102,6 +1198,183 @@ def _refit_gauss_newton(design, theta, x0, active_idx, rotational, wrow, train, 
     return theta, x, th_cov
 
 
+# ----------------------------------------------------------------------------- residual structure
+
+
+#: generic signals the residual of the extended model is tested against (unexplained stage)
+STRUCTURE_SIGNALS = ("sign of cable velocity", "tension level", "pose", "time (slow drift)")
+
+
+def structure_features(W_all, v, om, tension, position, t, use) -> dict:
+    """Generic residual-structure regressors, unfiltered, ``(n, 6, q)`` each.
+
+    These are not effects of the vocabulary: they describe what a remaining residual is
+    *like*. ``sign of cable velocity`` is ``W_i sign(dl_i/dt)`` per cable (a Coulomb-like
+    force along each cable, with ``dl/dt = -W^T [v; omega]``); ``tension level`` is
+    ``W_i (z_i^2 - 1)`` with z_i the standardised tension (a load cell that is not linear);
+    ``pose`` is a force linear in the position, per force axis; ``time (slow drift)`` is a
+    force that drifts as Legendre polynomials of degree 1-3 in time, per force axis.
+
+    Parameters
+    ----------
+    W_all : (n, 6, m) nominal wrench matrices
+    v, om : (n, 3) platform velocity and angular rate
+    tension : (n, m) tensions at the pose times
+    position : (n, 3)
+    t : (n,)
+    use : (n,) bool, the samples that are fitted
+
+    Returns
+    -------
+    dict
+        Signal name (one of :data:`STRUCTURE_SIGNALS`) -> array ``(n, 6, q)``.
+    """
+    n = W_all.shape[0]
+    twist = np.concatenate([v, om], axis=1)
+    ldot = -np.einsum("nim,ni->nm", W_all, twist)
+    tz = (tension - tension[use].mean(0)) / np.maximum(tension[use].std(0), 1e-9)
+    pc = position - position[use].mean(0)
+    tu = t[use]
+    s = 2.0 * (t - tu[0]) / max(tu[-1] - tu[0], 1e-9) - 1.0
+    legendre = [s, 0.5 * (3 * s**2 - 1), 0.5 * (5 * s**3 - 3 * s)]
+    P = np.zeros((n, 6, 9))
+    D = np.zeros((n, 6, 9))
+    for j in range(3):
+        for k in range(3):
+            P[:, j, 3 * j + k] = pc[:, k]
+            D[:, j, 3 * j + k] = legendre[k]
+    return {
+        "sign of cable velocity": W_all * np.sign(ldot)[:, None, :],
+        "tension level": W_all * (tz**2 - 1.0)[:, None, :],
+        "pose": P,
+        "time (slow drift)": D,
+    }
+
+
+def _where(name: str, beta, V) -> str:
+    """Which cables / force axes a structure sits on (coefficients with |t| > 3)."""
+    tstat = np.abs(beta) / np.sqrt(np.clip(np.diag(V), 1e-300, None))
+    if name in ("sign of cable velocity", "tension level"):
+        idx = [i + 1 for i in np.nonzero(tstat > 3)[0]]
+        return ("load cells of cables " + ", ".join(map(str, idx))) if idx else "all cables"
+    axes = sorted({"xyz"[i // 3] for i in np.nonzero(tstat > 3)[0]})
+    return ("force along " + ", ".join(axes)) if axes else "force rows"
+
+
+def structure_tests(feats: dict, Z, y, wrow, lags: int, alpha: float) -> list:
+    """Test the residual of ``y ~ Z`` for generic structure, strongest first (stepwise).
+
+    Each signal is tested (HAC Wald, Bonferroni over the signals) given the model and the
+    signals already found significant, so that one structure is not reported again under
+    the name of a correlated signal.
+
+    Parameters
+    ----------
+    feats : dict
+        Signal name -> weighted, matched-filtered regressors ``(n, 6, q)`` (training rows).
+    Z : (n, 6, p)
+        The extended model's columns (weighted, training rows).
+    y : (n, 6)
+        Its target (weighted, training rows).
+    wrow : (6,) row weights (to give sizes in newtons)
+    lags : int
+        HAC lag window.
+    alpha : float
+        Family-wise level; every signal is returned, ``significant`` marks p < alpha.
+
+    Returns
+    -------
+    list of dict
+        ``where``, ``size`` (RMS force in N of the fitted structure), ``correlates_with``,
+        ``p_value`` (Bonferroni over the signals), ``coefficients`` and ``significant``.
+    """
+    out: list = []
+    left = dict(feats)
+    while left:
+        tests = _structure_step(left, Z, y, wrow, lags, alpha, len(feats))
+        if not tests:
+            break
+        best = min(tests, key=lambda u: u["p_value"])
+        if not best["significant"]:
+            return out + sorted(tests, key=lambda u: u["p_value"])
+        out.append(best)
+        Z = np.concatenate([Z, left.pop(best["correlates_with"])], axis=2)
+    return out
+
+
+def _structure_step(feats, Z, y, wrow, lags, alpha, n_signals):
+    n, _, p = Z.shape
+    Q = np.linalg.qr(Z.reshape(-1, p))[0]
+
+    def partial(M):
+        M2 = M.reshape(n * 6, -1)
+        return (M2 - Q @ (Q.T @ M2)).reshape(n, 6, -1)
+
+    yt = partial(y)[:, :, 0]
+    out = []
+    for name, F in feats.items():
+        Ft = partial(F)
+        keep = np.linalg.norm(Ft.reshape(-1, Ft.shape[2]), axis=0) > 1e-9 * max(
+            1.0, float(np.linalg.norm(F)))
+        Ft = Ft[:, :, keep]
+        if Ft.shape[2] == 0:
+            continue
+        stat, beta, V = _partial_wald(Ft, yt, lags)
+        pv = float(min(1.0, stats.chi2.sf(stat, Ft.shape[2]) * n_signals))
+        fit = np.einsum("niq,q->ni", Ft, beta) / wrow[None, :]
+        out.append({
+            "where": _where(name, beta, V),
+            "size": float(np.sqrt(np.mean(fit[:, :3] ** 2))),
+            "correlates_with": name,
+            "p_value": pv,
+            "coefficients": [float(b) for b in beta],
+            "significant": bool(pv < alpha),
+        })
+    return out
+
+
+def finding_columns(c: Candidate, layout: ThetaLayout, active_idx: list, n_model: int) -> list:
+    """Columns of the linearised extended model ``[A, C_active]`` that belong to a finding."""
+    if c.effect == "rotational_dynamics":
+        return list(range(4, n_model))
+    idx = layout.candidate_indices(c.effect, c.cable)
+    return [n_model + active_idx.index(i) for i in idx]
+
+
+def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int,
+                    min_gain: float, thr_p: float):
+    """Backward step: the finding whose removal hurts held-out prediction least, if it fails.
+
+    A finding stays when removing it (given every other column of ``Z``: the other
+    findings, and the unexplained structure when there is one) worsens the held-out RMS by
+    more than ``min_gain`` (relative) AND its HAC Wald test given the others passes
+    ``thr_p``. Returns ``(index, reason)`` of the worst failing finding, or ``(None, '')``.
+    """
+    p = Z.shape[2]
+    rms_full = heldout_rms(Z, y)
+    worst, worst_gain, reason = None, np.inf, ""
+    for k, c in enumerate(accepted):
+        cols = cols_of(c)
+        rest = [j for j in range(p) if j not in cols]
+        rms_minus = heldout_rms(Z[:, :, rest], y)
+        gain = 1.0 - rms_full / rms_minus
+        Zr = Z[train][:, :, rest]
+        Q = np.linalg.qr(Zr.reshape(-1, len(rest)))[0]
+        ntr = Zr.shape[0]
+        Ct = Z[train][:, :, cols].reshape(-1, len(cols))
+        Ct = (Ct - Q @ (Q.T @ Ct)).reshape(ntr, 6, -1)
+        yt = y[train].reshape(-1, 1)
+        yt = (yt - Q @ (Q.T @ yt)).reshape(ntr, 6)
+        stat, _, _ = _partial_wald(Ct, yt, lags)
+        pv = float(stats.chi2.sf(stat, len(cols)))
+        fails = gain < min_gain or not pv < thr_p
+        if fails and gain < worst_gain:
+            worst, worst_gain = k, gain
+            reason = (f"{c.label}: removing it changes the held-out rms by {100 * gain:.2f} % "
+                      f"(p = {pv:.2e}) given the others")
+    return worst, reason
+
+
 def save_report(result: DiagnosisResult, out_dir, dataset_name: str = "dataset") -> Path:
     """Write ``report.md`` and PNG figures of a diagnosis into ``out_dir``."""
     from .plots import diagnosis_figures
@@ -1143,11 +1416,11 @@ def save_report(result: DiagnosisResult, out_dir, dataset_name: str = "dataset")
     ic = result.info["information_criterion"]
     lines += [f"Information criterion ({ic['kind']}): base {ic['base']:.1f}, extended "
               f"{ic['extended']:.1f}.", ""]
-    lines += ["## Candidate ranking (first step)", "", "| candidate | statistic | dof | p | p Bonferroni |",
-              "|---|---|---|---|---|"]
+    lines += ["## Candidate ranking (first step)", "",
+              "| candidate | statistic | dof | p | p Bonferroni |", "|---|---|---|---|---|"]
     for r in result.ranking:
-        lines.append(f"| {r['candidate']} | {r['statistic']:.1f} | {r['dof']} | {r['p_value']:.2e} | "
-                     f"{r['p_bonferroni']:.2e} |")
+        lines.append(f"| {r['candidate']} | {r['statistic']:.1f} | {r['dof']} | "
+                     f"{r['p_value']:.2e} | {r['p_bonferroni']:.2e} |")
     lines += ["", "## Figures", ""] + [f"![{p.stem}]({p.name})" for p in figs]
     (out / "report.md").write_text("\n".join(lines) + "\n")
     return out / "report.md"

@@ -38,6 +38,13 @@ from 1). How each effect is modelled by :func:`cdprid.simulate.simulate`:
     ``g_pose = R_tilt^T g`` with g robot.toml's gravity (for g = [0, 0, -9.81]:
     ``g_pose = 9.81 [sin ry, -sin rx cos ry, -cos rx cos ry]``); robot.toml keeps the
     nominal g.
+``pulley_friction {cable, coulomb_N, viscous_Ns_per_m}``
+    Friction where cable ``cable`` runs over its pulley/guide between the platform and a
+    load cell on the winch side. With ``dl/dt`` the rate of the cable length between the
+    exit point and the platform (``dl/dt = -W_i^T [v; omega]``, > 0 paying out), the load
+    cell reads ``tau - coulomb_N sign(dl/dt) - viscous_Ns_per_m dl/dt`` before gain,
+    offset and noise: hauling the cable in, the winch side needs more than the platform
+    side gets. Both coefficients are >= 0.
 ``rotational_dynamics {amplitude_rad}``
     The platform also performs small rotations (:func:`cdprid.trajectories.small_rotation`,
     that peak angle about each axis), so the rotational inertia and angular terms act;
@@ -61,6 +68,7 @@ __all__ = [
     "true_robot",
     "true_gravity",
     "tilt_matrix",
+    "load_cell_friction",
     "effect_parameters_table",
 ]
 
@@ -77,6 +85,7 @@ VOCABULARY: dict[str, dict[str, str]] = {
     "cable_mass": {"linear_density_kg_per_m": "float"},
     "frame_tilt": {"tilt_rad": "vec2"},
     "rotational_dynamics": {"amplitude_rad": "float"},
+    "pulley_friction": {"cable": "cable", "coulomb_N": "float", "viscous_Ns_per_m": "float"},
 }
 
 
@@ -176,6 +185,8 @@ class Effect:
             "radius_m",
             "linear_density_kg_per_m",
             "amplitude_rad",
+            "coulomb_N",
+            "viscous_Ns_per_m",
         ):
             if key in clean and clean[key] < 0:
                 raise ValueError(
@@ -245,6 +256,31 @@ def true_robot(robot, effects):
         elif e.name == "pulley":
             radius[:] = e.params["radius_m"]
     return robot.replace(B_A=B_A, P_b=P_b, pulley_radius=radius)
+
+
+def load_cell_friction(effects, W, v, omega) -> np.ndarray:
+    """What the load cells read in excess of the tension, ``(n, m)``, from ``pulley_friction``.
+
+    Parameters
+    ----------
+    effects : sequence of Effect
+    W : (n, 6, m) true wrench matrices
+    v, omega : (n, 3) platform velocity and angular rate at the tension times
+
+    Returns
+    -------
+    ndarray (n, m)
+        ``-coulomb_N sign(dl/dt) - viscous_Ns_per_m dl/dt`` on the cables with friction.
+    """
+    W = np.asarray(W)
+    ldot = -np.einsum("nim,ni->nm", W, np.concatenate([v, omega], axis=1))
+    out = np.zeros(ldot.shape)
+    for e in effects:
+        if e.name == "pulley_friction":
+            i = e.params["cable"] - 1
+            out[:, i] -= e.params["coulomb_N"] * np.sign(ldot[:, i])
+            out[:, i] -= e.params["viscous_Ns_per_m"] * ldot[:, i]
+    return out
 
 
 def tilt_matrix(rx: float, ry: float) -> np.ndarray:

@@ -31,7 +31,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from .dynamics import InertialParameters, platform_wrench
-from .effects import effect_parameters_table, true_gravity, true_robot, validate_effects
+from .effects import (
+    effect_parameters_table,
+    load_cell_friction,
+    true_gravity,
+    true_robot,
+    validate_effects,
+)
 from .geometry import CableRobot, cable_vectors, wrench_matrix
 from .rotations import quat_multiply, quat_to_matrix, rotvec_to_quat
 from .tensions import DEFAULT_PRETENSION, distribute_tensions
@@ -347,7 +353,8 @@ def simulate(
             gain[e.params["cable"] - 1] *= e.params["gain"]
         elif e.name == "tension_offset":
             offset[e.params["cable"] - 1] += e.params["offset_N"]
-    tension = gain * tau_true + offset
+    friction = load_cell_friction(effects, W, np.asarray(mt.v)[:k], np.asarray(mt.omega)[:k])
+    tension = gain * (tau_true + friction) + offset
     tension = tension + noise.tension_N * rng_tau.standard_normal(tension.shape)
     tension = _quantise(tension, noise.tension_quantum_N)
 

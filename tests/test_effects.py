@@ -1,0 +1,30 @@
+"""The effect vocabulary: one table, validation, and the load-cell friction model."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cdprid.effects import VOCABULARY, Effect, load_cell_friction, parse_effect
+
+
+def test_pulley_friction_is_in_the_vocabulary_and_validated():
+    assert VOCABULARY["pulley_friction"] == {"cable": "cable", "coulomb_N": "float",
+                                             "viscous_Ns_per_m": "float"}
+    e = parse_effect("pulley_friction", ["cable=2", "coulomb_N=1.5", "viscous_Ns_per_m=0.3"])
+    assert e.params == {"cable": 2, "coulomb_N": 1.5, "viscous_Ns_per_m": 0.3}
+    with pytest.raises(ValueError, match="coulomb_N"):
+        Effect("pulley_friction", {"cable": 1, "coulomb_N": -1, "viscous_Ns_per_m": 0})
+
+
+def test_load_cell_friction_opposes_the_cable_motion(rng):
+    n, m = 40, 6
+    W = rng.normal(size=(n, 6, m))
+    v, om = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    e = Effect("pulley_friction", {"cable": 3, "coulomb_N": 2.0, "viscous_Ns_per_m": 5.0})
+    f = load_cell_friction([e], W, v, om)
+    ldot = np.array([-W[k].T @ np.concatenate([v[k], om[k]]) for k in range(n)])
+    assert np.allclose(f[:, [0, 1, 3, 4, 5]], 0.0)
+    assert np.allclose(f[:, 2], -2.0 * np.sign(ldot[:, 2]) - 5.0 * ldot[:, 2], atol=1e-12)
+    # hauling in (dl/dt < 0): the winch-side cell reads more than the platform side gets
+    assert np.all(f[ldot[:, 2] < 0, 2] > 0)
