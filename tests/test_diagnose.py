@@ -210,9 +210,9 @@ def test_backward_step_drops_a_redundant_pick_and_keeps_a_needed_one():
         r = yc[half:] - np.einsum("nip,p->ni", Zc[half:], b)
         return float(np.sqrt(np.mean(r * r)))
 
-    k, why = D.weakest_finding(picks, Z, y, cols.__getitem__, heldout, train, 75, 0.01, 1e-4)
+    k, why, _ = D.weakest_finding(picks, Z, y, cols.__getitem__, heldout, train, 75, 0.01, 1e-4)
     assert k in (0, 2) and why
     keep = [picks[1]]
-    k2, _ = D.weakest_finding(keep, Z[:, :, [0, 2]], y, lambda c: [1], heldout, train, 75,
+    k2, _, _ = D.weakest_finding(keep, Z[:, :, [0, 2]], y, lambda c: [1], heldout, train, 75,
                               0.01, 1e-4)
     assert k2 is None

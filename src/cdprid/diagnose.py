@@ -135,6 +135,11 @@ class Candidate:
         return self.effect if self.cable is None else f"{self.effect}[cable {self.cable}]"
 
 
+def alias_label(c: Candidate) -> str:
+    """The JSON form of a candidate in ``aliases`` (``effect`` or ``effect:cable=i``)."""
+    return c.effect if c.cable is None else f"{c.effect}:cable={c.cable}"
+
+
 def _candidates(m: int, has_rotation: bool) -> list[Candidate]:
     out = [Candidate("time_delay")]
     for eff in ("tension_offset", "tension_gain", "exit_point_error", "anchor_point_error",
@@ -422,6 +427,8 @@ class Finding:
     p_value: float
     statistic: float
     threshold: float
+    #: alias label -> what trajectory or measurement would tell the two apart
+    separated_by: dict = dataclasses.field(default_factory=dict)
 
     def as_json(self) -> dict:
         return {
@@ -434,6 +441,7 @@ class Finding:
             "p_value": self.p_value,
             "statistic": self.statistic,
             "threshold": self.threshold,
+            "separated_by": self.separated_by,
         }
 
 
@@ -535,7 +543,8 @@ def _vocab_params(c: Candidate, th_values: np.ndarray, layout: ThetaLayout, extr
 
 #: plausibility bounds of a refitted effect (a larger value means a degenerate linearisation)
 _BOUNDS = {"coulomb_N": 100.0, "viscous_Ns_per_m": 1e3, "delay_s": 0.5, "offset_N": 1e3,
-           "displacement_m": 0.25, "coefficient_Ns_per_m": 1e3, "radius_m": 0.25, "linear_density_kg_per_m": 5.0, "tilt_rad": 0.05}
+           "displacement_m": 0.25, "coefficient_Ns_per_m": 1e3, "radius_m": 0.25,
+           "linear_density_kg_per_m": 5.0, "tilt_rad": 0.05}
 
 
 def _implausible(effect: str, params: dict) -> str:
@@ -954,7 +963,7 @@ def diagnose(
         say(f"step {step + 1}: accepted {c_best.label}: {findings[-1].parameters}; held-out "
             f"rms {rms_before:.4f} -> {rms_after:.4f} (weighted units)")
 
-    # ---------------------------------------------------------------- backward elimination
+    # ---------------------------------------------------------------- model after selection
     feats = {k: zf(F.reshape(n, -1)).reshape(F.shape) * wrow[None, :, None] for k, F in
              structure_features(W_all, v, om, sig.tension, sig.position, sig.t, use).items()}
 
@@ -963,19 +972,60 @@ def diagnose(
         Ca = C[:, :, active_idx]
         Z = np.concatenate([Am, Ca], axis=2) * wrow[None, :, None]
         y = (y_now + np.einsum("nij,j->ni", Ca, theta[active_idx])) * wrow
-        return Z, y, Am.shape[2]
+        return Z, y, Am.shape[2], C
 
+    # ---------------------------------------------------------------- swap (take back a pick)
+    ties: dict = {}
+    for _ in range(len(accepted)):
+        Z, y, n_model, C_now = linear_model(theta, x_cur, active_idx, rotational)
+        cols_of = functools.partial(finding_columns, layout=layout, active_idx=active_idx,
+                                    n_model=n_model)
+        alts = {c: swap_alternatives(c, candidates, accepted) for c in accepted}
+
+        def alt_cols(a, C_now=C_now):
+            return C_now[:, :, layout.candidate_indices(a.effect, a.cable)] * wrow[None, :, None]
+
+        k, alt, ties = best_swap(accepted, alts, Z, y, cols_of, alt_cols, heldout_rms, min_gain)
+        if k is None:
+            break
+        saved = (theta.copy(), x_cur.copy(), list(active_idx))
+        old = accepted[k]
+        idx_old = layout.candidate_indices(old.effect, old.cable)
+        idx_new = layout.candidate_indices(alt.effect, alt.cable)
+        theta[idx_old] = 0.0
+        active_idx = sorted((set(active_idx) - set(idx_old)) | set(idx_new))
+        theta, x_cur, th_cov = _refit_gauss_newton(design, theta, x_cur, active_idx, rotational,
+                                                   wrow, train, lags)
+        vocab = _vocab_params(alt, theta, layout, extra, th_cov)
+        if _implausible(alt.effect, vocab):
+            theta, x_cur, active_idx = saved
+            break
+        say(f"swap: {old.label} -> {alt.label} predicts the held-out data better")
+        accepted[k] = alt
+        findings[k] = dataclasses.replace(findings[k], effect=alt.effect,
+                                          aliases=sorted(set(findings[k].aliases) | {
+                                              alias_label(old)}))
+    th_std = np.sqrt(np.clip(np.diag(th_cov), 0, None))
+    findings = [dataclasses.replace(
+        fi, parameters=_vocab_params(ci, theta, layout, extra, th_cov),
+        interval=_vocab_interval(ci, theta, th_std, layout, extra),
+        aliases=sorted(set(fi.aliases) | {alias_label(a) for a in ties.get(ci, [])}),
+        separated_by={**fi.separated_by, **{alias_label(a): separated_by(ci.effect, a.effect)
+                                            for a in ties.get(ci, [])}})
+        for ci, fi in zip(accepted, findings, strict=True)]
+
+    # ---------------------------------------------------------------- backward elimination
     hints = []
     while accepted:
-        Z, y, n_model = linear_model(theta, x_cur, active_idx, rotational)
+        Z, y, n_model, _ = linear_model(theta, x_cur, active_idx, rotational)
         struct = structure_tests({k: F[train] for k, F in feats.items()}, Z[train], y[train],
                                  wrow, lags, alpha)
         S = [feats[u["correlates_with"]] for u in struct if u["significant"]]
         Zs = np.concatenate([Z] + S, axis=2)
         cols_of = functools.partial(finding_columns, layout=layout, active_idx=active_idx,
                                     n_model=n_model)
-        k, why = weakest_finding(accepted, Zs, y, cols_of, heldout_rms, train, lags, min_gain,
-                                 thr_first)
+        k, why, p_given = weakest_finding(accepted, Zs, y, cols_of, heldout_rms, train, lags,
+                                          min_gain, thr_first)
         if k is None:
             break
         c = accepted.pop(k)
@@ -984,17 +1034,17 @@ def diagnose(
         beta_s, *_ = np.linalg.lstsq(Zs[train].reshape(-1, Zs.shape[2]), y[train].reshape(-1),
                                      rcond=None)
         part = np.einsum("nip,p->ni", Zs[use][:, :, cols], beta_s[cols]) / wrow[None, :]
-        hints.append({
-            "where": c.label,
-            "size": float(np.sqrt(np.mean(part[:, :3] ** 2))),
-            "correlates_with": f"the vocabulary effect {c.effect} {f.parameters} fits part of the "
-            "residual but is not needed given " + (
-                "the other findings and the unexplained structure ("
-                + ", ".join(u["correlates_with"] for u in struct if u["significant"]) + ")"
-                if S else "the other findings"),
-            "p_value": f.p_value,
-        })
-        say(f"backward elimination: {why}; removed (kept as a hint in 'unexplained')")
+        say(f"backward elimination: {why}; removed")
+        if S:  # a vocabulary effect that only fits part of an unexplained structure: a hint
+            hints.append({
+                "where": c.label,
+                "size": float(np.sqrt(np.mean(part[:, :3] ** 2))),
+                "correlates_with": f"the vocabulary effect {c.effect} {f.parameters} fits part "
+                "of the residual but is not needed given the other findings and the "
+                "unexplained structure ("
+                + ", ".join(u["correlates_with"] for u in struct if u["significant"]) + ")",
+                "p_value": p_given,
+            })
         if c.effect == "rotational_dynamics":
             rotational = False
             x_cur[4:] = 0.0
@@ -1011,7 +1061,7 @@ def diagnose(
             for ci, fi in zip(accepted, findings, strict=True)]
 
     # ---------------------------------------------------------------- unexplained structure
-    Z, y, _ = linear_model(theta, x_cur, active_idx, rotational)
+    Z, y, _, _ = linear_model(theta, x_cur, active_idx, rotational)
     struct = structure_tests({k: F[train] for k, F in feats.items()}, Z[train], y[train], wrow,
                              lags, alpha)
     unexplained = [u for u in struct if u["significant"]] + hints
@@ -1348,11 +1398,12 @@ def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int
     A finding stays when removing it (given every other column of ``Z``: the other
     findings, and the unexplained structure when there is one) worsens the held-out RMS by
     more than ``min_gain`` (relative) AND its HAC Wald test given the others passes
-    ``thr_p``. Returns ``(index, reason)`` of the worst failing finding, or ``(None, '')``.
+    ``thr_p``. Returns ``(index, reason, p)`` of the worst failing finding (p: its Wald
+    p-value given the others), or ``(None, '', 1.0)``.
     """
     p = Z.shape[2]
     rms_full = heldout_rms(Z, y)
-    worst, worst_gain, reason = None, np.inf, ""
+    worst, worst_gain, reason, worst_p = None, np.inf, "", 1.0
     for k, c in enumerate(accepted):
         cols = cols_of(c)
         rest = [j for j in range(p) if j not in cols]
@@ -1369,10 +1420,74 @@ def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int
         pv = float(stats.chi2.sf(stat, len(cols)))
         fails = gain < min_gain or not pv < thr_p
         if fails and gain < worst_gain:
-            worst, worst_gain = k, gain
+            worst, worst_gain, worst_p = k, gain, pv
             reason = (f"{c.label}: removing it changes the held-out rms by {100 * gain:.2f} % "
                       f"(p = {pv:.2e}) given the others")
-    return worst, reason
+    return worst, reason, worst_p
+
+
+#: what would separate two effects the data cannot tell apart (for ``separated_by``)
+_SEPARATE = {
+    frozenset({"tension_offset", "tension_gain"}):
+        "a trajectory with a wider range of tension on that cable (a gain scales with the "
+        "tension, an offset does not)",
+    frozenset({"tension_gain", "exit_point_error"}):
+        "the same poses at two pretension levels (a gain scales with the tension, a "
+        "direction error with the pose)",
+    frozenset({"tension_gain", "anchor_point_error"}):
+        "the same poses at two pretension levels (a gain scales with the tension, a "
+        "direction error with the pose)",
+    frozenset({"exit_point_error", "anchor_point_error"}):
+        "rotations of the platform (an attachment error turns with it, an exit error does not)",
+    frozenset({"time_delay", "viscous_drag"}):
+        "faster motion with the same velocities (a delay follows the tension rate, drag the "
+        "velocity)",
+    frozenset({"viscous_drag", "pulley_friction"}):
+        "motion at several speeds (Coulomb friction does not grow with the speed)",
+}
+
+
+def separated_by(a: str, b: str) -> str:
+    """What measurement or trajectory would separate effects ``a`` and ``b``."""
+    return _SEPARATE.get(frozenset({a, b}),
+                         "a longer trajectory that excites different poses, speeds and tensions")
+
+
+def swap_alternatives(c: Candidate, candidates: list, accepted: list) -> list:
+    """Alternatives to a finding tried by the swap stage: same cable, or global effects."""
+    out = []
+    for a in candidates:
+        if a in accepted or a.effect == "rotational_dynamics" or a == c:
+            continue
+        if a.cable is None or a.cable == c.cable:
+            out.append(a)
+    return out
+
+
+def best_swap(accepted: list, alts: dict, Z, y, cols_of, alt_cols, heldout_rms,
+              min_gain: float):
+    """Swap step: replace one finding by an alternative when that predicts held-out better.
+
+    Returns ``(k, alternative, ties)``: the finding index and its better replacement (or
+    ``None``), and for every finding the alternatives within ``min_gain`` of it (the data
+    cannot tell them apart: reported as aliases).
+    """
+    p = Z.shape[2]
+    rms_now = heldout_rms(Z, y)
+    best, best_rms = (None, None), rms_now * (1.0 - min_gain)
+    ties = {}
+    for k, c in enumerate(accepted):
+        if c.effect == "rotational_dynamics":
+            continue
+        rest = [j for j in range(p) if j not in cols_of(c)]
+        ties[c] = []
+        for a in alts[c]:
+            r = heldout_rms(np.concatenate([Z[:, :, rest], alt_cols(a)], axis=2), y)
+            if r < best_rms:
+                best, best_rms = (k, a), r
+            elif r < rms_now * (1.0 + min_gain):
+                ties[c].append(a)
+    return best[0], best[1], ties
 
 
 def save_report(result: DiagnosisResult, out_dir, dataset_name: str = "dataset") -> Path:
