@@ -89,7 +89,6 @@ def main() -> int:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
-        robot = d / "robot.toml"
         from cdprid.data import write_sample
 
         write_sample(d / "sample")
@@ -133,7 +132,7 @@ def main() -> int:
         "Each import is `cdprid import ...` in a fresh process (start-up included), writing a "
         "spec-v1 dataset.",
         "",
-        "| importer | input [MiB] | wall [s] | CPU [s] | peak RSS [MiB] | goal |",
+        "| importer | input [MiB] | wall [s] | CPU [s] | peak RSS so far [MiB] | goal |",
         "|---|---:|---:|---:|---:|---|",
     ]
     for label, size, wall, cpu, rss in rows:
@@ -143,7 +142,11 @@ def main() -> int:
               "(checked against rosbags' deserialiser on the first messages of each topic); "
               "other types go through rosbags' generic deserialiser, about 5x slower per "
               "message. Writing the dataset's CSVs (17 significant digits) is part of every "
-              "row."]
+              "row. CPU is the import process's own time; wall time also counts the waiting "
+              "when other jobs load the machine (see the load average). Peak RSS is the "
+              "largest child process so far in the run (getrusage), so it is a running "
+              "maximum (JAX start-up alone is about 400 MiB); the bag importers hold the raw "
+              "messages in memory."]
     text = "\n".join(lines) + "\n"
     print(text)
     out = ROOT / "results" / "importers.md"

@@ -321,3 +321,31 @@ def test_rosbag_fast_decoder_matches_rosbags_deserialiser(native, tmp_path, kind
                     assert np.array_equal(v[k], msg.effort)
     finally:
         reader.close()
+
+
+def test_rosbag_joints_reorder_and_extrinsic_euler_table(native, sample_dataset, tmp_path):
+    from scipy.spatial.transform import Rotation
+
+    from cdprid.io.rosbag import write_rosbag
+
+    ds = native[0]
+    bag = write_rosbag(ds, tmp_path / "b", kind="ros2-mcap")
+    joints = ",".join(f"cable{i}" for i in range(8, 0, -1))
+    assert main(["import", "rosbag", str(bag), "--robot", str(sample_dataset / "robot.toml"),
+                 "--pose-topic", "/platform/pose", "--tension-topic", "/cable/tensions",
+                 "--joints", joints, "--out", str(tmp_path / "o")]) == 0
+    np.testing.assert_array_equal(read_dataset(tmp_path / "o").tension, ds.tension[:, ::-1])
+    # extrinsic lower-case sequence, radians, comma-separated, default tension columns
+    q = ds.quaternion
+    e = Rotation.from_quat(np.column_stack([q[:, 1:], q[:, :1]])).as_euler("xyz")
+    pose = tmp_path / "p.csv"
+    rows = np.column_stack([ds.pose_t, ds.position, e])
+    np.savetxt(pose, rows, delimiter=",", fmt="%.17g", header="t,x,y,z,a,b,c", comments="")
+    assert main(["import", "table", "--pose", str(pose), "--tensions",
+                 str(sample_dataset / "tensions.csv"), "--robot",
+                 str(sample_dataset / "robot.toml"), "--out", str(tmp_path / "t"),
+                 "--pose-columns", "t=t,x=x,y=y,z=z,e1=a,e2=b,e3=c", "--euler", "xyz"]) == 0
+    imp = read_dataset(tmp_path / "t")
+    dots = np.abs(np.einsum("ij,ij->i", imp.quaternion, ds.quaternion))
+    assert np.all(1 - dots < 1e-12)
+    assert "extrinsic" in imp.meta["import"]["orientation"]
