@@ -104,6 +104,16 @@ def test_table_round_trip_mm_deg_ms_offset(native, sample_dataset, tmp_path):
     assert imp.meta["import"]["euler"] == "ZYX"
 
 
+def test_table_semicolon_decimal_comma(tmp_path):
+    from cdprid.io.table import read_table
+
+    f = tmp_path / "t.csv"
+    f.write_text('"t";"tau 1"\n0,5;12,25\n1;13\n')
+    tab = read_table(f)
+    assert tab.delimiter == ";" and tab.columns == ("t", "tau 1")
+    np.testing.assert_array_equal(tab.values, [[0.5, 12.25], [1.0, 13.0]])
+
+
 def test_table_whitespace_and_dropped_rows(sample_dataset, tmp_path):
     ds = read_dataset(sample_dataset)
     pose = tmp_path / "p.txt"

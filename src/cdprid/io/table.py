@@ -3,7 +3,8 @@
 
 A table is one header line and numeric rows. The delimiter is detected from the header line
 (tab, then semicolon, then comma, else runs of whitespace); a UTF-8 byte-order mark and quoted
-header names are handled. Columns are chosen by a mapping such as ``t=time,x=px,y=py,z=pz``
+header names are handled, and semicolon tables may use a decimal comma (``1,25``). Columns
+are chosen by a mapping such as ``t=time,x=px,y=py,z=pz``
 (:func:`parse_mapping`); units are given per quantity (:data:`UNITS`) and converted to SI.
 Orientation comes from quaternion columns ``qw,qx,qy,qz`` (scalar first, platform -> base) or
 from three Euler angles ``e1,e2,e3`` with a scipy sequence (``Rotation.from_euler``: upper
@@ -120,10 +121,12 @@ def _detect_delimiter(header: str) -> str:
     return "whitespace"
 
 
-def _to_float(field: str) -> float:
+def _to_float(field: str, decimal_comma: bool = False) -> float:
     try:
         return float(field)
     except ValueError:
+        if decimal_comma and field.count(",") == 1:
+            return _to_float(field.replace(",", "."))
         return float("nan")
 
 
@@ -160,7 +163,7 @@ def read_table(path: str | Path, option: str = "--pose") -> Table:
     values = np.full((len(rows) - 1, ncol), np.nan)
     for i, row in enumerate(rows[1:]):
         for j, f in enumerate(row[:ncol]):
-            values[i, j] = _to_float(f.strip())
+            values[i, j] = _to_float(f.strip(), decimal_comma=delim == ";")
     return Table(path, tuple(header), values, delim)
 
 
