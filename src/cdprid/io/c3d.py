@@ -32,7 +32,7 @@ import numpy as np
 from ..errors import UserError
 from .table import UNITS, unit_scale
 
-__all__ = ["import_c3d", "read_c3d_markers", "read_layout", "marker_gaps"]
+__all__ = ["import_c3d", "marker_gaps", "platform_pose", "read_c3d_markers", "read_layout"]
 
 
 def _param(c, group: str, name: str, default=None):
@@ -168,6 +168,37 @@ def _analog_tensions(c, path, channels: list[str], m: int, units_override: str |
     return t, data * np.asarray(scales), info
 
 
+def platform_pose(V_m, names: list[str], t, path, layout=None, layout_units: str = "m",
+                  origin_marker: str | None = None, min_markers: int = 3):
+    """Rigid-body pose of every frame (:mod:`cdprid.io.markers`), NaN where too few markers.
+
+    Returns
+    -------
+    V_R_M : (n, 3, 3), V_p_M : (n, 3), residual : (n, k) m, layout M_m : (k, 3) m, and a
+    sentence saying which frame the pose is of.
+    """
+    from .markers import estimate_layout, fit_rigid_body
+
+    if layout is not None:
+        M_m = read_layout(layout, names, layout_units)
+        R, p, res = fit_rigid_body(V_m, M_m, min_markers)
+        frame_note = "platform frame (layout given) in the motion-capture frame"
+    else:
+        o = 0 if origin_marker is None else _select(names, [origin_marker], path,
+                                                    "--origin-marker", "marker")[0]
+        try:
+            fit = estimate_layout(V_m, origin_marker=o)
+        except ValueError as exc:
+            raise UserError(f"{path}: cannot estimate the marker layout ({exc}); give --layout.") \
+                from None
+        M_m = fit.M_m
+        R, p, res = fit_rigid_body(V_m, M_m, min_markers)
+        frame_note = (f"marker frame (layout estimated from the data; origin at marker "
+                      f"{names[o]!r}, axes = capture axes at t = {t[fit.reference_frame]:g} s) in "
+                      "the motion-capture frame: not the robot's platform frame unless calibrated")
+    return R, p, res, M_m, frame_note
+
+
 def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
                markers: list[str] | None = None, analog_tensions: list[str] | None = None,
                layout: str | Path | None = None, layout_units: str = "m",
@@ -210,7 +241,6 @@ def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
     """
     from ..geometry import load_robot
     from ..outputs import check_output
-    from .markers import estimate_layout, fit_rigid_body
     from .table import parse_mapping, parse_units, read_tension_table, write_imported
 
     check_output(out, force, "--out", kind="dir")
@@ -226,23 +256,8 @@ def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
     n = V_m.shape[0]
     t = np.arange(n) / rate
     seen = np.all(np.isfinite(V_m), axis=2)
-    if layout is not None:
-        M_m = read_layout(layout, names, layout_units)
-        R, p, res = fit_rigid_body(V_m, M_m, min_markers)
-        frame_note = "platform frame (layout given) in the motion-capture frame"
-    else:
-        o = 0 if origin_marker is None else _select(names, [origin_marker], path,
-                                                    "--origin-marker", "marker")[0]
-        try:
-            fit = estimate_layout(V_m, origin_marker=o)
-        except ValueError as exc:
-            raise UserError(f"{path}: cannot estimate the marker layout ({exc}); give --layout.") \
-                from None
-        M_m = fit.M_m
-        R, p, res = fit_rigid_body(V_m, M_m, min_markers)
-        frame_note = (f"marker frame (layout estimated from the data; origin at marker "
-                      f"{names[o]!r}, axes = capture axes at t = {t[fit.reference_frame]:g} s) in "
-                      "the motion-capture frame: not the robot's platform frame unless calibrated")
+    R, p, res, M_m, frame_note = platform_pose(V_m, names, t, path, layout, layout_units,
+                                               origin_marker, min_markers)
     good = np.isfinite(p).all(1)
     if good.sum() < 2:
         raise UserError(f"{path}: fewer than 2 frames show {min_markers} of the platform markers.")
