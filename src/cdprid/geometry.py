@@ -64,15 +64,32 @@ class Limits:
     cable_speed_max: float | None = None
     workspace_min: tuple[float, float, float] | None = None
     workspace_max: tuple[float, float, float] | None = None
+    acceleration_max: float | None = None  # m/s^2, |a| of P (spec 1.1)
+    jerk_max: float | None = None  # m/s^3, |j| of P (spec 1.1)
+    tilt_max: float | None = None  # rad, rotation angle from the identity (spec 1.1)
+    angular_velocity_max: float | None = None  # rad/s (spec 1.1)
+    angular_acceleration_max: float | None = None  # rad/s^2 (spec 1.1)
+    cable_clearance: float | None = None  # m, cable-cable and cable-body (spec 1.1)
 
 
 @dataclasses.dataclass(frozen=True)
 class NominalPlatform:
-    """Nominal platform of robot.toml ``[platform]``; never used as an identification answer."""
+    """Nominal platform of robot.toml ``[platform]``; never used as an identification answer.
+
+    The spec 1.1 uncertainty fields say how far the truth may be from the nominal values:
+    ``mass_uncertainty`` (relative), ``com_uncertainty`` (m, per axis), ``inertia_uncertainty``
+    (relative, per principal moment); ``body_min``/``body_max`` a box (platform frame, m) that
+    holds the platform body.
+    """
 
     mass: float | None = None
     com: tuple[float, float, float] | None = None
     inertia: tuple[tuple[float, ...], ...] | None = None
+    mass_uncertainty: float | None = None
+    com_uncertainty: float | None = None
+    inertia_uncertainty: float | None = None
+    body_min: tuple[float, float, float] | None = None
+    body_max: tuple[float, float, float] | None = None
 
 
 class CableRobot(eqx.Module):
@@ -161,6 +178,55 @@ def _num(src: str, table: dict, key: str, where: str):
     return float(val)
 
 
+_LIMITS_11 = ("acceleration_max", "jerk_max", "tilt_max", "angular_velocity_max",
+              "angular_acceleration_max", "cable_clearance")
+
+
+def _positive(src: str, table: dict, key: str, where: str):
+    v = _num(src, table, key, where)
+    if v is not None and not v > 0:
+        raise RobotFileError(f"{src}: {where} field '{key}' must be > 0, got {v}.")
+    return v
+
+
+def _platform(source: str, plat: dict, inertia) -> NominalPlatform:
+    """The ``[platform]`` table (spec 1.1 fields validated, one sentence per problem)."""
+    where = "[platform]"
+    com = _vec(source, plat, "com", where) if "com" in plat else None
+    mass = _positive(source, plat, "mass", where)
+    unc = {}
+    for key in ("mass_uncertainty", "com_uncertainty", "inertia_uncertainty"):
+        v = _num(source, plat, key, where)
+        if v is not None and v < 0:
+            raise RobotFileError(f"{source}: {where} field '{key}' must be >= 0, got {v}.")
+        unc[key] = v
+    for key in ("mass_uncertainty", "inertia_uncertainty"):
+        if unc[key] is not None and unc[key] >= 1:
+            raise RobotFileError(f"{source}: {where} field '{key}' is relative and must be "
+                                 f"below 1, got {unc[key]}.")
+    bmin = _vec(source, plat, "body_min", where) if "body_min" in plat else None
+    bmax = _vec(source, plat, "body_max", where) if "body_max" in plat else None
+    if (bmin is None) != (bmax is None):
+        raise RobotFileError(f"{source}: {where} fields 'body_min' and 'body_max' must be given "
+                             "together.")
+    if bmin is not None and not np.all(bmax > bmin):
+        raise RobotFileError(f"{source}: {where} field 'body_max' must exceed 'body_min' on "
+                             "every axis.")
+    if inertia is not None:
+        I = np.asarray(inertia)
+        if not np.allclose(I, I.T, atol=1e-9) or np.linalg.eigvalsh(0.5 * (I + I.T))[0] <= 0:
+            raise RobotFileError(f"{source}: {where} field 'inertia' must be symmetric positive "
+                                 "definite.")
+    return NominalPlatform(
+        mass=mass,
+        com=None if com is None else tuple(float(v) for v in com),
+        inertia=inertia,
+        body_min=None if bmin is None else tuple(float(v) for v in bmin),
+        body_max=None if bmax is None else tuple(float(v) for v in bmax),
+        **unc,
+    )
+
+
 def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
     """Build a :class:`CableRobot` from the parsed robot.toml mapping (spec v1).
 
@@ -204,12 +270,23 @@ def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
         raise RobotFileError(f"{source}: [limits] must be a table.")
     wmin = _vec(source, lim, "workspace_min", "[limits]") if "workspace_min" in lim else None
     wmax = _vec(source, lim, "workspace_max", "[limits]") if "workspace_max" in lim else None
+    if wmin is not None and wmax is not None and not np.all(wmax > wmin):
+        raise RobotFileError(f"{source}: [limits] field 'workspace_max' must exceed 'workspace_min' "
+                             "on every axis.")
+    tmin = _num(source, lim, "tension_min", "[limits]")
+    tmax = _num(source, lim, "tension_max", "[limits]")
+    if tmin is not None and tmin < 0:
+        raise RobotFileError(f"{source}: [limits] field 'tension_min' must be >= 0, got {tmin}.")
+    if tmin is not None and tmax is not None and not tmax > tmin:
+        raise RobotFileError(f"{source}: [limits] field 'tension_max' ({tmax}) must exceed "
+                             f"'tension_min' ({tmin}).")
     limits = Limits(
-        tension_min=_num(source, lim, "tension_min", "[limits]"),
-        tension_max=_num(source, lim, "tension_max", "[limits]"),
-        cable_speed_max=_num(source, lim, "cable_speed_max", "[limits]"),
+        tension_min=tmin,
+        tension_max=tmax,
+        cable_speed_max=_positive(source, lim, "cable_speed_max", "[limits]"),
         workspace_min=None if wmin is None else tuple(float(v) for v in wmin),
         workspace_max=None if wmax is None else tuple(float(v) for v in wmax),
+        **{k: _positive(source, lim, k, "[limits]") for k in _LIMITS_11},
     )
     plat = data.get("platform", {}) or {}
     if not isinstance(plat, dict):
@@ -223,12 +300,7 @@ def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
         if I.shape != (3, 3) or not np.all(np.isfinite(I)):
             raise RobotFileError(f"{source}: [platform] field 'inertia' must be a 3x3 numeric matrix.")
         inertia = tuple(tuple(float(v) for v in row) for row in I)
-    com = _vec(source, plat, "com", "[platform]") if "com" in plat else None
-    platform = NominalPlatform(
-        mass=_num(source, plat, "mass", "[platform]"),
-        com=None if com is None else tuple(float(v) for v in com),
-        inertia=inertia,
-    )
+    platform = _platform(source, plat, inertia)
     name = data.get("name", "robot")
     return CableRobot(
         B_A=jnp.asarray(np.array(B_A)),
@@ -285,12 +357,10 @@ def robot_to_dict(robot: CableRobot) -> dict:
         cables.append(c)
     out["cable"] = cables
     plat = {}
-    if robot.platform.mass is not None:
-        plat["mass"] = robot.platform.mass
-    if robot.platform.com is not None:
-        plat["com"] = list(robot.platform.com)
-    if robot.platform.inertia is not None:
-        plat["inertia"] = [list(r) for r in robot.platform.inertia]
+    for key, v in dataclasses.asdict(robot.platform).items():
+        if v is not None:
+            plat[key] = [list(r) for r in v] if key == "inertia" else (
+                list(v) if isinstance(v, tuple) else v)
     if plat:
         out["platform"] = plat
     return out
