@@ -192,7 +192,14 @@ def test_cli_optimised_is_certified_and_better(excite_run):
         assert key in rep["initial"] and key in rep["optimised"]
     assert rep["optimised"]["certified"] is True
     assert rep["optimised"]["min_tension_margin_N"] >= 0.0
-    assert rep["optimised"]["cond"] < rep["initial"]["cond"] / 3
+    # the shared robot.toml has no spec 1.1 limits: the defaults are stated, never silent
+    assert {"acceleration_max", "jerk_max", "cable_clearance"} <= set(rep["defaults_used"])
+    assert rep["limits"]["acceleration_max"] == pytest.approx(2.0)
+    assert rep["optimised"]["failed_checks"] == []
+    assert rep["optimised"]["peaks"]["acceleration_m_s2"] <= 2.0
+    # with a 2 m/s^2 acceleration limit the gain is bounded (cond ~ g / horizontal rms
+    # acceleration for the translation model): better, not 3x as without the limit
+    assert rep["optimised"]["cond"] < rep["initial"]["cond"] / 1.2
 
 
 def test_cli_trajectory_respects_limits(excite_run):
@@ -204,7 +211,14 @@ def test_cli_trajectory_respects_limits(excite_run):
     assert np.allclose(np.diff(data[:, 0]), 0.01)
     robot = tomllib.loads(SHARED_ROBOT.read_text())
     lim = robot["limits"]
-    p, v = data[:, 1:4], data[:, 4:7]
+    p, v, a = data[:, 1:4], data[:, 4:7], data[:, 7:10]
+    # starts and ends at rest at the default home (the workspace centre)
+    home = 0.5 * (np.array(lim["workspace_min"]) + np.array(lim["workspace_max"]))
+    np.testing.assert_allclose(p[[0, -1]], [home, home], atol=1e-12)
+    np.testing.assert_allclose(v[[0, -1]], 0.0, atol=1e-12)
+    assert np.linalg.norm(a, axis=1).max() <= 2.0  # the stated default acceleration limit
+    jerk = np.gradient(a, data[:, 0], axis=0)
+    assert np.linalg.norm(jerk, axis=1).max() <= 20.0
     assert np.all(p >= np.array(lim["workspace_min"]) - 1e-9)
     assert np.all(p <= np.array(lim["workspace_max"]) + 1e-9)
     # cable speeds from lengths |A_i - (p + b_i)| by central differences (no rotation)
@@ -229,8 +243,8 @@ def test_richer_families_optimise_and_certify(craft, family, duration):
     prob = ex.make_problem(craft, family, "cond", duration=duration)
     res = ex.optimise_excitation(prob, n_starts=1, seed=0, max_steps=200, progress=False)
     assert res.optimised.certified and res.optimised.min_tension_margin_N > 0
-    assert res.optimised.cond < res.initial.cond / 3.0
-    t = jnp.asarray(prob.grid(100.0))
+    assert res.optimised.cond < res.initial.cond / 1.2
+    t = jnp.arange(int(res.trajectory.t_end * 100) + 1) / 100.0
     st = res.trajectory.evaluate(t)
     g = craft.gravity
     rows = []

@@ -1,9 +1,12 @@
-"""``cdprid excite``: optimise an excitation trajectory for a robot.
+"""``cdprid excite``: optimise a safe excitation trajectory for a robot.
 
-Writes ``DIR/trajectory.csv`` (100 Hz, columns of :mod:`cdprid.trajectories`),
-``DIR/trajectory.png`` (3-D view: exit points, cables at a few instants, workspace box),
-``DIR/dataset/`` (a simulated spec-v1 dataset along the optimised trajectory) and, with
-``--json``, the before/after report. Existing outputs are never replaced without ``--force``.
+Writes into the folder ``--out`` (built whole, then renamed into place):
+``trajectory.csv`` (100 Hz, columns of :mod:`cdprid.trajectories`; ``wx..alz`` are the angular
+velocity and acceleration in the BASE frame, rad/s and rad/s^2), ``trajectory.png`` (3-D view),
+``safety.png`` (time series of tensions, cable speeds, acceleration, jerk, tilt, angular
+velocity and clearances with their limits), ``dataset/`` (a simulated spec-v1 dataset along
+the trajectory, unless ``--no-dataset``), and with ``--json`` the report. Existing outputs are
+never replaced without ``--force``.
 """
 
 from __future__ import annotations
@@ -14,77 +17,80 @@ from pathlib import Path
 
 import numpy as np
 
+from .report.excitation import plot_trajectory
+
 __all__ = ["add_parser", "run", "plot_trajectory"]
 
 
-def plot_trajectory(robot, traj, path, initial=None, title: str = "", n_cables_at: int = 4):
-    """3-D figure of a trajectory inside the robot: exit points, cables, workspace box.
-
-    Parameters
-    ----------
-    robot : CableRobot
-    traj : Trajectory-like (``evaluate``, ``t_start``, ``t_end``)
-    path : str or Path
-        PNG file written.
-    initial : Trajectory-like, optional
-        Drawn dashed for comparison.
-    n_cables_at : int
-        Number of instants at which the cables are drawn.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .geometry import leave_points
-    from .rotations import quat_to_matrix
-
-    t = np.linspace(traj.t_start, traj.t_end, 1500)
-    s = traj.evaluate(t)
-    p = np.asarray(s.p)
-    fig = plt.figure(figsize=(7, 6))
-    ax = fig.add_subplot(projection="3d")
-    A = np.asarray(robot.B_A)
-    ax.scatter(A[:, 0], A[:, 1], A[:, 2], c="k", marker="^", label="exit points")
-    lim = robot.limits
-    if lim.workspace_min is not None and lim.workspace_max is not None:
-        lo, hi = np.asarray(lim.workspace_min), np.asarray(lim.workspace_max)
-        for i in range(8):
-            for j in range(i + 1, 8):
-                a = np.array([(hi if (i >> k) & 1 else lo)[k] for k in range(3)])
-                b = np.array([(hi if (j >> k) & 1 else lo)[k] for k in range(3)])
-                if np.sum(a != b) == 1:
-                    ax.plot(*zip(a, b, strict=True), color="0.7", lw=0.8)
-    if initial is not None:
-        pi = np.asarray(initial.evaluate(t).p)
-        ax.plot(pi[:, 0], pi[:, 1], pi[:, 2], "--", color="tab:gray", lw=1, label="initial")
-    ax.plot(p[:, 0], p[:, 1], p[:, 2], color="tab:blue", lw=1.2, label="optimised")
-    P_b = np.asarray(robot.P_b)
-    for k, idx in enumerate(np.linspace(0, len(t) - 1, n_cables_at + 2).astype(int)[1:-1]):
-        R = np.asarray(quat_to_matrix(s.q[idx]))
-        T = np.asarray(leave_points(robot, s.p[idx], R))
-        Bw = p[idx] + P_b @ R.T
-        for i in range(robot.n_cables):
-            ax.plot(*zip(Bw[i], T[i], strict=True), color=f"C{1 + k}", lw=0.6)
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_zlabel("z (m)")
-    ax.set_title(title or "excitation trajectory")
-    ax.legend(loc="upper left", fontsize=8)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
-def _initial_params(text, family):
+def _initial_params(text, family, robot, flag="--initial"):
     if not text:
         return None
     from .cli import load_json_object
+    from .errors import UserError
 
-    return load_json_object(text, "--initial", "a JSON object of the family's parameters")
+    init = load_json_object(text, flag, "a JSON object of the family's parameters")
+    base = family.initial_params(robot)
+    unknown = sorted(set(init) - set(base))
+    if unknown:
+        raise UserError(f"{flag}: unknown parameter {unknown[0]!r} for the {family.name!r} "
+                        f"family (known: {', '.join(base)}).")
+    base.update({k: np.asarray(v, float) for k, v in init.items()})
+    return base
+
+
+def _print_limits(prob):
+    lim = prob.limits
+    used = set(lim.defaults_used)
+    rows = [("tension_min", lim.tension_min, "N"), ("tension_max", lim.tension_max, "N"),
+            ("cable_speed_max", lim.cable_speed_max, "m/s"),
+            ("acceleration_max", lim.acceleration_max, "m/s^2"), ("jerk_max", lim.jerk_max, "m/s^3"),
+            ("tilt_max", lim.tilt_max, "rad"),
+            ("angular_velocity_max", lim.angular_velocity_max, "rad/s"),
+            ("angular_acceleration_max", lim.angular_acceleration_max, "rad/s^2"),
+            ("cable_clearance", lim.cable_clearance, "m")]
+    print("limits (* = default, not in robot.toml):")
+    for name, v, unit in rows:
+        print(f"  {name:26s}{v:10.4g} {unit}{'  *' if name in used else ''}")
+    star = "  *" if "workspace" in used else ""
+    print(f"  {'workspace':26s}{list(lim.workspace_min)} .. {list(lim.workspace_max)} m{star}")
+    box = prob.box
+    print(f"platform uncertainty from {box.source}: {box.description['n_corners']} corners"
+          + "".join(f"; {d} (default)" for d in box.description.get("defaults_used", [])))
+    print(f"home {np.round(prob.home, 4).tolist()} m")
+
+
+def _print_sigma(prob, res):
+    i, o = res.initial, res.optimised
+    print(f"predicted sigma (sigma_rho = {prob.sigma_rho} N per row; relative only where the "
+          "nominal value is not 0):")
+    for n in prob.names:
+        ri, ro = i.rel_sigma[n], o.rel_sigma[n]
+        rel = "" if ri is None or ro is None else f"   ({100 * ri:.3g} % -> {100 * ro:.3g} %)"
+        print(f"  {n:6s}{i.sigma[n]:12.4g} -> {o.sigma[n]:12.4g}{rel}")
+
+
+def _write_outputs(tmp, prob, res, args):
+    import jax
+
+    from .excitation_check import safety_series
+    from .report.excitation import plot_safety_series
+    from .trajectories import save_trajectory_csv
+
+    save_trajectory_csv(res.trajectory, tmp / "trajectory.csv", rate_hz=100.0)
+    initial_traj = prob.homed(jax.numpy.asarray(res.initial.z))
+    plot_trajectory(prob.robot, res.trajectory, tmp / "trajectory.png", initial=initial_traj,
+                    box=(prob.limits.workspace_min, prob.limits.workspace_max),
+                    title=f"{prob.family.name}: cond {res.initial.cond:.2f} -> {res.optimised.cond:.2f}")
+    tr = res.trajectory
+    t = np.arange(int(np.floor(tr.t_end * 100.0 + 1e-9)) + 1) / 100.0
+    ser = safety_series(prob.robot, tr.evaluate(t), prob.limits, prob.box)
+    plot_safety_series(ser, prob.limits, tmp / "safety.png",
+                       title=f"{prob.family.name} excitation: checked quantities (dashed: limits)")
+    if not args.no_dataset:
+        from .simulate import simulate, write_simulation
+
+        sim = simulate(prob.robot, res.trajectory, seed=args.seed)
+        write_simulation(sim, tmp / "dataset", overwrite=True)
 
 
 def run(args) -> int:
@@ -93,69 +99,50 @@ def run(args) -> int:
 
     jax.config.update("jax_enable_x64", True)
     from . import excitation as ex
+    from .errors import UserError
     from .geometry import load_robot
-    from .trajectories import save_trajectory_csv
+    from .outputs import atomic_dir, check_output, write_json
 
     t_wall = time.perf_counter()
     robot = load_robot(args.robot)
-    out = Path(args.out)
-    targets = [out / "trajectory.csv", out / "trajectory.png", out / "dataset"]
+    out = check_output(args.out, args.force, "--out", kind="dir")
     if args.json:
-        targets.append(Path(args.json))
-    existing = [str(p) for p in targets if p.exists()]
-    if existing and not args.force:
-        raise FileExistsError(f"{existing[0]}: already exists; refusing to overwrite (use --force).")
+        check_output(args.json, args.force, "--json")
     if args.starts < 1:
-        raise ValueError(f"--starts must be at least 1, got {args.starts}.")
+        raise UserError(f"--starts must be at least 1, got {args.starts}.")
     prob = ex.make_problem(robot, args.family, args.objective, model=args.model,
-                           duration=args.duration)
-    init = _initial_params(args.initial, prob.family)
-    if init is not None:
-        base = prob.family.initial_params(robot)
-        unknown = sorted(set(init) - set(base))
-        if unknown:
-            raise ValueError(f"--initial: unknown parameter {unknown[0]!r} for the {args.family!r} "
-                             f"family (known: {', '.join(base)}).")
-        base.update({k: np.asarray(v, float) for k, v in init.items()})
-        init = base
+                           duration=args.duration, prior=args.prior, home=args.home)
+    init = _initial_params(args.initial, prob.family, robot)
+    _print_limits(prob)
     res = ex.optimise_excitation(prob, n_starts=args.starts, seed=args.seed, initial_params=init,
                                  progress=True)
-    out.mkdir(parents=True, exist_ok=True)
-    save_trajectory_csv(res.trajectory, out / "trajectory.csv", rate_hz=100.0, overwrite=args.force)
-    initial_traj = prob.family.trajectory(jax.numpy.asarray(res.initial.z))
-    plot_trajectory(robot, res.trajectory, out / "trajectory.png", initial=initial_traj,
-                    title=f"{prob.family.name}: cond {res.initial.cond:.2f} -> {res.optimised.cond:.2f}")
-    dataset_note = None
-    if not args.no_dataset:
-        try:
-            from .simulate import simulate, write_simulation
-        except ImportError:
-            dataset_note = "cdprid.simulate is not available; no dataset written."
-        else:
-            sim = simulate(robot, res.trajectory, seed=args.seed)
-            write_simulation(sim, out / "dataset", overwrite=args.force)
+    with atomic_dir(out, force=args.force) as tmp:
+        _write_outputs(Path(tmp), prob, res, args)
     data = res.as_json()
     data["wall_time_s"] = time.perf_counter() - t_wall
     data["outputs"] = {"trajectory_csv": str(out / "trajectory.csv"),
                        "figure": str(out / "trajectory.png"),
-                       "dataset": None if (dataset_note or args.no_dataset) else str(out / "dataset")}
-    if dataset_note:
-        data["note"] = (data["note"] + " " + dataset_note).strip()
+                       "safety_figure": str(out / "safety.png"),
+                       "dataset": None if args.no_dataset else str(out / "dataset")}
+    data["csv_frames"] = ("x..az: position, velocity, acceleration of P, base frame; qw..qz: "
+                          "platform -> base quaternion, scalar first; wx..wz, alx..alz: angular "
+                          "velocity and acceleration in the base frame")
     i, o = res.initial, res.optimised
     print(f"family {prob.family.name}, model {prob.model}, objective {prob.objective}")
     print(f"{'':12s}{'cond':>10s}{'cond_scaled':>13s}{'margin N':>10s}  certified")
     for name, r in (("initial", i), ("optimised", o)):
         print(f"{name:12s}{r.cond:10.3f}{r.cond_scaled:13.3f}{r.min_tension_margin_N:10.2f}  {r.certified}")
-    worst = max(o.rel_sigma, key=lambda k: i.rel_sigma[k])
-    print(f"predicted relative sigma of {worst}: {100 * i.rel_sigma[worst]:.3g} % -> "
-          f"{100 * o.rel_sigma[worst]:.3g} % (sigma_rho = {prob.sigma_rho} N)")
+    if not i.certified:
+        print("initial design not certified: " + "; ".join(i.certificate.failed))
+    pk = o.certificate.peaks
+    print("optimised peaks: " + ", ".join(f"{k} {v:.4g}" for k, v in pk.items() if v is not None))
+    _print_sigma(prob, res)
+    print(f"duration {o.duration:.1f} s (moves from and back to home {o.t_move:.1f} s each)")
     if res.note:
         print(f"note: {res.note}")
-    print(f"wrote {out / 'trajectory.csv'}, {out / 'trajectory.png'}"
-          + ("" if data["outputs"]["dataset"] is None else f", {out / 'dataset'}"))
+    print(f"wrote {out}/ (trajectory.csv, trajectory.png, safety.png"
+          + ("" if args.no_dataset else ", dataset/") + ")")
     if args.json:
-        from .cli import write_json
-
         print(f"wrote {write_json(args.json, data)}")
     return 0
 
@@ -163,22 +150,32 @@ def run(args) -> int:
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``cdprid excite`` on an argparse subparsers object."""
     p = subparsers.add_parser(
-        "excite", help="optimise an excitation trajectory (condition number of W_ID)",
+        "excite", help="optimise a safe excitation trajectory (condition number of W_ID)",
         description="Optimise an exciting trajectory for the identification of the platform's "
         "inertial parameters: minimise cond(W_ID) (or D-optimality) over a trajectory family, "
-        "subject to the workspace box, the cable speed limit and tension feasibility (CasADi "
-        "certificate). The initial design is the paper-like orbit (0.4 m, 0.25 Hz, horizontal, "
-        "workspace centre).")
-    p.add_argument("robot", help="robot.toml (spec v1)")
+        "subject to every limit of robot.toml (spec 1.1: workspace, cable speed, acceleration, "
+        "jerk, tilt, angular velocity and acceleration, cable clearance; absent limits get "
+        "stated defaults) and tension feasibility for every platform in the uncertainty box "
+        "([platform] of robot.toml or --prior). The trajectory starts and ends at rest at "
+        "--home; every check is recomputed exactly on the written 100 Hz grid.")
+    p.add_argument("robot", help="robot.toml (spec v1.1)")
     p.add_argument("--family", choices=["orbit", "orbits", "fourier"], default="orbit",
                    help="trajectory family (default orbit; fourier rotates, for --model full)")
     p.add_argument("--duration", type=float, default=None,
-                   help="trajectory duration, s (default 20 orbit, 52 orbits, 30 fourier)")
+                   help="duration of the exciting part, s (default 20 orbit, 52 orbits, 30 "
+                   "fourier); the moves from and back to home are added")
     p.add_argument("--objective", choices=["cond", "cond_scaled", "dopt", "sigma"], default="cond",
                    help="cond: raw condition number of W_ID; dopt: -log det of the information "
                    "matrix; sigma: worst predicted relative sigma")
     p.add_argument("--model", choices=["translation", "full"], default=None,
                    help="parameter model (default translation; full for --family fourier)")
+    p.add_argument("--prior", default=None,
+                   help="JSON of an earlier `cdprid identify --json`: tensions are certified for "
+                   "every parameter within its estimate +- 3 std (instead of robot.toml "
+                   "[platform] and its uncertainty)")
+    p.add_argument("--home", default=None,
+                   help="home position x,y,z of P (m, base frame) where the trajectory starts and "
+                   "ends at rest (default: the workspace centre)")
     p.add_argument("--initial", help="initial design parameters as JSON (or a JSON file)")
     p.add_argument("--starts", type=int, default=4, help="number of optimiser starts (default 4)")
     p.add_argument("--out", default="excitation", help="output folder (default ./excitation)")

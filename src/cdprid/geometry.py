@@ -26,13 +26,13 @@ cable lengths with respect to (position, rotation vector) — tested in the suit
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from pathlib import Path
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import tomllib
 
 __all__ = [
     "CableRobot",

@@ -59,6 +59,7 @@ __all__ = [
     "save_trajectory_csv",
     "load_trajectory_csv",
     "smoothstep7",
+    "smoothstep7_derivs",
     "POSITION_COLUMNS",
     "ROTATION_COLUMNS",
 ]
@@ -107,7 +108,7 @@ def _binom(n: int, k: int) -> int:
     return comb(n, k)
 
 
-def _smoothstep7_derivs(x, scale, sign, order: int):
+def smoothstep7_derivs(x, scale, sign, order: int):
     """[g, g', ..., g^(order)] of ``g(u) = S(x)`` with ``dx/du = sign / scale``.
 
     S is :func:`smoothstep7`; outside [0, 1] the derivatives are 0 (S is constant there).
@@ -125,6 +126,9 @@ def _smoothstep7_derivs(x, scale, sign, order: int):
     for k in range(1, order + 1):
         out.append(jnp.where(inside, polys[k], 0.0) * (sign / scale) ** k)
     return out
+
+
+_smoothstep7_derivs = smoothstep7_derivs
 
 
 def _derivs(f, t, order):
