@@ -25,14 +25,14 @@ def test_jax_filter_matches_scipy_filtfilt(rng):
 
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory):
-    from cdprid.io.uacdpr import import_uacdpr
+    from cdprid.calibration import import_calibrated_uacdpr
 
     root = shared_dataset(NAME)
     out = tmp_path_factory.mktemp("uacdpr_cal") / "ds"
     # coarse subsample and no dynamic nuisance estimate: keeps the suite fast
-    return import_uacdpr(root / "FreeMotion02.txt", root / "FreeMotion02_exp.mat",
-                         root / "IRMA4U_Mar25.mat", out, subsample=10, dynamics=False,
-                         yaw_starts=1)  # identity start: B_R_V, M_R_P are within 2 deg of I
+    return import_calibrated_uacdpr(root / "FreeMotion02.txt", root / "FreeMotion02_exp.mat",
+                                    root / "IRMA4U_Mar25.mat", out, subsample=10, nuisance=False,
+                                    yaw_starts=1)  # identity start: B_R_V, M_R_P within 2 deg
 
 
 @pytest.mark.slow

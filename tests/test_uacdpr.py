@@ -153,8 +153,7 @@ def imported(uacdpr_files, tmp_path_factory):
     from cdprid.io.uacdpr import import_uacdpr
 
     out = tmp_path_factory.mktemp("uacdpr") / "ds"
-    return import_uacdpr(uacdpr_files["vicon"], uacdpr_files["log"], uacdpr_files["config"], out,
-                         calibrate=False)
+    return import_uacdpr(uacdpr_files["vicon"], uacdpr_files["log"], uacdpr_files["config"], out)
 
 
 def test_import_passes_reader_with_expected_streams(imported):

@@ -40,6 +40,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from .errors import ConvergenceError
 from .geometry import CableRobot, cable_lengths, swivel_angles
 from .rotations import matrix_to_quat, quat_to_matrix, rotvec_to_quat
 
@@ -49,7 +50,7 @@ __all__ = [
     "calibrate_geometry",
     "platform_pose",
     "write_calibrated_dataset",
-    "calibration_figures",
+    "import_calibrated_uacdpr",
 ]
 
 
@@ -248,11 +249,19 @@ def _args(data: CalibrationData, use_swivel: bool, w, R0_BV, R0_MP):
             jnp.asarray(R0_MP, float))
 
 
-def _solve(residual, x0, args, max_steps):
+def _solve(residual, x0, args, max_steps, strict: bool = True):
+    """Levenberg-Marquardt; with ``strict`` a failed solve raises
+    :class:`cdprid.errors.ConvergenceError` (multi-start candidates are not strict: a start
+    that fails is simply not the best one)."""
     solver = optx.LevenbergMarquardt(rtol=1e-12, atol=1e-12)
     sol = optx.least_squares(residual, solver, jnp.asarray(x0), args=args, max_steps=max_steps,
                              throw=False)
-    return np.asarray(sol.value)
+    ok = sol.result == optx.RESULTS.successful
+    if strict and not ok:
+        raise ConvergenceError(
+            f"geometric calibration: Levenberg-Marquardt did not converge in {max_steps} steps "
+            f"({optx.RESULTS[sol.result]}); try a larger max_steps or other yaw_starts.")
+    return np.asarray(sol.value), bool(ok)
 
 
 def _group_rms(r, m, use_swivel):
@@ -321,10 +330,15 @@ def calibrate_geometry(
     for Rb, Rm in itertools.product(starts_BV, starts_MP):
         x0 = _initial_x(robot, anchors, sizes, small, Rb, Rm, res, use_swivel, swivel_sign)
         args = _args(small, use_swivel, w, Rb, Rm)
-        x = _solve(res, x0, args, max_steps)
+        x, _ = _solve(res, x0, args, max_steps, strict=False)
         cost = float(np.sum(np.asarray(res(jnp.asarray(x), args)) ** 2))
+        if not np.isfinite(cost):
+            continue
         if best is None or cost < best[0]:
             best = (cost, Rb, Rm, x)
+    if best is None:
+        raise ConvergenceError("geometric calibration: every multi-start solve gave a non-finite "
+                               "cost; check the swivel axis and the marker frame.")
     _, Rb, Rm, x = best
     # "before": naive start (identity transforms) with its best constants, on all samples
     I3 = np.eye(3)
@@ -341,7 +355,7 @@ def calibrate_geometry(
     rms_before, _ = _group_rms(np.asarray(res(jnp.asarray(x_naive), a1)), m, use_swivel)
     # two passes on all samples: first scales, then scales from the first solution
     for _ in range(2):
-        x = _solve(res, x, _args(data, use_swivel, w, Rb, Rm), max_steps)
+        x, _ = _solve(res, x, _args(data, use_swivel, w, Rb, Rm), max_steps)
         r1 = np.asarray(res(jnp.asarray(x), _args(data, use_swivel, (1.0, 1.0), Rb, Rm)))
         rms_after, per = _group_rms(r1, m, use_swivel)
         w = (1.0 / max(rms_after["length_m"], 1e-12),
@@ -430,35 +444,94 @@ def write_calibrated_dataset(src, result: CalibrationResult, out, overwrite: boo
                          overwrite=overwrite)
 
 
-def calibration_figures(robot: CableRobot, data: CalibrationData, result: CalibrationResult,
-                        folder) -> list[Path]:
-    """Sanity figures: length and swivel residuals over time, after the calibration."""
-    import matplotlib
+def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
+                             swivel_axis: str | None = None, subsample: int = 4,
+                             yaw_starts: int = 4, nuisance: bool = True,
+                             progress=None) -> Path:
+    """Convert a UACDPR recording, calibrate its geometry and fit its nuisances.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    The three stages of ``cdprid import uacdpr``: :mod:`cdprid.io.uacdpr` converts the
+    formats, :func:`calibrate_geometry` (``anchors="config"``, every ``subsample``-th Vicon
+    frame) gives the pose of the configuration's PLATFORM frame in the robot BASE frame
+    (robot.toml's anchors and exits apply unchanged; meta.toml ``[calibration]``), and with
+    ``nuisance=True`` :func:`cdprid.real.nuisance_summary` writes meta.toml ``[nuisance]``
+    (offsets and delay from the dynamics, informational: tensions.csv stays raw). The
+    folder, ``[nuisance]`` included, appears whole or not at all
+    (:func:`cdprid.outputs.atomic_dir`).
 
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    B_R_P, B_p_P = platform_pose(result, data.V_R_M, data.V_p_M)
-    rob = robot if result.M_R_P is not None else robot.replace(P_b=result.M_b)
-    L = np.asarray(jax.vmap(lambda p, R: cable_lengths(rob, p, R))(B_p_P, B_R_P))
-    psi = np.asarray(jax.vmap(lambda p, R: swivel_angles(rob, p, R))(B_p_P, B_R_P))
-    m = robot.n_cables
-    fig, ax = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
-    for i in range(m):
-        ax[0].plot(data.t, 1e3 * (L[:, i] - result.lengths[i]), lw=0.7, label=f"cable {i + 1}")
-    ax[0].set_ylabel("length - L_i, mm")
-    ax[0].legend(ncol=m, fontsize=8)
-    if data.swivel is not None:
-        for i in range(m):
-            d = result.swivel_sign * (psi[:, i] - result.swivel_offset[i]) - data.swivel[:, i]
-            ax[1].plot(data.t, 1e3 * np.arctan2(np.sin(d), np.cos(d)), lw=0.7)
-    ax[1].set_ylabel("swivel residual, mrad")
-    ax[1].set_xlabel("t, s")
-    fig.suptitle(f"geometric calibration ({result.anchors} anchors): residuals")
-    fig.tight_layout()
-    p1 = folder / "calibration_residuals.png"
-    fig.savefig(p1, dpi=110)
-    plt.close(fig)
-    return [p1]
+    Parameters
+    ----------
+    vicon, robot_log, config : path
+    out : folder to create
+    force : bool
+        Replace an existing ``out``.
+    swivel_axis : {"first", "third"}, optional
+        Default :data:`cdprid.io.uacdpr.DEFAULT_SWIVEL_AXIS`.
+    subsample, yaw_starts : int
+        Calibration options.
+    nuisance : bool
+        Fit the nuisances.
+    progress : callable(str), optional
+        Receives one line per stage (the CLI prints them on stderr).
+
+    Returns
+    -------
+    Path
+    """
+    import time
+
+    from .io.dataset import read_dataset
+    from .io.uacdpr import DEFAULT_SWIVEL_AXIS, load_uacdpr, sources_of, uacdpr_meta, write_uacdpr
+    from .outputs import atomic_dir, check_output
+
+    say = progress or (lambda msg: None)
+    swivel_axis = swivel_axis or DEFAULT_SWIVEL_AXIS
+    check_output(out, force=force, kind="dir")
+    t0 = time.perf_counter()
+    rec = load_uacdpr(vicon, robot_log, config, swivel_axis)
+    data = rec.calibration_data().subsample(max(1, int(subsample)))
+    say(f"geometric calibration on {len(data.t)} Vicon frames (about a minute) ...")
+    res = calibrate_geometry(rec.robot, data, anchors="config", yaw_starts=yaw_starts)
+    say(f"calibration done in {time.perf_counter() - t0:.0f} s: RMS lengths "
+        f"{1e3 * res.rms_after['length_m']:.3f} mm, swivel "
+        f"{1e3 * res.rms_after.get('swivel_rad', float('nan')):.2f} mrad")
+    v = rec.valid
+    R, p = platform_pose(res, rec.fit.V_R_M[v], rec.fit.V_p_M[v])
+    meta = _calibrated_meta(uacdpr_meta(rec, sources_of(vicon, robot_log, config), swivel_axis),
+                            res, subsample)
+    with atomic_dir(out, force=force) as tmp:
+        write_uacdpr(rec, tmp, meta, R, p, overwrite=True)
+        if nuisance:
+            from .errors import ConvergenceError
+            from .nuisance import InsufficientDataError
+            from .real import nuisance_summary, prepare_real
+
+            say("nuisance fit (offsets, delay, dynamics; whole recording) ...")
+            try:
+                meta["nuisance"] = nuisance_summary(prepare_real(read_dataset(tmp)))
+                say(f"nuisance fit done at {time.perf_counter() - t0:.0f} s")
+            except (ConvergenceError, InsufficientDataError) as exc:
+                meta["nuisance"] = {"error": str(exc)}
+                say(f"nuisance fit failed (recorded in meta.toml [nuisance]): {exc}")
+            write_uacdpr(rec, tmp, meta, R, p, overwrite=True)
+    return Path(out)
+
+
+def _calibrated_meta(meta: dict, res: CalibrationResult, subsample: int) -> dict:
+    """meta.toml of a converted recording, updated for the calibrated pose."""
+    meta = dict(meta)
+    meta["description"] = (
+        "UACDPR (Univ. Bologna) recording with locked winches, imported by "
+        "cdprid.io.uacdpr: pose of the configuration's platform frame in the robot base "
+        "frame (rigid-body fit of the raw markers + geometric calibration); raw load-cell "
+        "tensions at the robot's rate.")
+    meta["frames"] = dict(meta["frames"])
+    meta["frames"]["pose"] = (
+        "platform frame P (the configuration's: robot.toml anchors apply) in the robot base "
+        "frame B, from the geometric calibration (cdprid.calibration, anchors='config')")
+    cal = res.as_dict()
+    cal["subsample"] = int(subsample)
+    cal["note"] = ("sigma: formal 1-sigma of the LM fit (consecutive samples correlate: "
+                   "lower bounds); rotation-vector sigmas in rad")
+    meta["calibration"] = cal
+    return meta

@@ -12,17 +12,25 @@ __all__ = ["add_parser"]
 
 
 def _cmd_import_uacdpr(args) -> int:
+    """Convert -> calibrate -> nuisance fit; progress on stderr, the dataset written at once."""
     import sys
 
-    from .io.uacdpr import import_uacdpr
-
-    out = import_uacdpr(args.vicon, args.robot_log, args.config, args.out,
-                        overwrite=args.force, swivel_axis=args.swivel_axis,
-                        calibrate=not args.no_calibrate, subsample=args.subsample,
-                        dynamics=not args.no_nuisance,
-                        progress=lambda msg: print(msg, file=sys.stderr))
     import tomllib
 
+    from .calibration import import_calibrated_uacdpr
+    from .io.uacdpr import import_uacdpr
+
+    def say(msg: str) -> None:
+        print(msg, file=sys.stderr, flush=True)
+
+    if args.no_calibrate:
+        out = import_uacdpr(args.vicon, args.robot_log, args.config, args.out,
+                            overwrite=args.force, swivel_axis=args.swivel_axis)
+    else:
+        out = import_calibrated_uacdpr(args.vicon, args.robot_log, args.config, args.out,
+                                       force=args.force, swivel_axis=args.swivel_axis,
+                                       subsample=args.subsample, nuisance=not args.no_nuisance,
+                                       progress=say)
     with open(out / "meta.toml", "rb") as fh:
         meta = tomllib.load(fh)
     fit = meta["marker_fit"]
@@ -38,12 +46,15 @@ def _cmd_import_uacdpr(args) -> int:
         print(f"nuisances (informational, tensions not corrected): delay "
               f"{1e3 * nu['delay_s']:.1f} +- {1e3 * nu['delay_std_s']:.1f} ms, offsets "
               f"{[round(v, 2) for v in nu['offset_N']]} N")
+    elif "error" in nu:
+        print(f"nuisance fit failed: {nu['error']}")
     return 0
 
 
 def _cmd_calibrate(args) -> int:
-    from .calibration import calibrate_geometry, calibration_figures, write_calibrated_dataset
+    from .calibration import calibrate_geometry, write_calibrated_dataset
     from .io.uacdpr import load_uacdpr
+    from .report.calibration import calibration_figures
 
     rec = load_uacdpr(args.vicon, args.robot_log, args.config, swivel_axis=args.swivel_axis)
     data = rec.calibration_data().subsample(args.subsample)
@@ -239,8 +250,10 @@ def add_parser(sub) -> None:
     u = fmt.add_parser("uacdpr", help="UACDPR (Bologna): Vicon export + robot _exp.mat + config",
                        description="Pose by a rigid-body fit of the raw Vicon markers, then "
                        "the geometric calibration: platform frame in the robot base frame "
-                       "(--no-calibrate: marker frame in the Vicon frame); tensions at 1 kHz, swivel and inclinometer "
-                       "streams, robot.toml from the configuration .mat.")
+                       "(--no-calibrate: marker frame in the Vicon frame), then the nuisance fit "
+                       "(meta.toml [nuisance]); tensions at 1 kHz, swivel and inclinometer "
+                       "streams, robot.toml from the configuration .mat. Progress on stderr; "
+                       "the folder appears whole or not at all.")
     _inputs(u)
     u.add_argument("--out", required=True, help="dataset folder to create")
     u.add_argument("--force", action="store_true", help="overwrite an existing dataset")

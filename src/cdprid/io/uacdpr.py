@@ -45,6 +45,9 @@ __all__ = [
     "config_to_dict",
     "load_uacdpr",
     "import_uacdpr",
+    "sources_of",
+    "uacdpr_meta",
+    "write_uacdpr",
     "DEFAULT_SWIVEL_AXIS",
 ]
 
@@ -269,7 +272,20 @@ def load_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
     return UacdprRecording(robot, vt, fit, log, t)
 
 
-def _meta(rec: UacdprRecording, sources: dict, swivel_axis: str) -> dict:
+def uacdpr_meta(rec: UacdprRecording, sources: dict, swivel_axis: str) -> dict:
+    """meta.toml mapping of a converted recording (pose of the marker frame in the Vicon frame).
+
+    Parameters
+    ----------
+    rec : UacdprRecording
+    sources : dict
+        Input file names by role (``vicon``, ``robot_log``, ``config``).
+    swivel_axis : str
+
+    Returns
+    -------
+    dict
+    """
     rms = rec.fit.rms_per_marker
     log = rec.log
     return {
@@ -305,50 +321,29 @@ def _meta(rec: UacdprRecording, sources: dict, swivel_axis: str) -> dict:
     }
 
 
-def import_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
-                  out: str | Path, overwrite: bool = False,
-                  swivel_axis: str = DEFAULT_SWIVEL_AXIS, calibrate: bool = True,
-                  subsample: int = 4, yaw_starts: int = 4, dynamics: bool = True,
-                  progress=None) -> Path:
-    """Convert a UACDPR recording into a spec-v1 dataset folder.
+def write_uacdpr(rec: UacdprRecording, out: str | Path, meta: dict, R=None, p=None,
+                 overwrite: bool = False) -> Path:
+    """Write a recording as a spec-v1 dataset folder (no computation beyond the format).
 
     Writes robot.toml (configuration), pose.csv (100 Hz), tensions.csv (1 kHz, raw load-cell
     readings), swivel.csv, inclinometer.csv, cable_length.csv and meta.toml.
 
-    With ``calibrate=True`` (default) the geometric calibration
-    (:func:`cdprid.calibration.calibrate_geometry`, ``anchors="config"``, on every
-    ``subsample``-th Vicon frame) runs first and pose.csv holds the pose of the
-    configuration's PLATFORM frame in the robot BASE frame, so robot.toml's anchors and
-    exits apply unchanged; meta.toml ``[calibration]`` holds the estimates and their standard
-    deviations. With ``dynamics=True`` meta.toml ``[nuisance]`` also holds the load-cell offsets
-    and the residual time delay estimated from the dynamics over the whole recording
-    (:func:`cdprid.real.identify_real`, full model, taut phases), for information only:
-    tensions.csv stays raw. ``calibrate=False`` writes the marker frame in the Vicon frame.
-
-    Raises
-    ------
-    ValueError
-        Malformed input (one sentence naming the file).
-    FileExistsError
-        ``out`` already holds a dataset and ``overwrite`` is False.
+    Parameters
+    ----------
+    rec : UacdprRecording
+    out : folder
+    meta : dict
+        meta.toml content (:func:`uacdpr_meta`, possibly extended by the caller).
+    R, p : ndarray (n, 3, 3), (n, 3), optional
+        Pose to write at ``rec.pose_t`` (default: the marker frame in the Vicon frame).
+    overwrite : bool
     """
     from ..rotations import matrix_to_quat
     from .dataset import write_dataset
 
-    def say(msg):
-        if progress is not None:
-            progress(msg)
-
-    out = Path(out)
-    if out.exists() and not overwrite:  # fail before the (slow) calibration, as write_dataset
-        clash = [f for f in ("robot.toml", "pose.csv", "tensions.csv", "meta.toml")
-                 if (out / f).exists()]
-        if clash:
-            raise FileExistsError(f"{out}: already holds {', '.join(clash)}; refusing to "
-                                  "overwrite (use --force).")
-    rec = load_uacdpr(vicon, robot_log, config, swivel_axis)
     v = rec.valid
-    R, p = rec.fit.V_R_M[v], rec.fit.V_p_M[v]
+    R = rec.fit.V_R_M[v] if R is None else R
+    p = rec.fit.V_p_M[v] if p is None else p
     log = rec.log
     m = rec.robot.n_cables
     extra = {
@@ -358,72 +353,39 @@ def import_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
         "cable_length": (["t"] + [f"dl_{i}" for i in range(1, m + 1)],
                          np.column_stack([log.t, log.cable_length])),
     }
-    sources = {"vicon": Path(vicon).name, "robot_log": Path(robot_log).name,
-               "config": Path(config).name}
-    meta = _meta(rec, sources, swivel_axis)
-    if calibrate:
-        from ..calibration import calibrate_geometry, platform_pose
-
-        data = rec.calibration_data().subsample(max(1, int(subsample)))
-        say(f"geometric calibration on {len(data.t)} Vicon frames ...")
-        res = calibrate_geometry(rec.robot, data, anchors="config", yaw_starts=yaw_starts)
-        say(f"calibration RMS: lengths {1e3 * res.rms_after['length_m']:.3f} mm, swivel "
-            f"{1e3 * res.rms_after.get('swivel_rad', float('nan')):.2f} mrad")
-        R, p = platform_pose(res, R, p)
-        meta["description"] = (
-            "UACDPR (Univ. Bologna) recording with locked winches, imported by "
-            "cdprid.io.uacdpr: pose of the configuration's platform frame in the robot base "
-            "frame (rigid-body fit of the raw markers + geometric calibration); raw load-cell "
-            "tensions at the robot's rate.")
-        meta["frames"]["pose"] = (
-            "platform frame P (the configuration's: robot.toml anchors apply) in the robot base "
-            "frame B, from the geometric calibration (cdprid.calibration, anchors='config')")
-        cal = res.as_dict()
-        cal["subsample"] = int(subsample)
-        cal["note"] = ("sigma: formal 1-sigma of the LM fit (consecutive samples correlate: "
-                       "lower bounds); rotation-vector sigmas in rad")
-        meta["calibration"] = cal
-    ds_path = write_dataset(out, rec.robot, rec.pose_t, p, log.t, log.tensions,
-                            quaternion=matrix_to_quat(R), meta=meta, extra=extra,
-                            overwrite=overwrite)
-    if calibrate and dynamics:
-        try:
-            meta["nuisance"] = _dynamic_nuisance(ds_path, say)
-        except Exception as exc:  # noqa: BLE001  (informational: never fail the import)
-            meta["nuisance"] = {"error": f"{type(exc).__name__}: {exc}"}
-        write_dataset(out, rec.robot, rec.pose_t, p, log.t, log.tensions,
-                      quaternion=matrix_to_quat(R), meta=meta, extra=extra, overwrite=True)
-    return ds_path
+    return write_dataset(out, rec.robot, rec.pose_t, p, log.t, log.tensions,
+                         quaternion=matrix_to_quat(R), meta=meta, extra=extra,
+                         overwrite=overwrite)
 
 
-def _dynamic_nuisance(path: Path, say) -> dict:
-    """Load-cell offsets and time delay from the dynamics over the whole recording."""
-    from ..real import identify_real, prepare_real, weight_at_rest
-    from .dataset import read_dataset
+def sources_of(vicon, robot_log, config) -> dict:
+    """Input file names by role, for meta.toml ``source``."""
+    return {"vicon": Path(vicon).name, "robot_log": Path(robot_log).name,
+            "config": Path(config).name}
 
-    ds = read_dataset(path)
-    data = prepare_real(ds)
-    say("dynamic nuisances (offsets, delay) by nonlinear LS over the whole recording ...")
-    r = identify_real(data, model="full", train_until=float(data.t[-1]) + 1.0, offsets=True,
-                      delay=True, gains=False)
-    out = {
-        "note": ("estimated by cdprid.real.identify_real (full model, offsets + delay, taut "
-                 "phases, every cable > 5 N) over the whole recording; tensions.csv is NOT "
-                 "corrected. Model: tau_true(t) = tau_meas(t + delay) - offset. std inflated "
-                 "by the residual correlation length"),
-        "offset_N": r.offset.tolist(),
-        "offset_std_N": [r.std[f"offset_{i + 1}"] for i in range(len(r.offset))],
-        "delay_s": r.delay,
-        "delay_std_s": r.std["delay"],
-        "mass_from_motion_kg": r.values["m"],
-        "mass_from_motion_std_kg": r.std["m"],
-        "force_residual_rms_N": r.train_rms["force_N"],
-        "n_taut_samples": r.n_train,
-    }
-    try:
-        w = weight_at_rest(data, offset=r.offset)
-        out["mass_at_rest_kg"] = w["mass"]
-        out["rest_windows_s"] = [list(x) for x in w["windows"]]
-    except ValueError:
-        pass
-    return out
+
+def import_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
+                  out: str | Path, overwrite: bool = False,
+                  swivel_axis: str = DEFAULT_SWIVEL_AXIS) -> Path:
+    """Convert a UACDPR recording into a spec-v1 dataset folder (format conversion only).
+
+    The pose is that of the marker frame in the Vicon frame; the geometric calibration and
+    the nuisance fit are separate stages
+    (:func:`cdprid.calibration.import_calibrated_uacdpr` runs all three, as
+    ``cdprid import uacdpr`` does). The folder appears whole or not at all.
+
+    Raises
+    ------
+    ValueError
+        Malformed input (one sentence naming the file).
+    cdprid.errors.OutputError
+        ``out`` exists and ``overwrite`` is False (checked before reading).
+    """
+    from ..outputs import atomic_dir, check_output
+
+    check_output(out, force=overwrite, kind="dir")
+    rec = load_uacdpr(vicon, robot_log, config, swivel_axis)
+    meta = uacdpr_meta(rec, sources_of(vicon, robot_log, config), swivel_axis)
+    with atomic_dir(out, force=overwrite) as tmp:
+        write_uacdpr(rec, tmp, meta, overwrite=True)
+    return Path(out)
