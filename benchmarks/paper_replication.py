@@ -13,7 +13,7 @@ Run from the repository root (reads ``../shared/datasets/craft-sim-orbits``; nev
 
     .venv/bin/python benchmarks/paper_replication.py [--dataset PATH] [--hac-lags 100]
 
-All the numbers come from :mod:`cdprid.replication` (the same functions as
+All the numbers come from ``replication/`` (beside ``src/``) (the same functions as
 ``notebooks/02_paper_replication.ipynb``).
 """
 
@@ -32,10 +32,13 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-import cdprid  # noqa: E402
-from cdprid import replication as rp  # noqa: E402
-
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # replication/ lives beside src/ and benchmarks/
+
+import replication as rp  # noqa: E402
+
+import cdprid  # noqa: E402
+
 DEFAULT_DATASET = ROOT.parent / "shared" / "datasets" / "craft-sim-orbits"
 
 
@@ -84,7 +87,7 @@ def main(argv=None) -> int:
         prov,
         "",
         f"Dataset: `{args.dataset.name}` — {ds.meta.get('description', '')}. Truth from its "
-        "meta.toml (m and first moment m s_G). Its orbits (fitted by `cdprid.replication."
+        "meta.toml (m and first moment m s_G). Its orbits (fitted by `replication."
         f"fit_orbits`): {orb}; the paper's four orbits were all at 0.25 Hz.",
         "",
         "Both columns through the public pipeline: `identify_dataset(ds, differentiator="
@@ -110,7 +113,7 @@ def main(argv=None) -> int:
         "identically distributed residuals. Residuals of low-passed (Euler, 4 Hz) or "
         "observer-filtered (SIHD) data are strongly autocorrelated over ~0.25 s and more, so "
         f"the HAC column (Newey-West, Bartlett window of {args.hac_lags} samples over time, "
-        "`cdprid.replication.hac_std`) is the more honest one. For Euler the HAC σ of m is "
+        "`replication.hac_std`) is the more honest one. For Euler the HAC σ of m is "
         f"{e[0].sigma_hac / e[0].sigma:.1f}× the i.i.d. one; for the first moments the two "
         "agree within a factor 2 (here the i.i.d. σ is even the larger one). "
         "Neither covers the SIHD bias of mzG "
@@ -163,7 +166,7 @@ def main(argv=None) -> int:
         "fundamental of the acceleration; predicted analytically by the linearised cascade "
         "(each stage = backward difference × first-order low-pass h²λ/(1 − (1 − h²λ) z⁻¹), "
         "line 1 dead-beat, line 2 with the describing-function gain of |e|^{2α−1} sign e at the "
-        "stage's prediction-error amplitude; `cdprid.replication.linearised_response`). "
+        "stage's prediction-error amplitude; `replication.linearised_response`). "
         "The two agree to 0.01 in gain and < 1° in phase over 0.05–3 Hz (figure, left); "
         "with α = 1 they agree to machine precision.",
         "",
@@ -205,7 +208,7 @@ def main(argv=None) -> int:
         "this: they are i.i.d. noise bounds and the lag is a bias.",
         "* Practical fix for a causal (real-time) SIHD identification: filter W τ with the "
         "cascade's linearised low-pass `cascade_lowpass(dt, lam2_eff, lam4_eff)` "
-        "(`cdprid.replication`), or raise λ2, λ4 (less lag, more noise; "
+        "(`replication/`), or raise λ2, λ4 (less lag, more noise; "
         "`results/differentiators.md`).",
         "",
         f"Run time: {time.perf_counter() - t1:.0f} s.",

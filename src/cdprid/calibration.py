@@ -50,6 +50,7 @@ __all__ = [
     "calibrate_geometry",
     "platform_pose",
     "write_calibrated_dataset",
+    "calibration_data",
     "import_calibrated_uacdpr",
 ]
 
@@ -444,6 +445,26 @@ def write_calibrated_dataset(src, result: CalibrationResult, out, overwrite: boo
                          overwrite=overwrite)
 
 
+def calibration_data(rec) -> CalibrationData:
+    """:class:`CalibrationData` of a :class:`cdprid.io.uacdpr.UacdprRecording`, on the overlap
+    of the Vicon stream and the robot log (swivel angles averaged and interpolated at the
+    pose times).
+
+    Parameters
+    ----------
+    rec : UacdprRecording
+
+    Returns
+    -------
+    CalibrationData
+    """
+    v = rec.valid
+    R, p = rec.fit.V_R_M[v], rec.fit.V_p_M[v]
+    sw = rec.swivel_at_pose()
+    keep = np.all(np.isfinite(sw), axis=1)
+    return CalibrationData(rec.pose_t[keep], R[keep], p[keep], sw[keep])
+
+
 def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
                              swivel_axis: str | None = None, subsample: int = 4,
                              yaw_starts: int = 4, nuisance: bool = True,
@@ -489,7 +510,7 @@ def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
     check_output(out, force=force, kind="dir")
     t0 = time.perf_counter()
     rec = load_uacdpr(vicon, robot_log, config, swivel_axis)
-    data = rec.calibration_data().subsample(max(1, int(subsample)))
+    data = calibration_data(rec).subsample(max(1, int(subsample)))
     say(f"geometric calibration on {len(data.t)} Vicon frames (about a minute) ...")
     res = calibrate_geometry(rec.robot, data, anchors="config", yaw_starts=yaw_starts)
     say(f"calibration done in {time.perf_counter() - t0:.0f} s: RMS lengths "

@@ -52,12 +52,12 @@ def _cmd_import_uacdpr(args) -> int:
 
 
 def _cmd_calibrate(args) -> int:
-    from .calibration import calibrate_geometry, write_calibrated_dataset
+    from .calibration import calibrate_geometry, calibration_data, write_calibrated_dataset
     from .io.uacdpr import load_uacdpr
     from .report.calibration import calibration_figures
 
     rec = load_uacdpr(args.vicon, args.robot_log, args.config, swivel_axis=args.swivel_axis)
-    data = rec.calibration_data().subsample(args.subsample)
+    data = calibration_data(rec).subsample(args.subsample)
     res = calibrate_geometry(rec.robot, data, anchors=args.anchors,
                              swivel_sign=args.swivel_sign, yaw_starts=args.yaw_starts)
     print(f"samples {res.n_samples}, condition {res.condition:.3g}")

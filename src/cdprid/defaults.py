@@ -25,5 +25,9 @@ TRIM_S: float = 1.0
 TAUT_THRESHOLD_N: float = 5.0
 """A cable below this tension (N) is treated as slack: its samples leave the fits."""
 
-REST_SPEED_M_S: float = 0.005
-"""The platform is at rest when its speed stays below this (m/s); the one "at rest" rule."""
+REST_SPEED_M_S: float = 0.02
+"""The platform is at rest when its speed stays below this (m/s); the one "at rest" rule
+(:func:`cdprid.nuisance.rest_mask`, for at least 0.5 s). Measured on the real recording
+UACDPR FreeMotion02: in its stillest 0.7 s the speed (Euler + 4 Hz) has median 9.5 mm/s and
+maximum 19 mm/s (marker noise and vibration), so 5 mm/s finds no rest window at all; 20 mm/s
+finds t = 4.90-5.60 s."""

@@ -38,6 +38,8 @@ from .geometry import CableRobot
 from .io.dataset import Dataset, align
 from .motion import estimate_motion
 from .nuisance import (
+    INTERPOLATION,
+    SMOOTH_HZ,
     InsufficientDataError,
     NuisanceSpec,
     TensionStream,
@@ -328,7 +330,8 @@ def identify_real(
     delay0: float = 0.0,
     trim: float = TRIM_S,
     max_steps: int = 200,
-    interpolation: str | None = None,
+    interpolation: str = INTERPOLATION,
+    smooth_hz: float | None = SMOOTH_HZ,
 ) -> RealResult:
     """Joint nonlinear LS of the dynamic parameters and the nuisances (module docstring).
 
@@ -348,8 +351,11 @@ def identify_real(
         Starting (or fixed) delay, s.
     trim : seconds dropped at both ends of the recording
     max_steps : Levenberg-Marquardt steps per pass
-    interpolation : {"linear", "catmull-rom"}, optional
-        Default :data:`cdprid.nuisance.INTERPOLATION`.
+    interpolation : {"linear", "catmull-rom"}
+        Interpolant of the tension stream (:data:`cdprid.nuisance.INTERPOLATION`).
+    smooth_hz : float or None
+        Low-pass of the tension stream before interpolation (:data:`cdprid.nuisance.SMOOTH_HZ`;
+        None: raw).
 
     Returns
     -------
@@ -365,7 +371,7 @@ def identify_real(
     if not isinstance(data, RealData):
         data = prepare_real(data)
     spec = NuisanceSpec(offsets=offsets, gains=gains, delay=delay, delay0=delay0,
-                        **({} if interpolation is None else {"interpolation": interpolation}))
+                        interpolation=interpolation, smooth_hz=smooth_hz)
     t = data.t
     end = t[-1] if test_until is None else test_until
     usable = ((t >= max(t[0], data.tension_t[0]) + trim)
@@ -390,7 +396,8 @@ def identify_real(
         options={"train_until": train_until, "test_until": test_until,
                  "taut_threshold_N": taut_threshold_N, "offsets": offsets, "gains": gains,
                  "delay": delay, "pulleys": bool(data.robot.has_pulleys),
-                 "cutoff_hz": data.cutoff_hz, "interpolation": spec.interpolation},
+                 "cutoff_hz": data.cutoff_hz, "interpolation": interpolation,
+                 "smooth_hz": smooth_hz},
     )
 
 

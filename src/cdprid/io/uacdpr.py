@@ -246,16 +246,6 @@ class UacdprRecording:
         return np.column_stack([np.interp(self.pose_t, self.log.t, sw[:, i], left=np.nan,
                                           right=np.nan) for i in range(sw.shape[1])])
 
-    def calibration_data(self):
-        """:class:`cdprid.calibration.CalibrationData` on the overlap of Vicon and robot log."""
-        from ..calibration import CalibrationData
-
-        v = self.valid
-        R, p = self.fit.V_R_M[v], self.fit.V_p_M[v]
-        sw = self.swivel_at_pose()
-        keep = np.all(np.isfinite(sw), axis=1)
-        return CalibrationData(self.pose_t[keep], R[keep], p[keep], sw[keep])
-
 
 def load_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
                 swivel_axis: str = DEFAULT_SWIVEL_AXIS) -> UacdprRecording:

@@ -42,13 +42,14 @@ import numpy as np
 from scipy import signal as _signal
 from scipy.special import gamma as _gamma
 
-from .differentiators import METHODS, differentiate
-from .dynamics import PARAMETER_NAMES
-from .identification import least_squares
-from .io.dataset import Dataset, align
-from .motion import estimate_motion
-from .pipeline import DEFAULT_TRIM_S, identify_dataset
-from .regression import build_regression
+from cdprid.covariance import hac_covariance, std_from_cov
+from cdprid.differentiators import METHODS, differentiate
+from cdprid.dynamics import PARAMETER_NAMES
+from cdprid.identification import least_squares
+from cdprid.io.dataset import Dataset, align
+from cdprid.motion import estimate_motion
+from cdprid.pipeline import DEFAULT_TRIM_S, identify_dataset
+from cdprid.regression import build_regression
 
 __all__ = [
     "PAPER_TABLE1",
@@ -124,7 +125,9 @@ def find_shared(start: str | Path | None = None) -> Path | None:
 
 
 def hac_std(A, e, lags: int) -> np.ndarray:
-    """Newey-West (Bartlett) standard deviations of ordinary LS coefficients.
+    """Newey-West (Bartlett) standard deviations of ordinary LS coefficients with a fixed
+    window: :func:`cdprid.covariance.hac_covariance` with bandwidth ``lags + 1`` (weights
+    ``1 - k / (lags + 1)`` for lags ``k <= lags``).
 
     Parameters
     ----------
@@ -135,18 +138,8 @@ def hac_std(A, e, lags: int) -> np.ndarray:
     lags : int
         Bartlett window (samples); the residual correlation length of the data.
     """
-    A = np.asarray(A, float)
-    e = np.asarray(e, float)
-    n, _, p = A.shape
-    Af = A.reshape(-1, p)
-    bread = np.linalg.pinv(Af.T @ Af)
-    S = np.einsum("nip,ni->np", A, e)  # per-sample scores (the 6 rows of a sample together)
-    meat = S.T @ S
-    for k in range(1, int(lags) + 1):
-        G = S[k:].T @ S[:-k]
-        meat += (1.0 - k / (lags + 1.0)) * (G + G.T)
-    V = bread @ meat @ bread
-    return np.sqrt(np.clip(np.diag(V), 0.0, None))
+    cov, _ = hac_covariance(np.asarray(A, float), np.asarray(e, float), bandwidth=int(lags) + 1)
+    return std_from_cov(cov)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -483,7 +476,7 @@ def mzg_gap(ds: Dataset, f_hz: float = ORBIT_FREQ_HZ, amplitude: float = 0.4,
     _, a_euler = differentiate(sig.position, dt, "euler-filtfilt")
     from functools import partial
 
-    from .differentiators import zero_phase_filter
+    from cdprid.differentiators import zero_phase_filter
 
     zp = partial(zero_phase_filter, dt=dt, cutoff_hz=4.0, order=2)
     V = {
