@@ -1,3 +1,4 @@
+# ruff: noqa: F722  (jaxtyping shape strings)
 """Rotation utilities: quaternions (scalar first), rotation matrices, skew matrices.
 
 Conventions (spec v1): a quaternion ``q = [qw, qx, qy, qz]`` is the rotation
@@ -10,9 +11,10 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
 
-def skew(v):
+def skew(v: Float[ArrayLike, " 3"]) -> Float[Array, "3 3"]:
     """Skew-symmetric matrix ``[v]x`` with ``skew(v) @ w == cross(v, w)``.
 
     Parameters
@@ -30,7 +32,7 @@ def skew(v):
     )
 
 
-def quat_to_matrix(q):
+def quat_to_matrix(q: Float[ArrayLike, " 4"]) -> Float[Array, "3 3"]:
     """Rotation matrix of a unit quaternion ``[qw, qx, qy, qz]`` (scalar first).
 
     The quaternion is normalised first, so small norm errors do not leak
@@ -48,7 +50,7 @@ def quat_to_matrix(q):
     )
 
 
-def quat_multiply(a, b):
+def quat_multiply(a: Float[ArrayLike, " 4"], b: Float[ArrayLike, " 4"]) -> Float[Array, " 4"]:
     """Hamilton product ``a * b`` of two quaternions (scalar first)."""
     a = jnp.asarray(a)
     b = jnp.asarray(b)
@@ -59,13 +61,13 @@ def quat_multiply(a, b):
     )
 
 
-def quat_conjugate(q):
+def quat_conjugate(q: Float[ArrayLike, " 4"]) -> Float[Array, " 4"]:
     """Conjugate ``[qw, -qx, -qy, -qz]``."""
     q = jnp.asarray(q)
     return q * jnp.array([1.0, -1.0, -1.0, -1.0], dtype=q.dtype)
 
 
-def rotvec_to_quat(r):
+def rotvec_to_quat(r: Float[ArrayLike, " 3"]) -> Float[Array, " 4"]:
     """Quaternion of a rotation vector (axis * angle), safe at zero angle."""
     r = jnp.asarray(r)
     angle2 = r @ r
@@ -76,7 +78,7 @@ def rotvec_to_quat(r):
     return jnp.concatenate([jnp.array([w]), half_sinc * r])
 
 
-def matrix_to_quat(R):
+def matrix_to_quat(R: Float[ArrayLike, "*batch 3 3"]) -> Float[np.ndarray, "*batch 4"]:
     """Unit quaternion (scalar first, qw >= 0) of a rotation matrix (numpy, any batch).
 
     Shepperd's method, robust for all rotations.
@@ -89,22 +91,26 @@ def matrix_to_quat(R):
         tr = np.trace(m)
         if tr > 0:
             s = 2.0 * np.sqrt(1.0 + tr)
-            q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s]
+            q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s,
+                 (m[1, 0] - m[0, 1]) / s]
         elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
             s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
-            q = [(m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s]
+            q = [(m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s,
+                 (m[0, 2] + m[2, 0]) / s]
         elif m[1, 1] > m[2, 2]:
             s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
-            q = [(m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s]
+            q = [(m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s,
+                 (m[1, 2] + m[2, 1]) / s]
         else:
             s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
-            q = [(m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s]
+            q = [(m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s,
+                 0.25 * s]
         q = np.asarray(q)
         out[k] = q if q[0] >= 0 else -q
     return out.reshape(*batch, 4)
 
 
-def quat_continuity(q):
+def quat_continuity(q: Float[ArrayLike, "n 4"]) -> Float[np.ndarray, "n 4"]:
     """Flip signs of a quaternion time series (n, 4) so consecutive samples agree.
 
     ``q`` and ``-q`` are the same rotation; differentiating a series with sign
@@ -117,7 +123,9 @@ def quat_continuity(q):
     return q
 
 
-def angular_rates_from_quat(q, qd, qdd):
+def angular_rates_from_quat(
+    q: Float[ArrayLike, " 4"], qd: Float[ArrayLike, " 4"], qdd: Float[ArrayLike, " 4"]
+) -> tuple[Float[Array, " 3"], Float[Array, " 3"]]:
     """Angular velocity and acceleration (base frame) from q, dq/dt, d2q/dt2.
 
     For ``q`` the rotation platform -> base, ``omega = 2 vec(qd * conj(q))`` and
