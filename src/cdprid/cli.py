@@ -1,7 +1,16 @@
 """The ``cdprid`` command line.
 
 Every subcommand reads spec-v1 datasets. Bad input gives one sentence on stderr and exit code
-2, never a traceback (``CDPRID_DEBUG=1`` shows tracebacks of internal errors).
+2, never a traceback (``CDPRID_DEBUG=1`` shows tracebacks of internal errors). Building the
+parser imports no JAX, SciPy or Matplotlib (``cdprid --help`` stays fast); options are
+validated at parse time by :mod:`cdprid.cli_types`.
+
+Environment variables (checked before any work; a bad value is one sentence and exit 2):
+
+* ``CDPRID_DEBUG`` -- any non-empty value: tracebacks of internal errors.
+* ``CDPRID_CACHE_DIR`` -- folder of the persistent JAX compilation cache (default
+  ``$XDG_CACHE_HOME/cdprid/jax`` or ``~/.cache/cdprid/jax``); ``off`` disables it.
+* ``CDPRID_SCAN_UNROLL`` -- integer >= 1, unroll factor of the SIHD scans.
 """
 
 from __future__ import annotations
@@ -12,27 +21,105 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["main", "UserError"]
+__all__ = ["main", "UserError", "build_parser", "load_json_object", "write_json"]
 
 
-from .errors import UserError  # noqa: E402  (re-exported: cdprid.cli.UserError)
+from .errors import OutputError, UserError  # noqa: E402  (re-exported: cdprid.cli.UserError)
+
+
+def _check_environment() -> None:
+    """Validate the environment variables the library reads (one sentence, exit 2)."""
+    unroll = os.environ.get("CDPRID_SCAN_UNROLL")
+    if unroll is not None:
+        try:
+            ok = int(unroll.strip()) >= 1
+        except ValueError:
+            ok = False
+        if not ok:
+            raise UserError(f"environment variable CDPRID_SCAN_UNROLL={unroll!r} must be an "
+                            "integer of at least 1 (unset it for the default 1).")
+    cache = os.environ.get("CDPRID_CACHE_DIR")
+    if cache is not None and cache.strip().lower() not in ("off", "0", "none", ""):
+        p = Path(cache).expanduser()
+        if p.exists() and not p.is_dir():
+            raise UserError(f"environment variable CDPRID_CACHE_DIR={cache!r} names a file, "
+                            "not a folder (use a folder, or 'off' to disable the cache).")
+
+
+def jax_cache_dir() -> Path | None:
+    """The folder of the persistent JAX compilation cache, or None when disabled.
+
+    ``CDPRID_CACHE_DIR`` overrides the default ``$XDG_CACHE_HOME/cdprid/jax`` (or
+    ``~/.cache/cdprid/jax``); ``CDPRID_CACHE_DIR=off`` disables the cache.
+    """
+    env = os.environ.get("CDPRID_CACHE_DIR")
+    if env is not None:
+        if env.strip().lower() in ("off", "0", "none", ""):
+            return None
+        return Path(env).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "cdprid" / "jax"
 
 
 def _enable_x64() -> None:
     import jax
 
     jax.config.update("jax_enable_x64", True)
+    cache = jax_cache_dir()
+    if cache is None:
+        return
+    try:
+        cache.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return  # an unwritable cache only costs compile time; never fail a command for it
+    if not os.access(cache, os.W_OK | os.X_OK):
+        return
+    jax.config.update("jax_compilation_cache_dir", str(cache))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+    jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
 
 
 def load_json_object(text: str, flag: str, expect: str) -> dict:
-    """A JSON object given inline or as a file path; one-sentence UserError otherwise."""
-    p = Path(text)
-    if not text.lstrip().startswith("{") and p.is_file():
-        text = p.read_text()
+    """A JSON object given inline or as a file path; one-sentence UserError otherwise.
+
+    Parameters
+    ----------
+    text : str
+        Inline JSON (starting with ``{``) or the path of a JSON file.
+    flag : str
+        The option name, used in messages.
+    expect : str
+        What the object should be, e.g. ``"a JSON object such as '{\"cutoff_hz\": 4}'"``.
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    UserError
+        The file does not exist or cannot be read, the text is not JSON, or not an object.
+    """
+    src = "the value"
+    if not text.lstrip().startswith(("{", "[")):
+        p = Path(text)
+        if not p.exists():
+            raise UserError(f"{flag} {text}: the file does not exist (give a JSON file or an "
+                            "inline JSON object).")
+        if p.is_dir():
+            raise UserError(f"{flag} {text}: is a folder, expected a JSON file.")
+        try:
+            text = p.read_text(encoding="utf-8-sig")
+        except UnicodeDecodeError:
+            raise UserError(f"{flag} {p}: not UTF-8 text.") from None
+        except OSError as exc:
+            raise UserError(f"{flag} {p}: cannot be read ({exc.strerror}).") from None
+        src = str(p)
     try:
         val = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise UserError(f"{flag}: not valid JSON ({exc.msg} at position {exc.pos}).") from None
+        raise UserError(f"{flag}: {src} is not valid JSON ({exc.msg} at line {exc.lineno}, "
+                        f"column {exc.colno}).") from None
     if not isinstance(val, dict):
         raise UserError(f"{flag}: must be {expect}.")
     return val
@@ -56,7 +143,10 @@ def write_json(path, data: dict, force: bool = True) -> Path:
     from .outputs import write_json as _write
 
     out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{out}: cannot create its folder ({exc.strerror}).") from None
     return _write(out, data, force=force)
 
 
@@ -166,24 +256,71 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv=None) -> int:
-    """Entry point of the ``cdprid`` console script; returns the exit code."""
-    from .geometry import RobotFileError
-    from .io import DatasetError
+def _is_user_error(exc: BaseException) -> bool:
+    """Whether ``exc`` reports a problem in the user's input (exit 2) rather than a bug (exit 1).
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    _enable_x64()
+    User errors: :class:`~cdprid.errors.UserError` and its subclasses (``DatasetError``,
+    ``OutputError``), ``RobotFileError``, OS errors on a named path (read-only or missing
+    folder, a folder given as a file, ...), and -- until every module raises ``UserError`` --
+    a ``ValueError`` raised by cdprid's own validation code (its last frame is in cdprid).
+    A ``ValueError`` from inside NumPy, SciPy or JAX is an internal error.
+    """
+    if isinstance(exc, UserError):
+        return True
+    geo = sys.modules.get("cdprid.geometry")
+    if geo is not None and isinstance(exc, getattr(geo, "RobotFileError", ())):
+        return True
+    if isinstance(exc, FileExistsError):  # an output that exists (commands refuse to replace)
+        return True
+    if isinstance(exc, OSError) and getattr(exc, "filename", None) is not None:
+        return True
+    if isinstance(exc, ValueError) and exc.__traceback__ is not None:
+        tb = exc.__traceback__
+        while tb.tb_next is not None:
+            tb = tb.tb_next
+        pkg = str(Path(__file__).resolve().parent)
+        return str(Path(tb.tb_frame.f_code.co_filename).resolve()).startswith(pkg)
+    return False
+
+
+def _user_message(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and getattr(exc, "filename", None) is not None \
+            and not isinstance(exc, UserError):
+        return f"{exc.filename}: {exc.strerror or type(exc).__name__}."
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``cdprid`` console script; returns the exit code.
+
+    Exit codes: 0 success, 2 a problem in the user's input (one sentence on stderr), 1 an
+    internal error (please report it), 130 interrupted (Ctrl-C; outputs are written whole or
+    not at all).
+    """
     try:
-        return int(args.func(args) or 0)
-    except (UserError, DatasetError, RobotFileError, FileExistsError, ValueError) as exc:
-        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        print(f"cdprid: error: {msg}", file=sys.stderr)
+        _check_environment()
+    except UserError as exc:
+        print(f"cdprid: error: {exc}", file=sys.stderr)
         return 2
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or an invalid option (argparse printed it)
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     except KeyboardInterrupt:
         print("cdprid: interrupted", file=sys.stderr)
         return 130
+    try:
+        _enable_x64()
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print("cdprid: interrupted; no partial output was left", file=sys.stderr)
+        return 130
     except Exception as exc:  # noqa: BLE001
+        if _is_user_error(exc):
+            print(f"cdprid: error: {_user_message(exc)}", file=sys.stderr)
+            return 2
         if os.environ.get("CDPRID_DEBUG"):
             raise
         print(f"cdprid: internal error: {type(exc).__name__}: {exc} "

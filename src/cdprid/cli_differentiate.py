@@ -4,19 +4,26 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 __all__ = ["add_parser"]
 
 
 def _run(args) -> int:
-    from .cli import UserError, _parse_params
-    from .differentiators import METHODS, differentiate
+    import numpy as np
+
+    from .cli import _parse_params
+    from .errors import UserError
     from .io.dataset import read_csv_stream, sampling_report
+    from .outputs import atomic_file, check_output
+    from .progress import Progress
+
+    out = check_output(args.out, force=args.force, flag="--out")
+    params = _parse_params(args.params)
+    from .differentiators import METHODS, differentiate
 
     if args.method not in METHODS:
-        raise UserError(f"unknown method {args.method!r}; choose one of {', '.join(METHODS)}.")
-    params = _parse_params(args.params)
+        raise UserError(f"--method: unknown method {args.method!r}; choose one of "
+                        f"{', '.join(METHODS)}.")
+    prog = Progress("differentiate")
     cols, vals = read_csv_stream(Path(args.input), required=("t",))
     if len(cols) < 2:
         raise UserError(f"{args.input}: line 1 (header) has only 't'; add signal columns.")
@@ -26,42 +33,60 @@ def _run(args) -> int:
     rep = sampling_report(t)
     if not rep["uniform"]:
         raise UserError(
-            f"{args.input}: column 't' is not uniformly sampled (max jitter "
-            f"{100 * rep['max_jitter']:.1f} % of the period); resample it first."
+            f"{args.input}: column 't' is not uniformly sampled (max deviation of a period "
+            f"{100 * rep['max_jitter']:.1f} % of the median {rep['dt']:.4g} s); gaps are never "
+            "bridged: split the file at the gaps or resample it first."
         )
     names = [c for c in cols if c != "t"]
     y = vals[:, [cols.index(c) for c in names]]
-    d1, d2 = differentiate(y, rep["dt"], method=args.method, **params)
-    out = Path(args.out)
-    if out.exists() and not args.force:
-        raise FileExistsError(f"{out}: already exists; refusing to overwrite (use --force).")
+    prog.say(f"read {len(t)} samples x {len(names)} column(s); differentiating")
+    try:
+        d1, d2 = differentiate(y, rep["dt"], method=args.method, **params)
+    except TypeError as exc:  # an unknown parameter name in --params
+        raise UserError(f"--params: {exc}.") from None
     header = ["t"] + [f"{c}_d1" for c in names] + [f"{c}_d2" for c in names]
-    with open(out, "w", encoding="utf-8") as fh:
+    prog.say(f"writing {out}")
+    with atomic_file(out, "w", force=args.force) as fh:
         fh.write(",".join(header) + "\n")
-        np.savetxt(fh, np.column_stack([t, d1, d2]), delimiter=",", fmt="%.17g")
+        np.savetxt(fh, np.column_stack([t, np.asarray(d1), np.asarray(d2)]), delimiter=",",
+                   fmt="%.17g")
     info = METHODS[args.method]
     print(f"{args.method} ({'causal' if info.causal else 'non-causal'}): {len(t)} samples, "
           f"{len(names)} column(s), dt = {rep['dt']:.6g} s -> wrote {out}")
     return 0
 
 
-def add_parser(sub) -> None:
-    """Register ``cdprid differentiate``."""
+def _methods_description() -> str:
     from .differentiators import METHODS
 
     lines = [f"  {k:<20} {'causal' if v.causal else 'non-causal':<11} {v.description}"
              for k, v in METHODS.items()]
+    return ("Differentiate every column of a CSV with a 't' column (uniform sampling; a file "
+            "with gaps is refused, never bridged). Output columns: t, <col>_d1 ..., <col>_d2 "
+            "....\n\nmethods:\n" + "\n".join(lines))
+
+
+def add_parser(sub) -> None:
+    """Register ``cdprid differentiate`` (the method table is built only for its --help)."""
     import argparse
+
+    from .cli_types import existing_file, json_or_file
 
     p = sub.add_parser(
         "differentiate", help="estimate first and second derivatives of CSV columns",
-        description="Differentiate every column of a CSV with a 't' column (uniform sampling). "
-        "Output columns: t, <col>_d1 ..., <col>_d2 ....\n\nmethods:\n" + "\n".join(lines),
+        description="Differentiate every column of a CSV with a 't' column.",
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("input", help="CSV with a 't' column and signal columns")
+    format_help = p.format_help
+
+    def _format_help() -> str:  # the method table imports JAX: only when help is asked for
+        p.description = _methods_description()
+        return format_help()
+
+    p.format_help = _format_help
+    p.add_argument("input", type=existing_file, help="CSV with a 't' column and signal columns")
     p.add_argument("--method", default="sihd2-cascade", help="differentiation method (see above)")
-    p.add_argument("--params", help="method parameters as JSON, or a JSON file (e.g. from "
-                   "`cdprid tune --json`)")
-    p.add_argument("--out", required=True, help="output CSV")
+    p.add_argument("--params", type=json_or_file, help="method parameters as JSON, or a JSON "
+                   "file (e.g. from `cdprid tune --json`)")
+    p.add_argument("--out", required=True, help="output CSV (written whole or not at all)")
     p.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     p.set_defaults(func=_run)

@@ -7,7 +7,7 @@ as such ("please report it"), never as bad input.
 
 from __future__ import annotations
 
-__all__ = ["ConvergenceError", "OutputError", "UserError"]
+__all__ = ["ConvergenceError", "OutputError", "OutputExistsError", "UserError"]
 
 
 class UserError(Exception):
@@ -16,6 +16,19 @@ class UserError(Exception):
 
 class OutputError(UserError):
     """An output path that cannot be written (exists without --force, missing folder, ...)."""
+
+
+class OutputExistsError(OutputError, FileExistsError):
+    """An output that exists already and may not be replaced (no --force).
+
+    Also a :class:`FileExistsError`, so that callers catching that keep working.
+    """
+
+    def __init__(self, message: str):
+        Exception.__init__(self, message)
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
 
 
 class ConvergenceError(RuntimeError):

@@ -23,7 +23,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-from .errors import OutputError
+from .errors import OutputError, OutputExistsError
 
 __all__ = [
     "atomic_dir",
@@ -63,7 +63,7 @@ def check_output(path: str | os.PathLike, force: bool = False, flag: str = "--ou
         if kind == "dir" and not p.is_dir():
             raise OutputError(f"{flag} {p}: is a file, expected a folder name.")
         if not force:
-            raise OutputError(f"{flag} {p}: already exists; refusing to overwrite it "
+            raise OutputExistsError(f"{flag} {p}: already exists; refusing to overwrite it "
                               "(use --force to replace it).")
     parent = p.resolve().parent
     if not parent.is_dir():
@@ -81,18 +81,41 @@ def atomic_file(path: str | os.PathLike, mode: str = "w", force: bool = True) ->
     """
     p = Path(path)
     if not force and p.exists():
-        raise OutputError(f"{p}: already exists; refusing to overwrite it (use --force).")
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.resolve().parent)
+        raise OutputExistsError(f"{p}: already exists; refusing to overwrite it (use --force).")
+    if p.is_dir():
+        raise OutputError(f"{p}: is a folder, expected a file name.")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.resolve().parent)
+    except OSError as exc:
+        raise OutputError(f"{p}: cannot write in its folder ({exc.strerror}).") from None
     try:
         with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as fh:
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, p)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
+        if force:
+            os.replace(tmp, p)
+        else:  # refuse a file that appeared meanwhile (a link fails if the name exists)
+            try:
+                os.link(tmp, p)
+            except FileExistsError:
+                raise OutputExistsError(f"{p}: already exists; refusing to overwrite it "
+                                        "(use --force).") from None
+            except OSError:  # no hard links on this file system
+                os.replace(tmp, p)
+            else:
+                os.unlink(tmp)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def write_text(path: str | os.PathLike, text: str, force: bool = True) -> Path:
@@ -125,11 +148,16 @@ def atomic_dir(path: str | os.PathLike, force: bool = False) -> Iterator[Path]:
     the temporary folder is removed and ``path`` is left as it was.
     """
     p = Path(path)
-    if p.exists() and not force:
-        raise OutputError(f"{p}: already exists; refusing to overwrite it (use --force).")
+    if p.exists() and not p.is_dir():
+        raise OutputError(f"{p}: is a file, expected a folder name.")
+    if p.exists() and not force and any(p.iterdir()):
+        raise OutputExistsError(f"{p}: already exists; refusing to overwrite it (use --force).")
     parent = p.resolve().parent
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".part", dir=parent))
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".part", dir=parent))
+    except OSError as exc:
+        raise OutputError(f"{p}: cannot write in its folder {parent} ({exc.strerror}).") from None
     try:
         yield tmp
         if p.exists():
