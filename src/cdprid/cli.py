@@ -231,6 +231,47 @@ _OPTIONAL_COMMANDS = (
 )
 
 
+def _option_rules() -> dict:
+    """Validators applied by :func:`build_parser` to options still typed as bare float/int."""
+    from . import cli_types as V
+
+    return {
+        "t_start": V.finite_float, "t_end": V.finite_float, "train_until": V.finite_float,
+        "trim": V.nonneg_float, "forgetting": V.unit_interval_open_closed,
+        "alpha": V.probability, "weight": V.float_in(0.0, 1.0),
+        "n_null": V.positive_int, "max_effects": V.positive_int, "yaw_starts": V.positive_int,
+        "subsample": V.positive_int, "starts": V.positive_int, "seeds": V.positive_int,
+        "max_steps": V.positive_int, "seed": V.nonneg_int,
+        "noise_pos": V.nonneg_float, "noise_tension": V.nonneg_float,
+        "noise_rot": V.nonneg_float, "noise_std": V.positive_float, "zeta_min": V.nonneg_float,
+        "rate_pose": V.float_in(1.0, 1e5), "rate_tension": V.float_in(1.0, 1e5),
+        "duration": V.positive_float, "params": V.json_or_file, "initial": V.json_or_file,
+    }
+
+
+def _harden(parser: argparse.ArgumentParser, rules: dict) -> None:
+    """Give every option a parse-time validator (a safety net under the commands' own types).
+
+    Options typed ``float`` become finite (no nan/inf); options named in ``rules`` get that
+    range check when they still have a bare ``float``/``int``/no type. Validators a command set
+    itself are kept.
+    """
+    from . import cli_types as V
+
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sp in action.choices.values():
+                _harden(sp, rules)
+            continue
+        rule = rules.get(action.dest)
+        bare = action.type in (None, float, int)
+        if rule is not None and bare and action.nargs in (None, "?") and not action.choices \
+                and not (action.type is None and action.dest not in ("params", "initial")):
+            action.type = rule
+        elif action.type is float:
+            action.type = V.finite_float
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``cdprid`` command."""
     import importlib
@@ -253,6 +294,7 @@ def build_parser() -> argparse.ArgumentParser:
                 continue
             raise
         getattr(module, fn)(sub)
+    _harden(parser, _option_rules())
     return parser
 
 
@@ -311,6 +353,12 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("cdprid: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # noqa: BLE001  (a bug in a command's parser)
+        if os.environ.get("CDPRID_DEBUG"):
+            raise
+        print(f"cdprid: internal error: {type(exc).__name__}: {exc} "
+              "(set CDPRID_DEBUG=1 for a traceback and please report it)", file=sys.stderr)
+        return 1
     try:
         _enable_x64()
         return int(args.func(args) or 0)

@@ -46,6 +46,7 @@ def _run(args) -> int:
 
 def add_parser(sub) -> None:
     """Register ``cdprid diagnose``."""
+    from . import cli_types as V  # option validators (cdprid.cli_types)
     p = sub.add_parser(
         "diagnose", help="find what the paper's model misses, name the cause, measure the gain",
         description="Fit the paper's model, test every effect of the vocabulary as an "
@@ -54,11 +55,14 @@ def add_parser(sub) -> None:
     p.add_argument("dataset", help="dataset folder (spec v1)")
     p.add_argument("--json", help="write the diagnosis JSON here")
     p.add_argument("--report", help="write report.md and PNG figures into this folder")
-    p.add_argument("--train-until", type=float, default=None,
+    p.add_argument("--train-until", type=V.finite_float, default=None,
                    help="fit on t < S, measure the held-out gain on t >= S")
-    p.add_argument("--alpha", type=float, default=1e-3, help="family-wise false-positive rate")
-    p.add_argument("--n-null", type=int, default=30, help="null replicates for calibration")
-    p.add_argument("--max-effects", type=int, default=3, help="greedy selection stops here")
-    p.add_argument("--seed", type=int, default=0, help="seed of the null simulation")
+    p.add_argument("--alpha", type=V.probability, default=1e-3,
+                   help="family-wise false-positive rate, in (0, 1)")
+    p.add_argument("--n-null", type=V.positive_int, default=30,
+                   help="null replicates for calibration (>= 1)")
+    p.add_argument("--max-effects", type=V.positive_int, default=3,
+                   help="greedy selection stops here (>= 1)")
+    p.add_argument("--seed", type=V.nonneg_int, default=0, help="seed of the null simulation")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=_run)

@@ -232,15 +232,17 @@ def _add_generic_formats(fmt) -> None:
 
 
 def _inputs(p) -> None:
-    p.add_argument("--vicon", required=True, help="raw Vicon trajectories export (.txt/.csv)")
-    p.add_argument("--robot-log", required=True, help="robot log _exp.mat (struct st_out)")
-    p.add_argument("--config", required=True, help="robot configuration .mat (struct s)")
+    from . import cli_types as V  # option validators (cdprid.cli_types)
+    p.add_argument("--vicon", required=True, type=V.existing_file, help="raw Vicon trajectories export (.txt/.csv)")
+    p.add_argument("--robot-log", required=True, type=V.existing_file, help="robot log _exp.mat (struct st_out)")
+    p.add_argument("--config", required=True, type=V.existing_file, help="robot configuration .mat (struct s)")
     p.add_argument("--swivel-axis", choices=["first", "third"], default=None,
                    help="which FixedFrame vector is the swivel axis (default: the importer's)")
 
 
 def add_parser(sub) -> None:
     """Add ``import`` (with the ``uacdpr`` format) and ``calibrate`` to the subparsers."""
+    from . import cli_types as V  # option validators (cdprid.cli_types)
     from .io.uacdpr import DEFAULT_SWIVEL_AXIS
 
     p = sub.add_parser("import", help="convert another format into a spec-v1 dataset",
@@ -260,7 +262,7 @@ def add_parser(sub) -> None:
     u.add_argument("--no-calibrate", action="store_true",
                    help="keep the raw frames (marker frame in the Vicon frame); by default the "
                    "geometric calibration runs and the pose is the platform's in the base frame")
-    u.add_argument("--subsample", type=int, default=4,
+    u.add_argument("--subsample", type=V.positive_int, default=4,
                    help="calibration uses every k-th Vicon frame (default 4)")
     u.add_argument("--no-nuisance", action="store_true",
                    help="skip the informational dynamic nuisance estimate (offsets, delay) "
@@ -275,9 +277,9 @@ def add_parser(sub) -> None:
     _inputs(c)
     c.add_argument("--anchors", choices=["config", "free"], default="config")
     c.add_argument("--swivel-sign", type=float, default=1.0, choices=[1.0, -1.0])
-    c.add_argument("--yaw-starts", type=int, default=4)
-    c.add_argument("--subsample", type=int, default=2, help="use every k-th Vicon frame")
-    c.add_argument("--dataset", help="imported dataset to rewrite in the base frame (--out)")
+    c.add_argument("--yaw-starts", type=V.positive_int, default=4)
+    c.add_argument("--subsample", type=V.positive_int, default=2, help="use every k-th Vicon frame")
+    c.add_argument("--dataset", type=V.existing_dir, help="imported dataset to rewrite in the base frame (--out)")
     c.add_argument("--out", help="write the calibrated dataset here")
     c.add_argument("--force", action="store_true")
     c.add_argument("--json", help="write the estimate as JSON")

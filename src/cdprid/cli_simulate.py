@@ -130,6 +130,7 @@ def run(args) -> int:
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register the ``simulate`` subcommand on an argparse subparsers object."""
+    from . import cli_types as V  # option validators (cdprid.cli_types)
     from .effects import VOCABULARY
     from .trajectories import PRESETS
 
@@ -142,14 +143,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         + ".",
     )
     p.add_argument("--out", required=True, help="dataset folder to write")
-    p.add_argument("--trajectory", help="trajectory CSV (t,x,y,z,vx,...,az[,qw,...,alz])")
+    p.add_argument("--trajectory", type=V.existing_file, help="trajectory CSV (t,x,y,z,vx,...,az[,qw,...,alz])")
     p.add_argument(
         "--preset",
         choices=list(PRESETS),
         default=None,
         help="named trajectory (default paper-orbits)",
     )
-    p.add_argument("--robot", help="robot.toml (default: the built-in CRAFT-like robot)")
+    p.add_argument("--robot", type=V.existing_file, help="robot.toml (default: the built-in CRAFT-like robot)")
     p.add_argument(
         "--effect",
         dest="effect_items",
@@ -166,22 +167,22 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="parameter of the preceding --effect",
     )
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    p.add_argument("--seed", type=V.nonneg_int, default=0, help="noise seed (default 0)")
     p.add_argument(
-        "--noise-pos", type=float, default=2e-4, help="position noise std, m (default 2e-4)"
+        "--noise-pos", type=V.nonneg_float, default=2e-4, help="position noise std, m (default 2e-4)"
     )
     p.add_argument(
-        "--noise-tension", type=float, default=0.5, help="tension noise std, N (default 0.5)"
+        "--noise-tension", type=V.nonneg_float, default=0.5, help="tension noise std, N (default 0.5)"
     )
     p.add_argument(
-        "--noise-rot", type=float, default=0.0, help="orientation noise std, rad (default 0)"
+        "--noise-rot", type=V.nonneg_float, default=0.0, help="orientation noise std, rad (default 0)"
     )
-    p.add_argument("--rate-pose", type=float, default=100.0, help="pose rate, Hz (default 100)")
+    p.add_argument("--rate-pose", type=V.float_in(1.0, 1e5), default=100.0, help="pose rate, Hz (default 100)")
     p.add_argument(
-        "--rate-tension", type=float, default=100.0, help="tension rate, Hz (default 100)"
+        "--rate-tension", type=V.float_in(1.0, 1e5), default=100.0, help="tension rate, Hz (default 100)"
     )
     p.add_argument(
-        "--duration", type=float, default=None, help="duration, s (default: the trajectory's)"
+        "--duration", type=V.positive_float, default=None, help="duration, s (default: the trajectory's)"
     )
     p.add_argument("--force", action="store_true", help="overwrite an existing dataset")
     p.set_defaults(func=run, effect_items=[])
