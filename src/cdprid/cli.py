@@ -272,11 +272,19 @@ def _harden(parser: argparse.ArgumentParser, rules: dict) -> None:
             action.type = V.finite_float
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line: ``cdprid: error: CMD: argument ...``."""
+
+    def error(self, message: str):
+        cmd = self.prog.split(" ", 1)[1] + ": " if " " in self.prog else ""
+        self.exit(2, f"cdprid: error: {cmd}{message.rstrip('.')}. See `{self.prog} --help`.\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``cdprid`` command."""
     import importlib
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="cdprid",
         description="Dynamic identification of cable-driven parallel robots.",
     )

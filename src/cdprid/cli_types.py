@@ -130,7 +130,7 @@ def existing_file(text: str) -> str:
     """A path naming an existing, readable file (returned unchanged)."""
     p = Path(text)
     if not p.exists():
-        raise argparse.ArgumentTypeError(f"{text}: the file does not exist.")
+        raise argparse.ArgumentTypeError(f"{text}: the file is missing (it does not exist).")
     if p.is_dir():
         raise argparse.ArgumentTypeError(f"{text}: is a folder, expected a file.")
     if not os.access(p, os.R_OK):
@@ -142,7 +142,7 @@ def existing_dir(text: str) -> str:
     """A path naming an existing folder (returned unchanged)."""
     p = Path(text)
     if not p.exists():
-        raise argparse.ArgumentTypeError(f"{text}: the folder does not exist.")
+        raise argparse.ArgumentTypeError(f"{text}: the folder is missing (it does not exist).")
     if not p.is_dir():
         raise argparse.ArgumentTypeError(f"{text}: is a file, expected a folder.")
     return text
