@@ -93,7 +93,7 @@ BAD_OPTIONS = [
     (["tune", "--seeds", "0"], "--seeds"),
     (["tune", "--max-steps", "-2"], "--max-steps"),
     (["tune", "--noise-std", "nan"], "--noise-std"),
-    (["excite", "{tmp}/none.toml"], "does not exist"),
+    (["excite", "{tmp}/none.toml"], "missing"),
     (["excite", "{ds}/robot.toml", "--starts", "0"], "--starts"),
     (["differentiate", "{tmp}/none.csv", "--out", "{tmp}/o.csv"], "does not exist"),
     (["differentiate", "{csv}", "--out", "{tmp}/o.csv", "--params", "{tmp}/no.json"],

@@ -233,9 +233,12 @@ def _add_generic_formats(fmt) -> None:
 
 def _inputs(p) -> None:
     from . import cli_types as V  # option validators (cdprid.cli_types)
-    p.add_argument("--vicon", required=True, type=V.existing_file, help="raw Vicon trajectories export (.txt/.csv)")
-    p.add_argument("--robot-log", required=True, type=V.existing_file, help="robot log _exp.mat (struct st_out)")
-    p.add_argument("--config", required=True, type=V.existing_file, help="robot configuration .mat (struct s)")
+    p.add_argument("--vicon", required=True, type=V.existing_file,
+                   help="raw Vicon trajectories export (.txt/.csv)")
+    p.add_argument("--robot-log", required=True, type=V.existing_file,
+                   help="robot log _exp.mat (struct st_out)")
+    p.add_argument("--config", required=True, type=V.existing_file,
+                   help="robot configuration .mat (struct s)")
     p.add_argument("--swivel-axis", choices=["first", "third"], default=None,
                    help="which FixedFrame vector is the swivel axis (default: the importer's)")
 
@@ -279,7 +282,8 @@ def add_parser(sub) -> None:
     c.add_argument("--swivel-sign", type=float, default=1.0, choices=[1.0, -1.0])
     c.add_argument("--yaw-starts", type=V.positive_int, default=4)
     c.add_argument("--subsample", type=V.positive_int, default=2, help="use every k-th Vicon frame")
-    c.add_argument("--dataset", type=V.existing_dir, help="imported dataset to rewrite in the base frame (--out)")
+    c.add_argument("--dataset", type=V.existing_dir,
+                   help="imported dataset to rewrite in the base frame (--out)")
     c.add_argument("--out", help="write the calibrated dataset here")
     c.add_argument("--force", action="store_true")
     c.add_argument("--json", help="write the estimate as JSON")

@@ -143,14 +143,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         + ".",
     )
     p.add_argument("--out", required=True, help="dataset folder to write")
-    p.add_argument("--trajectory", type=V.existing_file, help="trajectory CSV (t,x,y,z,vx,...,az[,qw,...,alz])")
+    p.add_argument("--trajectory", type=V.existing_file,
+                   help="trajectory CSV (t,x,y,z,vx,...,az[,qw,...,alz])")
     p.add_argument(
         "--preset",
         choices=list(PRESETS),
         default=None,
         help="named trajectory (default paper-orbits)",
     )
-    p.add_argument("--robot", type=V.existing_file, help="robot.toml (default: the built-in CRAFT-like robot)")
+    p.add_argument("--robot", type=V.existing_file,
+                   help="robot.toml (default: the built-in CRAFT-like robot)")
     p.add_argument(
         "--effect",
         dest="effect_items",
@@ -169,20 +171,26 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("--seed", type=V.nonneg_int, default=0, help="noise seed (default 0)")
     p.add_argument(
-        "--noise-pos", type=V.nonneg_float, default=2e-4, help="position noise std, m (default 2e-4)"
+        "--noise-pos", type=V.nonneg_float, default=2e-4,
+        help="position noise std, m (default 2e-4)"
     )
     p.add_argument(
-        "--noise-tension", type=V.nonneg_float, default=0.5, help="tension noise std, N (default 0.5)"
+        "--noise-tension", type=V.nonneg_float, default=0.5,
+        help="tension noise std, N (default 0.5)"
     )
     p.add_argument(
-        "--noise-rot", type=V.nonneg_float, default=0.0, help="orientation noise std, rad (default 0)"
+        "--noise-rot", type=V.nonneg_float, default=0.0,
+        help="orientation noise std, rad (default 0)"
     )
-    p.add_argument("--rate-pose", type=V.float_in(1.0, 1e5), default=100.0, help="pose rate, Hz (default 100)")
+    p.add_argument("--rate-pose", type=V.float_in(1.0, 1e5), default=100.0,
+                   help="pose rate, Hz (default 100)")
     p.add_argument(
-        "--rate-tension", type=V.float_in(1.0, 1e5), default=100.0, help="tension rate, Hz (default 100)"
+        "--rate-tension", type=V.float_in(1.0, 1e5), default=100.0,
+        help="tension rate, Hz (default 100)"
     )
     p.add_argument(
-        "--duration", type=V.positive_float, default=None, help="duration, s (default: the trajectory's)"
+        "--duration", type=V.positive_float, default=None,
+        help="duration, s (default: the trajectory's)"
     )
     p.add_argument("--force", action="store_true", help="overwrite an existing dataset")
     p.set_defaults(func=run, effect_items=[])

@@ -90,21 +90,26 @@ def add_parser(sub) -> None:
         description="Tune SIHD gains by gradient through the scan (or a baseline's "
         "hyperparameter by grid search) on noise realisations of a training signal at the "
         "given or estimated position-noise level; report held-out RMSE vs the paper gains.")
-    p.add_argument("--dataset", type=V.existing_dir, help="estimate the position noise from this dataset (spec v1)")
+    p.add_argument("--dataset", type=V.existing_dir,
+                   help="estimate the position noise from this dataset (spec v1)")
     p.add_argument("--noise-std", type=V.positive_float, default=None, help="position noise std, m")
     p.add_argument("--method", default="sihd2-cascade",
                    help="sihd2-cascade (default), sihd3, sihd4, sihd5, or a baseline: "
                    "euler-filtfilt, euler-butter-causal, savgol, kalman, rts, levant")
     p.add_argument("--objective", choices=["accel", "params", "mix"], default="accel",
                    help="acceleration RMSE (default), identified-parameter error, or a mix")
-    p.add_argument("--weight", type=V.float_in(0.0, 1.0), default=0.5, help="weight of the parameter term in mix")
+    p.add_argument("--weight", type=V.float_in(0.0, 1.0), default=0.5,
+                   help="weight of the parameter term in mix")
     p.add_argument("--train-signal", choices=["circle", "dataset"], default="circle",
                    help="benchmark circle (default) or the dataset's smoothed trajectory")
-    p.add_argument("--seeds", type=V.positive_int, default=4, help="noise realisations used for tuning")
-    p.add_argument("--max-steps", type=V.positive_int, default=60, help="BFGS iterations (SIHD methods)")
+    p.add_argument("--seeds", type=V.positive_int, default=4,
+                   help="noise realisations used for tuning")
+    p.add_argument("--max-steps", type=V.positive_int, default=60,
+                   help="BFGS iterations (SIHD methods)")
     p.add_argument("--zeta-min", type=V.nonneg_float, default=None,
                    help="damping floor of SIHD-N root pairs (default of cdprid.tuning)")
-    p.add_argument("--duration", type=V.positive_float, default=52.0, help="training circle length, s")
+    p.add_argument("--duration", type=V.positive_float, default=52.0,
+                   help="training circle length, s")
     p.add_argument("--json", help="write the result JSON here")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=_run)
