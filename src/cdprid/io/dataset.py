@@ -439,6 +439,66 @@ def _fmt_s(x: float) -> str:
     return f"{x:.4g} s" if x < 120 else f"{x / 60:.3g} min"
 
 
+def _tension_coverage(t: np.ndarray, tt: np.ndarray, dt: float) -> tuple[np.ndarray, list]:
+    """Pose samples where tensions were measured (inside the stream's range, not in its gaps)."""
+    notes = []
+    n_all = len(t)
+    keep = (t >= tt[0] - 1e-9) & (t <= tt[-1] + 1e-9)
+    lost_range = int(n_all - keep.sum())
+    if lost_range:
+        notes.append(
+            f"tensions cover only [{tt[0]:g}, {tt[-1]:g}] s of the pose stream "
+            f"[{t[0]:g}, {t[-1]:g}] s: {100 * lost_range / n_all:.1f} % of the pose samples "
+            "dropped (never extrapolated)"
+        )
+    lost_tgap = 0
+    if len(tt) > 2:
+        dtt = np.diff(tt)
+        big = np.flatnonzero(dtt > GAP_FACTOR * max(float(np.median(dtt)), dt))
+        if big.size:
+            k = np.searchsorted(tt, t, side="right") - 1  # tension interval of each pose sample
+            inside = np.isin(k, big) & (t > tt[np.clip(k, 0, len(tt) - 1)] + 1e-9)
+            lost_tgap = int((inside & keep).sum())
+            keep &= ~inside
+            worst = int(big[np.argmax(dtt[big])])
+            notes.append(
+                f"tension stream has {big.size} gap(s) (largest {_fmt_s(dtt[worst])} at "
+                f"t = {tt[worst]:g} s): {lost_tgap} pose samples inside them dropped, never "
+                "interpolated"
+            )
+    return keep, notes
+
+
+def _segment_arrays(ds: Dataset, runs, dt: float):
+    """Per gap-free segment: uniform times (jitter resampled), pose, quaternions, tensions."""
+    t, tt = ds.pose_t, ds.tension_t
+    q_all = ds.quaternion if ds.quaternion is not None else None
+    parts, segs, n0, resampled, worst_jit = [], [], 0, False, 0.0
+    for a, b in runs:
+        ts, ps = t[a:b], ds.position[a:b]
+        qs = (_continuous_quaternions(q_all[a:b]) if q_all is not None
+              else np.tile([1.0, 0.0, 0.0, 0.0], (b - a, 1)))
+        jit = float(np.max(np.abs(np.diff(ts) - dt)) / dt)
+        if jit > 0.01:
+            from scipy.interpolate import CubicSpline
+
+            tu = ts[0] + dt * np.arange(int(np.floor((ts[-1] - ts[0]) / dt + 1e-9)) + 1)
+            ps = CubicSpline(ts, ps, axis=0)(tu)
+            if q_all is not None:
+                qs = CubicSpline(ts, qs, axis=0)(tu)
+                qs = qs / np.linalg.norm(qs, axis=1, keepdims=True)
+            else:
+                qs = np.tile([1.0, 0.0, 0.0, 0.0], (len(tu), 1))
+            ts, resampled, worst_jit = tu, True, max(worst_jit, jit)
+        tau = np.empty((len(ts), ds.tension.shape[1]))
+        for i in range(ds.tension.shape[1]):
+            tau[:, i] = np.interp(ts, tt, ds.tension[:, i])
+        parts.append((ts, ps, qs, tau))
+        segs.append((n0, n0 + len(ts)))
+        n0 += len(ts)
+    return parts, segs, resampled, worst_jit
+
+
 def align(ds: Dataset, t_start: float | None = None, t_end: float | None = None,
           split_gaps: bool = False) -> AlignedSignals:
     """Put pose and tensions on the pose time base without inventing samples.
@@ -465,36 +525,12 @@ def align(ds: Dataset, t_start: float | None = None, t_end: float | None = None,
     DatasetError
         Fewer than 10 usable samples in the window, or a platform that does not move.
     """
-    notes = []
     t = ds.pose_t
     n_all = len(t)
     rep = sampling_report(t)
     dt = rep["dt"] if np.isfinite(rep["dt"]) else 1.0
-    # 1. pose samples usable: inside the window and where tensions were measured
     tt = ds.tension_t
-    keep = (t >= tt[0] - 1e-9) & (t <= tt[-1] + 1e-9)
-    lost_range = int(n_all - keep.sum())
-    if lost_range:
-        notes.append(
-            f"tensions cover only [{tt[0]:g}, {tt[-1]:g}] s of the pose stream "
-            f"[{t[0]:g}, {t[-1]:g}] s: {100 * lost_range / n_all:.1f} % of the pose samples "
-            "dropped (never extrapolated)"
-        )
-    lost_tgap = 0
-    if len(tt) > 2:
-        dtt = np.diff(tt)
-        big = np.flatnonzero(dtt > GAP_FACTOR * max(float(np.median(dtt)), dt))
-        if big.size:
-            k = np.searchsorted(tt, t, side="right") - 1  # tension interval of each pose sample
-            inside = np.isin(k, big) & (t > tt[np.clip(k, 0, len(tt) - 1)] + 1e-9)
-            lost_tgap = int((inside & keep).sum())
-            keep &= ~inside
-            worst = int(big[np.argmax(dtt[big])])
-            notes.append(
-                f"tension stream has {big.size} gap(s) (largest {_fmt_s(dtt[worst])} at "
-                f"t = {tt[worst]:g} s): {lost_tgap} pose samples inside them dropped, never "
-                "interpolated"
-            )
+    keep, notes = _tension_coverage(t, tt, dt)
     lo = -np.inf if t_start is None else t_start
     hi = np.inf if t_end is None else t_end
     keep &= (t >= lo - 1e-12) & (t <= hi + 1e-12)
@@ -536,31 +572,7 @@ def align(ds: Dataset, t_start: float | None = None, t_end: float | None = None,
                 f"[{t[a]:g}, {t[b - 1]:g}] s" for a, b in runs[:6]) + (" ..." if len(runs) > 6
                                                                       else "")
         )
-    # 3. per segment: uniform grid (resampling only jitter), interpolated tensions
-    q_all = ds.quaternion if ds.quaternion is not None else None
-    parts, segs, n0, resampled, worst_jit = [], [], 0, False, 0.0
-    for a, b in runs:
-        ts, ps = t[a:b], ds.position[a:b]
-        qs = (_continuous_quaternions(q_all[a:b]) if q_all is not None
-              else np.tile([1.0, 0.0, 0.0, 0.0], (b - a, 1)))
-        jit = float(np.max(np.abs(np.diff(ts) - dt)) / dt)
-        if jit > 0.01:
-            from scipy.interpolate import CubicSpline
-
-            tu = ts[0] + dt * np.arange(int(np.floor((ts[-1] - ts[0]) / dt + 1e-9)) + 1)
-            ps = CubicSpline(ts, ps, axis=0)(tu)
-            if q_all is not None:
-                qs = CubicSpline(ts, qs, axis=0)(tu)
-                qs = qs / np.linalg.norm(qs, axis=1, keepdims=True)
-            else:
-                qs = np.tile([1.0, 0.0, 0.0, 0.0], (len(tu), 1))
-            ts, resampled, worst_jit = tu, True, max(worst_jit, jit)
-        tau = np.empty((len(ts), ds.tension.shape[1]))
-        for i in range(ds.tension.shape[1]):
-            tau[:, i] = np.interp(ts, tt, ds.tension[:, i])
-        parts.append((ts, ps, qs, tau))
-        segs.append((n0, n0 + len(ts)))
-        n0 += len(ts)
+    parts, segs, resampled, worst_jit = _segment_arrays(ds, runs, dt)
     if resampled:
         notes.append(
             f"pose sampling is not uniform (max jitter {100 * worst_jit:.1f} % of the median "
