@@ -286,6 +286,7 @@ def calibrate_geometry(
     max_steps: int = 200,
     R0_BV=None,
     R0_MP=None,
+    progress=None,
 ) -> CalibrationResult:
     """Estimate the Vicon->base transform, attachments, lengths and swivel offsets.
 
@@ -310,6 +311,8 @@ def calibrate_geometry(
         Levenberg-Marquardt steps per solve.
     R0_BV, R0_MP : array (3, 3), optional
         Fixed starting rotations.
+    progress : callable(str), optional
+        Receives one line per multi-start candidate and per refinement pass.
 
     Returns
     -------
@@ -328,11 +331,14 @@ def calibrate_geometry(
     res = _make_residual(robot, anchors, sizes, use_swivel, swivel_sign)
     w = (1e3, 1e2)  # 1 mm and 10 mrad as the first scales
     best = None
-    for Rb, Rm in itertools.product(starts_BV, starts_MP):
+    say = progress or (lambda msg: None)
+    n_starts = len(starts_BV) * len(starts_MP)
+    for k, (Rb, Rm) in enumerate(itertools.product(starts_BV, starts_MP), start=1):
         x0 = _initial_x(robot, anchors, sizes, small, Rb, Rm, res, use_swivel, swivel_sign)
         args = _args(small, use_swivel, w, Rb, Rm)
         x, _ = _solve(res, x0, args, max_steps, strict=False)
         cost = float(np.sum(np.asarray(res(jnp.asarray(x), args)) ** 2))
+        say(f"  calibration start {k}/{n_starts}: cost {cost:.4g}")
         if not np.isfinite(cost):
             continue
         if best is None or cost < best[0]:
@@ -355,7 +361,8 @@ def calibrate_geometry(
                                                           np.cos(r0[:, m:]).mean(0))
     rms_before, _ = _group_rms(np.asarray(res(jnp.asarray(x_naive), a1)), m, use_swivel)
     # two passes on all samples: first scales, then scales from the first solution
-    for _ in range(2):
+    for k in range(2):
+        say(f"  calibration refinement {k + 1}/2 on {len(data.t)} samples ...")
         x, _ = _solve(res, x, _args(data, use_swivel, w, Rb, Rm), max_steps)
         r1 = np.asarray(res(jnp.asarray(x), _args(data, use_swivel, (1.0, 1.0), Rb, Rm)))
         rms_after, per = _group_rms(r1, m, use_swivel)
@@ -512,7 +519,8 @@ def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
     rec = load_uacdpr(vicon, robot_log, config, swivel_axis)
     data = calibration_data(rec).subsample(max(1, int(subsample)))
     say(f"geometric calibration on {len(data.t)} Vicon frames (about a minute) ...")
-    res = calibrate_geometry(rec.robot, data, anchors="config", yaw_starts=yaw_starts)
+    res = calibrate_geometry(rec.robot, data, anchors="config", yaw_starts=yaw_starts,
+                             progress=say)
     say(f"calibration done in {time.perf_counter() - t0:.0f} s: RMS lengths "
         f"{1e3 * res.rms_after['length_m']:.3f} mm, swivel "
         f"{1e3 * res.rms_after.get('swivel_rad', float('nan')):.2f} mrad")
