@@ -10,12 +10,12 @@ tangent point on a swivel pulley; base frame) to its attachment ``B_i = p + R b_
 - **cable-body**: the platform body is the box ``[body_min, body_max]`` of robot.toml
   ``[platform]`` (platform frame). "Other than at its own anchor": in the platform frame the
   cable is the segment ``b_i + s d_i``, ``0 <= s <= L_i``. If the anchor is strictly inside the
-  box the cable runs inside the body up to where it leaves the box (``s_out``, slab method)
-  and the face through which it leaves is excluded; if the anchor is on or outside the box
-  surface, the faces that contain the anchor are excluded. The cable-body clearance is the
-  least distance between the rest of the cable (``s >= s_out``) and the remaining faces of the
-  box (rectangles). A cable that cuts through the body, or grazes an edge next to its exit
-  face, therefore has a small clearance; a cable leaving its face outwards does not.
+  box (as in the spec's example) the cable leaves the convex box once and never comes back:
+  nothing is checked for it (``inf``). If the anchor is on the box surface, the faces that
+  contain the anchor are excluded; if it is outside, no face is. The cable-body clearance is
+  the least distance between the cable and the remaining faces of the box (rectangles): a
+  cable that cuts through the body from a surface anchor, or passes by the body from an
+  outside anchor, has a small clearance; a cable leaving its face outwards does not.
 
 Exact values (numpy: closed form for segments; golden-section on the convex distance for the
 faces) are the certificate; :func:`smooth_clearances` is the differentiable version used by the
@@ -140,8 +140,9 @@ def _exit_and_mask(b, d, L, lo, hi, xp):
     exit_face = 2 * ax_exit + side.astype(int)
     on = xp.stack([xp.abs(b[..., k] - v) <= _SHARED_TOL for k in range(3) for v in (lo[k], hi[k])],
                   axis=-1)  # (1, m, 6) faces holding the anchor
-    faces = xp.arange(6)
-    mask = xp.where(inside[..., None], faces != exit_face[..., None], ~on)
+    # an anchor inside the body: the cable leaves the convex box once and never comes back,
+    # nothing to check; on the surface: the faces through the anchor are excluded
+    mask = xp.where(inside[..., None], False, ~on) & (exit_face[..., None] >= 0)
     return s_out, mask
 
 
