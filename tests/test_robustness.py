@@ -367,3 +367,25 @@ def test_identify_json_after_gap_keeps_truth_like_result(tmp_path):
     assert main(["identify", str(root), "--json", str(out)]) == 0
     notes = json.loads(out.read_text())["notes"]
     assert any("gap" in n for n in notes)
+
+
+# ----------------------------------------------------------------------------- start-up
+
+
+def test_command_table_matches_the_registered_helps():
+    import argparse
+
+    from cdprid.cli import COMMANDS, build_parser
+
+    sp = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    helps = {ca.dest: ca.help for ca in sp._choices_actions}
+    assert {k: v[1] for k, v in COMMANDS.items() if k in helps} == helps
+
+
+def test_help_imports_no_jax():
+    code = ("import sys, contextlib, io\nfrom cdprid.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n    rc = main(['--help'])\n"
+            "print(rc, 'jax' in sys.modules, 'scipy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={**os.environ, "PYTHONPATH": SRC}, check=True).stdout.split()
+    assert out == ["0", "False", "False"]

@@ -280,8 +280,44 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"cdprid: error: {cmd}{message.rstrip('.')}. See `{self.prog} --help`.\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of the ``cdprid`` command."""
+# Commands listed by `cdprid --help` without importing their modules (which load JAX, SciPy):
+# name -> (module registering it, or None for identify here; its one-line help). The help
+# strings must equal those the modules register (tests/test_robustness.py checks it).
+COMMANDS: dict[str, tuple[str | None, str]] = {
+    "identify": (None, "identify the platform's dynamic parameters (least squares)"),
+    "differentiate": ("cdprid.cli_differentiate",
+                      "estimate first and second derivatives of CSV columns"),
+    "simulate": ("cdprid.cli_simulate",
+                 "write a synthetic dataset (spec v1) with optional injected effects"),
+    "diagnose": ("cdprid.cli_diagnose",
+                 "find what the paper's model misses, name the cause, measure the gain"),
+    "excite": ("cdprid.cli_excite",
+               "optimise a safe excitation trajectory (condition number of W_ID)"),
+    "import": ("cdprid.cli_import", "convert another format into a spec-v1 dataset"),
+    "calibrate": ("cdprid.cli_import", "geometric calibration of a locked-winch recording"),
+    "example": ("cdprid.cli_example", "write a sample dataset (simulated, with its truth)"),
+    "tune": ("cdprid.cli_tune", "tune a differentiator's parameters for the data's noise level"),
+}
+
+
+def _requested_command(argv) -> str | None:
+    """The subcommand named in ``argv`` (first token not starting with '-'), if any."""
+    for tok in argv:
+        if not tok.startswith("-"):
+            return tok
+    return None
+
+
+def build_parser(argv=None) -> argparse.ArgumentParser:
+    """The argument parser of the ``cdprid`` command.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        When given, only the subcommand it names is built in full; the others are listed with
+        their one-line help from :data:`COMMANDS` without importing their modules, so that
+        ``cdprid --help`` stays fast. None builds every subcommand.
+    """
     import importlib
 
     parser = _Parser(
@@ -293,8 +329,22 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"cdprid {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    _add_identify(sub)
+    wanted = None if argv is None else _requested_command(argv)
+    everything = argv is None or (wanted is not None and wanted not in COMMANDS)
+    known = {m for m, _ in COMMANDS.values()}
+    full = {m for m, _ in _OPTIONAL_COMMANDS if everything or m not in known}
+    if wanted in COMMANDS:
+        full.add(COMMANDS[wanted][0])
+    if everything or wanted == "identify":
+        _add_identify(sub)
+    else:
+        sub.add_parser("identify", help=COMMANDS["identify"][1], add_help=False)
     for mod, fn in _OPTIONAL_COMMANDS:
+        if mod not in full:
+            for name, (m, helptext) in COMMANDS.items():
+                if m == mod:
+                    sub.add_parser(name, help=helptext, add_help=False)
+            continue
         try:
             module = importlib.import_module(mod)
         except ModuleNotFoundError as exc:
@@ -354,7 +404,8 @@ def main(argv=None) -> int:
         print(f"cdprid: error: {exc}", file=sys.stderr)
         return 2
     try:
-        parser = build_parser()
+        argv = list(sys.argv[1:] if argv is None else argv)
+        parser = build_parser(argv)
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, --version, or an invalid option (argparse printed it)
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
