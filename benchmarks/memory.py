@@ -106,7 +106,7 @@ def main() -> int:
     cmds = {
         "identify": lambda p: ["identify", str(p)],
         "online": lambda p: ["identify", str(p), "--online", "--out-csv",
-                             str(work / f"{p.name}-online.csv"), "--force"],
+                             str(work / f"{p.name}-online.csv")],
         "diagnose": lambda p: ["diagnose", str(p), "--quiet"],
     }
     rows = []
