@@ -294,7 +294,8 @@ def test_cli_identify_online(ds_path, tmp_path, monkeypatch, capsys):
                           "sigma_mzG"]
     # a second run never overwrites the CSV the user did not name
     before = csv.read_text()
-    assert main(["identify", str(ds_path), "--online", "--json", str(out)]) == 0
+    assert main(["identify", str(ds_path), "--online", "--json", str(out)]) == 2  # no --force
+    assert main(["identify", str(ds_path), "--online", "--json", str(out), "--force"]) == 0
     on2 = json.loads(out.read_text())["online"]
     assert on2["csv"] != on["csv"] and csv.read_text() == before
 

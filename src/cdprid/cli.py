@@ -155,8 +155,22 @@ def write_json(path, data: dict, force: bool = True) -> Path:
 
 def _cmd_identify(args) -> int:
     from .io import read_dataset
+    from .outputs import check_output
     from .pipeline import format_table, identify_dataset
 
+    force = getattr(args, "force", False)
+    if args.json:
+        check_output(args.json, force=force, flag="--json")
+    if args.online:
+        if args.out_csv:
+            check_output(args.out_csv, force=force, flag="--out-csv")
+            check_output(Path(args.out_csv).with_suffix(".png"), force=force, flag="--out-csv")
+    elif args.out_csv:
+        raise UserError("--out-csv is the parameter trajectory of --online; batch identify "
+                        "writes --json.")
+    elif args.wrench_filter == "delay":
+        raise UserError("--wrench-filter delay exists only with --online (a fixed delay of W tau "
+                        "in the stream); batch identify offers matched or none.")
     ds = read_dataset(args.dataset)
     params = _parse_params(args.params)
     if args.online:
@@ -176,43 +190,72 @@ def _cmd_identify(args) -> int:
         t_end=args.t_end,
         trim=args.trim,
         weighting=args.weighting,
+        covariance=args.std,
+        wrench_filter=args.wrench_filter or "matched",
+        inertia_about=args.inertia_about,
     )
+    if getattr(args, "physical", False):
+        from .pipeline import physical_report
+
+        rep = physical_report(rep)
     print(format_table(rep))
+    for w in rep.warnings:
+        print(f"warning: {w}", file=sys.stderr)
     if args.json:
-        write_json(args.json, rep.as_json())
+        write_json(args.json, rep.as_json(), force=force)
         print(f"wrote {args.json}")
     return 0
 
 
 def _add_identify(sub) -> None:
-    from .pipeline import DEFAULT_TRIM_S
+    from .defaults import TRIM_S
 
-    p = sub.add_parser("identify", help="identify the platform's dynamic parameters (least squares)",
-                       description="Identify m, m s_G (and the inertia with --model full) from a "
-                       "spec-v1 dataset, and print a table like the paper's Table 1.")
+    p = sub.add_parser("identify",
+                       help="identify the platform's dynamic parameters (least squares)",
+                       description="Identify m, m s_G (and the inertia with the full model) from a "
+                       "spec-v1 dataset, and print a table like the paper's Table 1. The std is "
+                       "HAC (autocorrelation-consistent) by default; eq. 20's value is in the "
+                       "JSON as std_iid. Warnings (model mismatch, lag, physics, excitation) go "
+                       "to stderr, the table and the JSON 'warnings' list.")
     p.add_argument("dataset", help="dataset folder (spec v1)")
-    p.add_argument("--model", choices=["translation", "full"], default="translation",
-                   help="4-parameter translation model (paper eq. 10) or 10-parameter model")
+    p.add_argument("--model", choices=["auto", "translation", "full"], default="auto",
+                   help="4-parameter translation model (paper eq. 10), 10-parameter model with "
+                   "inertia, or auto (default): full when the quaternions show more than 1 deg "
+                   "of rotation, else translation")
     p.add_argument("--differentiator", default=None,
                    help="differentiation method (default euler-filtfilt; sihd2-cascade with "
                    "--online); see `cdprid differentiate --help`")
     p.add_argument("--params", help="differentiator parameters as JSON (or a JSON file)")
     p.add_argument("--t-start", type=float, default=None, help="start of the time window, s")
     p.add_argument("--t-end", type=float, default=None, help="end of the time window, s")
-    p.add_argument("--trim", type=float, default=DEFAULT_TRIM_S,
-                   help=f"seconds dropped at both ends after differentiation (default {DEFAULT_TRIM_S})")
+    p.add_argument("--trim", type=float, default=TRIM_S,
+                   help=f"seconds dropped at both ends after differentiation (default {TRIM_S})")
     p.add_argument("--weighting", choices=["none", "groups"], default="none",
                    help="'groups': weighted LS with separate force/moment row weights")
+    p.add_argument("--std", choices=["hac", "iid"], default="hac",
+                   help="standard deviation shown as 'std': hac (default; accounts for the "
+                   "autocorrelation of filtered residuals) or iid (the paper's eqs. 19-21)")
+    p.add_argument("--inertia-about", dest="inertia_about", choices=["P", "G"], default="P",
+                   help="reference point of the inertia (platform frame): P, the platform's "
+                   "reference point (default), or G, the centre of mass")
+    p.add_argument("--physical", action="store_true",
+                   help="full model constrained to a physically realisable body (m > 0, "
+                   "positive definite inertia obeying the triangle inequalities)")
     p.add_argument("--online", action="store_true",
                    help="online identification: causal SIHD-2 cascade + recursive least squares, "
                    "per-sample parameter trajectory (CSV and PNG)")
     p.add_argument("--forgetting", type=float, default=1.0,
                    help="forgetting factor lambda in (0, 1] for --online (memory dt/(1-lambda))")
     p.add_argument("--out-csv", dest="out_csv", default=None,
-                   help="parameter trajectory CSV for --online (a PNG is written beside it)")
+                   help="parameter trajectory CSV for --online; a PNG of the same name "
+                   "(.png) is written beside it")
     p.add_argument("--wrench-filter", dest="wrench_filter", choices=["matched", "delay", "none"],
-                   default="matched", help="--online: filter W tau like the accelerations")
+                   default=None, help="filter W tau like the accelerations: matched (default; "
+                   "the differentiator's own low-pass, batch and online), none, or delay "
+                   "(--online only)")
     p.add_argument("--json", help="write the result as JSON to this file")
+    p.add_argument("--force", action="store_true",
+                   help="overwrite existing --json / --out-csv outputs")
     p.set_defaults(func=_cmd_identify)
 
 

@@ -48,6 +48,7 @@ from scipy import signal as _signal
 from . import sihd_high as _sihd_high
 
 __all__ = [
+    "acceleration_filter",
     "METHODS",
     "MethodInfo",
     "differentiate",
@@ -811,3 +812,56 @@ def differentiate(y, dt, method="sihd2-cascade", **params) -> tuple[np.ndarray, 
     if squeeze:
         d1, d2 = d1[:, 0], d2[:, 0]
     return np.ascontiguousarray(d1), np.ascontiguousarray(d2)
+
+
+def acceleration_filter(y, dt, method: str = "euler-filtfilt", scale=None, **params) -> np.ndarray:
+    """Pass a signal through the filter that ``method`` applies to accelerations.
+
+    Matched filtering (paper section 7 for the zero-phase recipe; ``results/mzg-gap.md`` for the
+    causal differentiators): the regressor sees the *estimated* acceleration, i.e. the true one
+    through the differentiator's low-pass ``H`` (zero-phase or causal, with its lag). Filtering
+    ``W tau`` by the same ``H`` keeps both sides of ``W tau = A x`` on the same footing, so the
+    lag does not bias the estimate.
+
+    ``euler-filtfilt`` uses its zero-phase Butterworth directly. Every other method gets ``H``
+    from itself: the mean-free signal is integrated twice (trapezoid) and differentiated twice
+    by ``method``; for a linear method this is exactly ``H`` applied to the signal; for the
+    homogeneous (SIHD, Levant) ones it is their response at the amplitude ``scale`` (the signal
+    is divided by ``scale`` first, so that it is an acceleration-sized input like the
+    positions' second derivative, then multiplied back), the describing function of the
+    linearised low-pass. The mean passes unchanged (a constant wrench is what a platform at
+    rest gives).
+
+    Parameters
+    ----------
+    y : array_like (n,) or (n, k)
+        Time-first signal (e.g. the measured wrench ``W tau``, (n, 6)).
+    dt : float
+        Sampling period, s.
+    method : str
+        A method of :data:`METHODS`.
+    scale : float or array (k,), optional
+        Amplitude normalisation per channel (e.g. the mass for force rows, so the input is an
+        acceleration in m/s^2). Default 1.
+    **params
+        The method's parameters (as given to :func:`differentiate`).
+
+    Returns
+    -------
+    ndarray, same shape as ``y``
+    """
+    arr = np.asarray(y, np.float64)
+    if method == "euler-filtfilt":
+        p = _check_params(method, params)
+        return zero_phase_filter(arr, dt, p["cutoff_hz"], p["order"])
+    squeeze = arr.ndim == 1
+    x = arr[:, None] if squeeze else arr
+    s = np.ones(x.shape[1]) if scale is None else np.broadcast_to(np.asarray(scale, float),
+                                                                   (x.shape[1],))
+    mu = x.mean(axis=0)
+    u = (x - mu) / s
+    i1 = np.concatenate([np.zeros((1, u.shape[1])), np.cumsum(0.5 * dt * (u[1:] + u[:-1]), 0)])
+    i2 = np.concatenate([np.zeros((1, u.shape[1])), np.cumsum(0.5 * dt * (i1[1:] + i1[:-1]), 0)])
+    _, a = differentiate(i2, dt, method=method, **params)
+    out = a * s + mu
+    return out[:, 0] if squeeze else out

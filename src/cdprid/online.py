@@ -988,6 +988,11 @@ def run_online_cli(ds, args, params) -> int:
     forgetting = 1.0 if forgetting is None else float(forgetting)
     wfilt = getattr(args, "wrench_filter", None) or "matched"
     sig = align(ds, getattr(args, "t_start", None), getattr(args, "t_end", None))
+    if args.model == "auto":
+        from .pipeline import ROTATION_WARN_DEG, rotation_angle_deg
+
+        rot = rotation_angle_deg(sig.quaternion) if sig.has_rotation else 0.0
+        args.model = "full" if rot > ROTATION_WARN_DEG else "translation"
     if args.model == "full" and not sig.has_rotation:
         raise ValueError(f"{ds.path}: the full model needs orientations (qw, qx, qy, qz in "
                          "pose.csv) to identify the inertia; this dataset has none.")

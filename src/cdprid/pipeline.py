@@ -1,25 +1,66 @@
 """End-to-end identification of a dataset: the data path in one call.
 
 dataset -> :func:`~cdprid.io.align` -> :func:`~cdprid.motion.estimate_motion` ->
-:func:`~cdprid.regression.build_regression` -> :func:`~cdprid.identification.least_squares`.
+:func:`~cdprid.regression.build_regression` -> :func:`~cdprid.identification.least_squares`,
+with the checks that keep the printed numbers honest (:mod:`cdprid.physical` and the
+guards below): each guard that fires adds one sentence to ``warnings``.
+
+Defaults chosen so that the estimate is unbiased and its ``std`` covers the real error:
+
+* ``model="auto"``: the full model when the quaternions show rotation (the translation model
+  on rotating data biases m s_G), else the paper's translation model;
+* matched filtering of ``W tau`` for every differentiator
+  (:func:`cdprid.differentiators.acceleration_filter`): the zero-phase filter for the
+  Euler recipe, the differentiator's own response for the causal ones (their lag would
+  otherwise shrink mzG by 10-60 %);
+* ``std`` from the HAC covariance (:mod:`cdprid.covariance`); eq. 20 kept as ``std_iid``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 
-from .differentiators import METHODS, zero_phase_filter
+import jax.numpy as jnp
+import numpy as np
+
+from .defaults import TRIM_S
+from .differentiators import METHODS, acceleration_filter
 from .dynamics import PARAMETER_NAMES
 from .identification import LSResult, least_squares
 from .io.dataset import AlignedSignals, Dataset, align
 from .motion import Motion, estimate_motion
-from .regression import Regression, build_regression
+from .physical import inertia_about_com, physical_fit, physical_warnings
+from .regression import Regression, build_regression, regressors
 
-__all__ = ["IdentificationReport", "identify_dataset", "DEFAULT_TRIM_S"]
+__all__ = [
+    "COND_WARN",
+    "DEFAULT_TRIM_S",
+    "IdentificationReport",
+    "MODELS",
+    "ROTATION_WARN_DEG",
+    "WRENCH_FILTERS",
+    "format_table",
+    "identify_dataset",
+    "physical_report",
+    "rotation_angle_deg",
+]
 
-DEFAULT_TRIM_S = 1.0
-"""Seconds dropped at both ends after differentiation (filter and observer transients)."""
+DEFAULT_TRIM_S = TRIM_S
+"""Seconds dropped at both ends after differentiation (kept for compatibility)."""
+
+MODELS = ("auto", "translation", "full")
+WRENCH_FILTERS = ("matched", "none")
+
+ROTATION_WARN_DEG = 1.0
+"""Rotation (99th percentile of the angle from the mean orientation, deg) above which the
+translation model is a mismatch (its moment rows ignore I alpha and the rotating first moment)
+and ``model="auto"`` picks the full model."""
+
+COND_WARN = 1.0e3
+"""Scaled condition number of W_ID above which the excitation is reported as too little."""
+
+ZERO_COLUMN_REL = 1.0e-6
+"""A column of W_ID whose norm is below this fraction of the largest is 'near zero'."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -30,6 +71,7 @@ class IdentificationReport:
     ----------
     result : LSResult
     model : str
+        The model used ("translation" or "full"; "auto" resolved).
     differentiator : str
     params : dict
     n_samples : int
@@ -39,6 +81,13 @@ class IdentificationReport:
     regression : Regression
         The samples used (after trimming).
     notes : tuple of str
+    warnings : tuple of str
+        One sentence per guard that fired (model mismatch, lag, physics, excitation).
+    inertia_about : {"P", "G"}
+        Reference point of the inertia in the output (platform frame either way).
+    wrench_filter : str
+    rotation_deg : float
+        99th percentile of the rotation angle from the mean orientation (0 without quaternions).
     """
 
     result: LSResult
@@ -50,13 +99,43 @@ class IdentificationReport:
     motion: Motion
     regression: Regression
     notes: tuple = ()
+    warnings: tuple = ()
+    inertia_about: str = "P"
+    wrench_filter: str = "matched"
+    rotation_deg: float = 0.0
+
+    @property
+    def inertia_about_text(self) -> str:
+        """``"P, platform frame"`` or ``"G (centre of mass), platform frame"``."""
+        return ("P, platform frame" if self.inertia_about == "P"
+                else "G (centre of mass), platform frame")
+
+    def estimates(self) -> tuple[tuple, np.ndarray, np.ndarray, np.ndarray]:
+        """``(names, x, cov, cov_iid)`` with the inertia about the chosen point."""
+        r = self.result
+        cov_iid = r.cov if r.cov_iid is None else r.cov_iid
+        if self.model != "full" or self.inertia_about == "P":
+            return r.names, r.x, r.cov, cov_iid
+        x, J = inertia_about_com(r.x)
+        return r.names, x, J @ r.cov @ J.T, J @ cov_iid @ J.T
+
+    def parameters(self) -> dict:
+        """``{name: {"value", "std", "rel_std_percent", "std_iid"}}`` (JSON ``parameters``)."""
+        names, x, cov, cov_iid = self.estimates()
+        s = np.sqrt(np.clip(np.diag(cov), 0, None))
+        si = np.sqrt(np.clip(np.diag(cov_iid), 0, None))
+        with np.errstate(divide="ignore"):
+            rel = 100.0 * s / np.abs(x)
+        return {n: {"value": float(v), "std": float(a), "rel_std_percent": float(c),
+                    "std_iid": float(b)}
+                for n, v, a, c, b in zip(names, x, s, rel, si, strict=True)}
 
     def as_json(self) -> dict:
         """The JSON contract of ``cdprid identify --json``."""
         r = self.result
-        return {
+        out = {
             "model": self.model,
-            "parameters": r.as_dict(),
+            "parameters": self.parameters(),
             "sigma_rho": r.sigma_rho,
             "cond": r.cond,
             "cond_scaled": r.cond_scaled,
@@ -66,29 +145,136 @@ class IdentificationReport:
             "weighting": "groups" if r.weights is not None else "none",
             "covariance": r.covariance,
             "hac_bandwidth_samples": r.hac_bandwidth if r.covariance == "hac" else None,
+            "wrench_filter": self.wrench_filter,
+            "rotation_deg": self.rotation_deg,
+            "warnings": list(self.warnings),
             "notes": list(self.notes),
         }
+        if self.model == "full":
+            out["inertia_about"] = self.inertia_about_text
+        return out
+
+
+def rotation_angle_deg(quaternion) -> float:
+    """99th percentile of the rotation angle (deg) of each sample from the mean orientation.
+
+    Parameters
+    ----------
+    quaternion : ndarray (n, 4)
+        Unit quaternions (w, x, y, z); signs may flip between samples.
+    """
+    q = np.asarray(quaternion, float)
+    q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
+    qm = q.mean(axis=0)
+    qm = qm / np.linalg.norm(qm)
+    c = np.clip(np.abs(q @ qm), 0.0, 1.0)
+    return float(np.percentile(np.degrees(2.0 * np.arccos(c)), 99))
+
+
+def _choose_model(model: str, sig: AlignedSignals, path) -> tuple[str, float, list]:
+    rot = rotation_angle_deg(sig.quaternion) if sig.has_rotation else 0.0
+    warns = []
+    if model == "full" and not sig.has_rotation:
+        raise ValueError(
+            f"{path}: the full model needs orientations (qw, qx, qy, qz in pose.csv) "
+            "to identify the inertia; this dataset has none."
+        )
+    if model == "auto":
+        model = "full" if rot > ROTATION_WARN_DEG else "translation"
+    elif model == "translation" and rot > ROTATION_WARN_DEG:
+        warns.append(f"the platform rotates by up to {rot:.2g} deg but the translation model "
+                     "ignores rotation (its inertia and rotating first moment bias m s_G): use "
+                     "--model full or auto.")
+    return model, rot, warns
+
+
+def _wrench_filter(robot, differentiator: str, params: dict, dt: float, wrench_filter: str):
+    """The matched filter of ``W tau`` (a callable), its note and warnings."""
+    causal = METHODS[differentiator].causal
+    if wrench_filter == "none":
+        warns = []
+        if causal or differentiator != "euler-filtfilt":
+            warns.append(f"the differentiator {differentiator} lags or attenuates the "
+                         "accelerations but W tau is not filtered the same way "
+                         "(--wrench-filter none): m s_G and the inertia are biased towards zero.")
+        return None, None, warns
+    gnorm = float(np.linalg.norm(np.asarray(robot.gravity)))
+    radius = max(float(np.max(np.linalg.norm(np.asarray(robot.P_b), axis=1))), 1e-3)
+
+    def wf(y, typical=None):
+        """Filter (n, 6) wrenches, or (n, 6, p) regressor columns of typical size ``typical``."""
+        m_seen = max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / max(gnorm, 1e-9), 1e-6)
+        rows = np.array([1.0] * 3 + [radius] * 3)
+        if typical is None:
+            return acceleration_filter(y, dt, differentiator, scale=m_seen * rows, **params)
+        n, _, p = y.shape
+        scale = (rows[:, None] / np.asarray(typical)[None, :]).reshape(-1)
+        return acceleration_filter(y.reshape(n, -1), dt, differentiator, scale=scale,
+                                   **params).reshape(n, 6, p)
+
+    kind = "causal" if causal else "zero-phase"
+    note = (f"matched filtering: W tau passed through the same {kind} filter as the "
+            f"accelerations ({differentiator})")
+    return wf, note, []
+
+
+def _match_pose_terms(reg: Regression, motion: Motion, robot, wf) -> Regression:
+    """Filter the regressor's pose-only part (gravity moment of the rotating m s_G) too.
+
+    ``W tau`` carries ``B_R_P m s_G x g``, which varies with the orientation; once ``W tau`` is
+    filtered, the same term in the regressor must be filtered too, or a causal filter's lag
+    leaves a residual correlated with the rotation (a bias on the inertia and m s_G).
+    """
+    z = np.zeros_like(motion.acceleration)
+    A_g = np.asarray(regressors(reg.model, jnp.asarray(motion.B_R_P), jnp.asarray(z),
+                                jnp.asarray(z), jnp.asarray(z), robot.gravity))
+    m_seen = max(float(np.linalg.norm(reg.y[:, :3].mean(axis=0)))
+                 / max(float(np.linalg.norm(np.asarray(robot.gravity))), 1e-9), 1e-6)
+    r = max(float(np.max(np.linalg.norm(np.asarray(robot.P_b), axis=1))), 1e-3)
+    typical = np.array([m_seen] + [m_seen * r] * 3 + [m_seen * r * r] * 6)[: A_g.shape[-1]]
+    A = reg.A - A_g + wf(A_g, typical)
+    return Regression(reg.t, A, reg.y, reg.model)
+
+
+def _excitation_warnings(reg: Regression, res: LSResult) -> list:
+    A = reg.W_ID
+    norms = np.linalg.norm(A, axis=0)
+    small = [n for n, v in zip(res.names, norms, strict=True)
+             if v < ZERO_COLUMN_REL * norms.max()]
+    warns = []
+    if small:
+        warns.append(f"too little excitation: the regressor columns of {', '.join(small)} are "
+                     "near zero, so these parameters are not identified by this motion.")
+    elif res.cond_scaled > COND_WARN:
+        warns.append(f"too little excitation: cond(W_ID) scaled = {res.cond_scaled:.3g} > "
+                     f"{COND_WARN:g}, the estimates are poorly separated (check their std or "
+                     "excite more: cdprid excite).")
+    return warns
 
 
 def identify_dataset(
     ds: Dataset,
-    model: str = "translation",
+    model: str = "auto",
     differentiator: str = "euler-filtfilt",
     params: dict | None = None,
     t_start: float | None = None,
     t_end: float | None = None,
-    trim: float = DEFAULT_TRIM_S,
+    trim: float = TRIM_S,
     weighting: str = "none",
     matched_filter: bool | None = None,
     covariance: str = "hac",
+    wrench_filter: str | None = None,
+    inertia_about: str = "P",
 ) -> IdentificationReport:
     """Identify the platform's dynamic parameters from a dataset.
 
     Parameters
     ----------
     ds : Dataset
-    model : {"translation", "full"}
-        The paper's 4-parameter model or the 10-parameter model with inertia.
+    model : {"auto", "translation", "full"}
+        The paper's 4-parameter model, the 10-parameter model with inertia, or ``auto``
+        (default): full when the quaternions show more than :data:`ROTATION_WARN_DEG` of
+        rotation, translation otherwise.
     differentiator : str
         Method of :func:`cdprid.differentiate` for velocities and accelerations.
     params : dict, optional
@@ -100,46 +286,47 @@ def identify_dataset(
     weighting : {"none", "groups"}
         ``groups``: two-step weighted LS with separate force and moment row weights.
     matched_filter : bool, optional
-        Apply the differentiator's zero-phase filter to ``W tau`` too. Default: on for
-        ``euler-filtfilt`` (whose accelerations carry that filter), off otherwise.
+        Older switch for ``wrench_filter`` (True = "matched", False = "none").
     covariance : {"hac", "iid"}
         Which standard deviation is ``std``: HAC (default, honest on correlated residuals) or
         the paper's eq. 20. Both are in the JSON (``std`` and ``std_iid``).
+    wrench_filter : {"matched", "none"}, optional
+        ``matched`` (default): ``W tau`` goes through the filter the differentiator applies to
+        the accelerations (:func:`cdprid.differentiators.acceleration_filter`).
+    inertia_about : {"P", "G"}
+        Reference point of the inertia in the output (platform frame).
 
     Returns
     -------
     IdentificationReport
     """
-    if model not in PARAMETER_NAMES:
-        raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+    if model not in MODELS:
+        raise ValueError(f"unknown model {model!r}; use one of {', '.join(MODELS)}.")
     if differentiator not in METHODS:
         raise ValueError(
             f"unknown differentiator {differentiator!r}; choose one of {', '.join(METHODS)}."
         )
     if weighting not in ("none", "groups"):
         raise ValueError(f"unknown weighting {weighting!r}; use 'none' or 'groups'.")
+    if wrench_filter is None:
+        wrench_filter = "none" if matched_filter is False else "matched"
+    if wrench_filter not in WRENCH_FILTERS:
+        raise ValueError(f"wrench filter {wrench_filter!r} is not available in batch "
+                         f"identification; use one of {', '.join(WRENCH_FILTERS)}.")
+    if inertia_about not in ("P", "G"):
+        raise ValueError(f"inertia_about must be 'P' or 'G', got {inertia_about!r}.")
     params = dict(params or {})
     sig = align(ds, t_start, t_end)
     notes = list(sig.notes)
-    if model == "full" and not sig.has_rotation:
-        raise ValueError(
-            f"{ds.path}: the full model needs orientations (qw, qx, qy, qz in pose.csv) "
-            "to identify the inertia; this dataset has none."
-        )
+    model, rot, warns = _choose_model(model, sig, ds.path)
     motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
-    if matched_filter is None:
-        matched_filter = differentiator == "euler-filtfilt"
-    wf = None
-    if matched_filter:
-        cutoff = params.get("cutoff_hz", METHODS["euler-filtfilt"].params.get("cutoff_hz", 4.0))
-        order = params.get("order", METHODS["euler-filtfilt"].params.get("order", None))
-        kw = {"cutoff_hz": cutoff}
-        if order is not None:
-            kw["order"] = order
-        wf = functools.partial(zero_phase_filter, dt=sig.dt, **kw)
-        notes.append(f"matched filtering: W tau low-passed with the same zero-phase "
-                     f"{cutoff:g} Hz filter as the positions")
+    wf, note, w2 = _wrench_filter(ds.robot, differentiator, params, sig.dt, wrench_filter)
+    warns += w2
+    if note:
+        notes.append(note)
     reg = build_regression(ds.robot, motion, sig.tension, model, wf)
+    if wf is not None and model == "full":
+        reg = _match_pose_terms(reg, motion, ds.robot, wf)
     keep = (reg.t >= reg.t[0] + trim) & (reg.t <= reg.t[-1] - trim)
     if keep.sum() < 10:
         raise ValueError(
@@ -149,21 +336,60 @@ def identify_dataset(
     res = least_squares(reg.W_ID, reg.Y_ID, PARAMETER_NAMES[model],
                         groups=reg.groups if weighting == "groups" else None,
                         rows_per_sample=6, covariance=covariance)
+    warns += _excitation_warnings(reg, res)
+    w3, n3 = physical_warnings(res.x, model, res.cov)
+    warns += w3
+    notes += n3
     return IdentificationReport(res, model, differentiator, params, int(keep.sum()), sig, motion,
-                                reg, tuple(notes))
+                                reg, tuple(notes), tuple(warns), inertia_about, wrench_filter,
+                                rot)
+
+
+def physical_report(rep: IdentificationReport) -> IdentificationReport:
+    """The report with the full model's estimate constrained to a realisable body (--physical).
+
+    Uses :func:`cdprid.physical.physical_fit` on the LS estimate and its covariance; equal to the
+    LS estimate when that is already realisable. The i.i.d. covariance is propagated the same way.
+    """
+    if rep.model != "full":
+        raise ValueError("--physical constrains the full model's inertia: use --model full (or "
+                         "auto on data with rotation).")
+    r = rep.result
+    A = r.weights[:, None] * rep.regression.W_ID if r.weights is not None else rep.regression.W_ID
+    R = np.linalg.qr(A, mode="r")
+    x, cov = physical_fit(r.x, R, r.cov)
+    _, cov_iid = physical_fit(r.x, R, r.cov if r.cov_iid is None else r.cov_iid)
+    res = dataclasses.replace(r, x=x, cov=cov, cov_iid=cov_iid,
+                              residual=rep.regression.Y_ID - rep.regression.W_ID @ x)
+    changed = not np.allclose(x, r.x)
+    notes = (*(n for n in rep.notes if not n.startswith("the inertia estimate is not")),
+             "physical: estimate constrained to a realisable body (Cholesky-factored "
+             "pseudo-inertia)" + (" — the constraint is active" if changed else
+                                  ", equal to least squares (already realisable)"))
+    warns = tuple(w for w in rep.warnings if not w.startswith("physically impossible"))
+    return dataclasses.replace(rep, result=res, notes=notes, warnings=warns)
 
 
 def format_table(rep: IdentificationReport) -> str:
-    """A plain-text table like the paper's Table 1."""
+    """A plain-text table like the paper's Table 1 (std as chosen: HAC or eq. 20)."""
     r = rep.result
+    names, x, cov, _ = rep.estimates()
+    std = np.sqrt(np.clip(np.diag(cov), 0, None))
+    with np.errstate(divide="ignore"):
+        rel = 100.0 * std / np.abs(x)
+    kind = "HAC" if r.covariance == "hac" else "iid, eq. 20"
     lines = [
         f"model: {rep.model}   differentiator: {rep.differentiator}   samples: {rep.n_samples}",
-        f"{'parameter':<10} {'estimate':>14} {'sigma':>12} {'%sigma':>9}",
+        f"{'parameter':<10} {'estimate':>14} {'sigma':>12} {'%sigma':>9}   (sigma: {kind})",
     ]
-    for n, v, s, p in zip(r.names, r.x, r.std, r.rel_std_percent):
+    for n, v, s, p in zip(names, x, std, rel, strict=True):
         lines.append(f"{n:<10} {v:>14.6g} {s:>12.4g} {p:>9.3g}")
     lines.append(f"sigma_rho = {r.sigma_rho:.4g}   cond(W_ID) = {r.cond:.4g}   "
                  f"cond scaled = {r.cond_scaled:.4g}")
+    if rep.model == "full":
+        lines.append(f"inertia about {rep.inertia_about_text}")
     for note in rep.notes:
         lines.append(f"note: {note}")
+    for w in rep.warnings:
+        lines.append(f"warning: {w}")
     return "\n".join(lines)
