@@ -113,3 +113,67 @@ def test_hac_covers_ar1_noise_where_iid_does_not():
     assert np.all(rms < 1.3) and np.all(rms > 0.8), rms
     assert np.all(cover > 0.86) and np.all(cover < 0.99), cover
     assert np.all(np.sqrt(np.mean(z_iid**2, axis=0)) > 3.0)
+
+
+# ----------------------------------------------------------------------------- robots (slow)
+
+
+def _hexa(R, z):
+    import math
+
+    return [[R * math.cos(k * math.pi / 3), R * math.sin(k * math.pi / 3), z] for k in range(6)]
+
+
+_EX, _AN = _hexa(2.0, 3.0), _hexa(0.15, 0.1)
+SIX_SUSPENDED = {  # 6 cables, no redundancy, suspended (gravity keeps the cables taut)
+    "name": "six-suspended", "gravity": [0.0, 0.0, -9.81],
+    "limits": {"tension_min": 1.0, "tension_max": 300.0},
+    "cable": [{"exit": _EX[k], "anchor": _AN[(k + 1) % 6 if k % 2 == 0 else (k - 1) % 6]}
+              for k in range(6)],
+}
+_BOX = ((1, 1), (-1, 1), (-1, -1), (1, -1))
+EIGHT_REDUNDANT = {  # 8 cables, fully constrained, crossed anchors
+    "name": "eight-redundant", "gravity": [0.0, 0.0, -9.81],
+    "limits": {"tension_min": 1.0, "tension_max": 1000.0},
+    "cable": [{"exit": [1.6 * sx, 1.3 * sy, 2.8],
+               "anchor": [0.12 * _BOX[(k + 1) % 4][0], 0.1 * _BOX[(k + 1) % 4][1], 0.08]}
+              for k, (sx, sy) in enumerate(_BOX)]
+    + [{"exit": [1.6 * sx, 1.3 * sy, 0.0],
+        "anchor": [0.12 * _BOX[(k + 3) % 4][0], 0.1 * _BOX[(k + 3) % 4][1], -0.08]}
+       for k, (sx, sy) in enumerate(_BOX)],
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot_dict,tau_ref", [(SIX_SUSPENDED, 25.0), (EIGHT_REDUNDANT, 40.0)])
+def test_identify_default_std_covers_the_error(tmp_path, robot_dict, tau_ref):
+    """Monte Carlo of `identify` with default options on robots other than the CRAFT-like one.
+
+    4.5 kg platform, 3 deg rotations, 0.3 mm / 0.5 N noise: the HAC z-scores of m and m s_G
+    have RMS near 1 (eq. 20's are several times larger) and the nominal 95 % interval covers.
+    """
+    from cdprid.dynamics import InertialParameters
+    from cdprid.geometry import robot_from_dict
+    from cdprid.io import read_dataset
+    from cdprid.pipeline import identify_dataset
+    from cdprid.simulate import SensorNoise, simulate, write_simulation
+    from cdprid.trajectories import preset
+
+    robot = robot_from_dict(robot_dict, source=robot_dict["name"])
+    truth = InertialParameters(4.5, np.array([0.01, -0.005, -0.04]), np.diag([0.03, 0.035, 0.05]))
+    traj = preset("rich", robot, duration=26.0, rotation_amplitude=0.05)
+    z, zi = [], []
+    for seed in range(12):
+        sim = simulate(robot, traj, truth, noise=SensorNoise(position_m=3e-4, tension_N=0.5),
+                       seed=seed, tau_ref=tau_ref)
+        rep = identify_dataset(read_dataset(write_simulation(sim, tmp_path / f"d{seed}")))
+        assert rep.model == "full"
+        x = np.asarray(truth.vector("full"))[:4]
+        z.append((rep.result.x[:4] - x) / rep.result.std[:4])
+        zi.append((rep.result.x[:4] - x) / rep.result.std_iid[:4])
+    z, zi = np.array(z), np.array(zi)
+    assert np.sqrt(np.mean(z**2)) < 1.5, np.sqrt(np.mean(z**2, axis=0))
+    assert np.abs(z).max() < 4.0
+    cover = np.mean(np.abs(z) < 1.96)
+    assert 0.85 <= cover <= 1.0, cover
+    assert np.sqrt(np.mean(zi**2)) > np.sqrt(np.mean(z**2))

@@ -283,7 +283,8 @@ def test_cli_identify_online(ds_path, tmp_path, monkeypatch, capsys):
     data = json.loads(out.read_text())
     assert set(data) >= {"model", "parameters", "sigma_rho", "cond", "cond_scaled", "n_samples",
                          "online"}
-    assert set(data["parameters"]["m"]) == {"value", "std", "rel_std_percent"}
+    assert set(data["parameters"]["m"]) == {"value", "std", "rel_std_percent", "std_iid"}
+    assert data["warnings"] == [] and data["covariance"] == "hac"
     assert abs(data["parameters"]["m"]["value"] - 9.88) < 0.05
     on = data["online"]
     assert on["forgetting"] == 1.0

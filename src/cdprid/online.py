@@ -62,6 +62,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
+import sys
 from pathlib import Path
 from typing import NamedTuple
 
@@ -70,6 +71,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .covariance import hac_covariance, std_from_cov
 from .differentiators import METHODS, scan_blocked, sihd2_step
 from .dynamics import PARAMETER_NAMES, regressor_full, regressor_translation
 from .geometry import CableRobot, wrench_matrix
@@ -314,21 +316,47 @@ class OnlineResult:
         """Final standard deviations (p,)."""
         return self.sigma[-1]
 
+    def hac_cov_final(self) -> tuple[np.ndarray, float]:
+        """HAC covariance of the final estimate and its bandwidth (:mod:`cdprid.covariance`).
+
+        The sandwich over the rows the recursion used, each sample weighted
+        ``sqrt(lambda^(n-1-k))`` as in the RLS cost; the RLS's own ``sigma`` (eq. 20) assumes
+        independent residuals, which the filtered online residuals are not.
+        """
+        u = np.asarray(self.used, bool)
+        if u.sum() <= len(self.names):
+            return self.cov, float("nan")
+        A, y = np.asarray(self.A)[u], np.asarray(self.y)[u]
+        k = np.arange(u.sum())
+        w = np.sqrt(self.forgetting ** (k[-1] - k))[:, None]
+        e = (y - np.einsum("nrp,p->nr", A, self.x_final)) * w
+        cov, bw = hac_covariance(A * w[:, :, None], e)
+        return cov, bw
+
     def as_json(self) -> dict:
-        """The JSON contract of ``cdprid identify --json`` for the final estimate."""
-        x, s = self.x_final, self.std_final
+        """The JSON contract of ``cdprid identify --json`` for the final estimate.
+
+        ``std`` is the HAC standard deviation of the final estimate; ``std_iid`` the RLS's
+        eq. 20 value.
+        """
+        x, si = self.x_final, self.std_final
+        cov, bw = self.hac_cov_final()
+        s = std_from_cov(cov)
         with np.errstate(divide="ignore", invalid="ignore"):
             rel = 100.0 * s / np.abs(x)
         return {
             "model": self.model,
             "parameters": {
-                n: {"value": float(v), "std": float(e), "rel_std_percent": float(r)}
-                for n, v, e, r in zip(self.names, x, s, rel, strict=True)
+                n: {"value": float(v), "std": float(e), "rel_std_percent": float(r),
+                    "std_iid": float(b)}
+                for n, v, e, r, b in zip(self.names, x, s, rel, si, strict=True)
             },
             "sigma_rho": float(self.sigma_rho[-1]),
             "cond": self.cond,
             "cond_scaled": self.cond_scaled,
             "n_samples": self.n_samples,
+            "covariance": "hac",
+            "hac_bandwidth_samples": None if not np.isfinite(bw) else bw,
         }
 
 
@@ -988,11 +1016,19 @@ def run_online_cli(ds, args, params) -> int:
     forgetting = 1.0 if forgetting is None else float(forgetting)
     wfilt = getattr(args, "wrench_filter", None) or "matched"
     sig = align(ds, getattr(args, "t_start", None), getattr(args, "t_end", None))
-    if args.model == "auto":
-        from .pipeline import ROTATION_WARN_DEG, rotation_angle_deg
+    from .pipeline import ROTATION_WARN_DEG, rotation_angle_deg
 
-        rot = rotation_angle_deg(sig.quaternion) if sig.has_rotation else 0.0
+    rot = rotation_angle_deg(sig.quaternion) if sig.has_rotation else 0.0
+    warns = []
+    if args.model == "auto":
         args.model = "full" if rot > ROTATION_WARN_DEG else "translation"
+    elif args.model == "translation" and rot > ROTATION_WARN_DEG:
+        warns.append(f"the platform rotates by up to {rot:.2g} deg but the translation model "
+                     "ignores rotation (its inertia and rotating first moment bias m s_G): use "
+                     "--model full or auto.")
+    if wfilt == "none":
+        warns.append("the causal SIHD cascade lags the accelerations but W tau is not filtered "
+                     "the same way (--wrench-filter none): m s_G is biased towards zero.")
     if args.model == "full" and not sig.has_rotation:
         raise ValueError(f"{ds.path}: the full model needs orientations (qw, qx, qy, qz in "
                          "pose.csv) to identify the inertia; this dataset has none.")
@@ -1019,15 +1055,23 @@ def run_online_cli(ds, args, params) -> int:
         truth = np.r_[tr["mass"], tr["first_moment"]]
     plot_online(res, png_path, truth=truth)
 
+    from .physical import physical_warnings
+
+    w3, n3 = physical_warnings(res.x_final, res.model, res.hac_cov_final()[0])
+    warns += w3
+    notes += n3
     print(format_online_table(res))
     for n in (*sig.notes, *notes):
         print(f"note: {n}")
+    for w in warns:
+        print(f"warning: {w}")
+        print(f"warning: {w}", file=sys.stderr)
     print(f"wrote {csv_path}")
     print(f"wrote {png_path}")
     if json_path:
         data = res.as_json()
         data.update({"differentiator": _SIHD, "differentiator_params": dict(params or {}),
-                     "notes": [*sig.notes, *notes]})
+                     "notes": [*sig.notes, *notes], "warnings": warns})
         data["online"] = {
             "forgetting": forgetting,
             "csv": str(csv_path),
