@@ -459,3 +459,22 @@ def swivel_angles(robot: CableRobot, B_p, B_R_P):
     s = jnp.sum(jnp.cross(ref, e) * k, axis=1)
     c = jnp.sum(ref * e, axis=1)
     return jnp.arctan2(s, c)
+
+
+def pulley_leave_point(A, b_base, p, r, k, ref):
+    """Leave point, wrap angle and in-plane unit vector of one cable over a swivel pulley.
+
+    Parameters
+    ----------
+    A : (3,) exit point (pulley entry on the swivel axis), base frame
+    b_base : (3,) attachment vector ``R b_i``, base frame
+    p : (3,) platform position
+    r : float, pulley radius
+    k : (3,) unit swivel axis, the direction the cable runs into the pulley
+    ref : (3,) reference direction used when the cable runs along the axis
+
+    Returns
+    -------
+    T : (3,) leave point; wrap : float, wrap angle (rad); e : (3,) in-plane unit vector
+    """
+    return _one_cable(A, b_base, p, r, k, ref)
