@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import json
 import sys
 from pathlib import Path
@@ -12,11 +11,13 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from cdprid.diagnosis import model as M
+from cdprid.diagnosis import selection as S
+from cdprid.diagnosis import testing as T
+from cdprid.diagnosis import unexplained as U
+from cdprid.diagnosis.candidates import Candidate
 from cdprid.differentiators import zero_phase_filter
 from cdprid.filters import make_zero_phase_filter
-
-# the package re-exports the function `diagnose`, so fetch the module itself
-D = importlib.import_module("cdprid.diagnose")
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
@@ -39,11 +40,11 @@ def test_hac_moving_sums_equal_newey_west_loop(rng):
         G = S[lag:].T @ S[:-lag]
         meat += (1 - lag / (L + 1)) * (G + G.T)
     bread = np.linalg.inv(Z.reshape(-1, 3).T @ Z.reshape(-1, 3))
-    assert np.allclose(D._hac_cov(Z, e, L), bread @ meat @ bread, rtol=1e-10, atol=1e-16)
+    assert np.allclose(T.hac_cov(Z, e, L), bread @ meat @ bread, rtol=1e-10, atol=1e-16)
     # many right-hand sides at once agree with one at a time
     Y = rng.normal(size=(n, 6, 4))
-    many = D._partial_wald_many(Z, Y, L)
-    one = [D._partial_wald(Z, Y[..., r], L)[0] for r in range(4)]
+    many = T.partial_wald_many(Z, Y, L)
+    one = [T.partial_wald(Z, Y[..., r], L)[0] for r in range(4)]
     assert np.allclose(many, one, rtol=1e-8)
 
 
@@ -54,7 +55,7 @@ def test_hac_wald_is_calibrated_on_autocorrelated_noise():
     for _ in range(60):
         C = zero_phase_filter(rng.normal(size=(n, 6)), 0.01, 4.0)[:, :, None]
         y = zero_phase_filter(rng.normal(size=(n, 6)), 0.01, 4.0)
-        st, *_ = D._partial_wald(C, y, 75)
+        st, *_ = T.partial_wald(C, y, 75)
         rej += st > 6.63  # chi2(1) 1 %
     assert rej <= 5  # a naive (iid) test rejects most of the time here
 
@@ -71,22 +72,63 @@ def test_per_cable_jacobian_equals_full_jacobian():
     R = np.asarray(jax.vmap(lambda r: jnp.eye(3) + 0 * r)(jnp.zeros(n)))
     tau = 20 + rng.normal(size=(n + 20, 8))
     ldot = jnp.asarray(rng.normal(size=(n, 8)) * 0.1)
-    d = D.DiagData(robot, jnp.asarray(t), jnp.asarray(p), jnp.asarray(R), jnp.zeros((n, 3)),
+    d = M.DiagData(robot, jnp.asarray(t), jnp.asarray(p), jnp.asarray(R), jnp.zeros((n, 3)),
                    jnp.zeros((n, 3)), jnp.zeros((n, 3)), jnp.zeros((n, 3)), jnp.asarray(tau),
                    ldot, -0.1, 0.01)
-    L = D.ThetaLayout(8)
-    th = jnp.asarray(rng.normal(size=L.size) * 0.01)
-    y, J = D._meas_and_jac(d, th, L)
-    y2 = D._measured_side(d, L.unpack(th))
-    J2 = jax.jacfwd(lambda z: D._measured_side(d, L.unpack(z)))(th)
+    L = M.ThetaLayout(8)
+    th = rng.normal(size=L.size) * 0.01
+    th[L.slices["pulley_flip"]] = 0.0  # measured_side has no flipped pulley: tested below
+    th = jnp.asarray(th)
+    y, J = M.meas_and_jac(d, th, L)
+    y2 = M.measured_side(d, L.unpack(th))
+    J2 = jax.jacfwd(lambda z: M.measured_side(d, L.unpack(z)))(th)
     assert np.allclose(y, y2, atol=1e-12)
-    assert np.allclose(J, J2, atol=1e-8 * float(jnp.max(jnp.abs(J2))))
+    keep = np.ones(L.size, bool)
+    keep[L.slices["pulley_flip"]] = False
+    assert np.allclose(J[..., keep], J2[..., keep], atol=1e-8 * float(jnp.max(jnp.abs(J2))))
+
+
+def test_flipped_pulley_is_a_pulley_with_the_opposite_arrival():
+    """theta's pulley_flip radius r == a plant whose pulleys have axis -k and radius r."""
+    import equinox as eqx
+
+    from cdprid.diagnosis.candidates import candidate_list
+    from cdprid.geometry import robot_from_dict
+    from conftest import SAMPLE_ROBOTS
+
+    robot = robot_from_dict(SAMPLE_ROBOTS["craft"])
+    assert Candidate("pulley_flipped") in candidate_list(8, False, robot)
+    assert Candidate("pulley_flipped") not in candidate_list(
+        8, False, eqx.tree_at(lambda r: r.pulley_radius, robot, robot.pulley_radius + 0.03))
+    rng = np.random.default_rng(4)
+    n = 60
+    t = np.arange(n) * 0.01
+    p = np.column_stack([0.2 * np.sin(t), 0.1 * np.cos(t), 1.2 + 0 * t])
+    R = np.broadcast_to(np.eye(3), (n, 3, 3))
+    tau = 20 + rng.normal(size=(n + 20, 8))
+
+    def data(rob):
+        return M.DiagData(rob, jnp.asarray(t), jnp.asarray(p), jnp.asarray(R),
+                          jnp.zeros((n, 3)), jnp.zeros((n, 3)), jnp.zeros((n, 3)),
+                          jnp.zeros((n, 3)), jnp.asarray(tau), jnp.zeros((n, 8)), -0.1, 0.01)
+
+    L = M.ThetaLayout(8)
+    th = np.zeros(L.size)
+    th[L.slices["pulley_flip"]] = 0.04
+    y_flip, _ = M.meas_and_jac(data(robot), jnp.asarray(th), L)
+    flipped = eqx.tree_at(lambda r: r.pulley_axis, robot, -robot.pulley_axis)
+    th2 = np.zeros(L.size)
+    th2[L.slices["pulley"]] = 0.04
+    y_ref = M.measured_side(data(flipped), L.unpack(jnp.asarray(th2)))
+    assert np.allclose(y_flip, y_ref, atol=1e-10)
+    y_down = M.measured_side(data(robot), L.unpack(jnp.asarray(th2)))
+    assert not np.allclose(y_down, y_ref, atol=1e-3)  # the arrival direction matters
 
 
 def test_noise_estimate_recovers_white_noise_level(rng):
     t = np.arange(0, 50, 0.01)
     x = 0.3 * np.sin(2 * np.pi * 0.4 * t)[:, None] + 2e-4 * rng.normal(size=(len(t), 1))
-    assert np.isclose(D.estimate_noise(x)[0], 2e-4, rtol=0.05)
+    assert np.isclose(T.estimate_noise(x)[0], 2e-4, rtol=0.05)
 
 
 # ----------------------------------------------------------------------------- end to end
@@ -109,10 +151,31 @@ def test_hidden_effect_named_with_size(effect, tmp_path):
 @pytest.mark.parametrize("effect", ["time_delay", "tension_gain", "viscous_drag", "frame_tilt",
                                     "cable_mass",
                                     "rotational_dynamics", "exit_point_error",
-                                    "anchor_point_error", "pulley"])
+                                    "anchor_point_error", "pulley", "pulley_friction"])
 def test_hidden_effect_named_slow(effect, tmp_path):
     r = _run(effect, 12, tmp_path)
     assert r["outcome"] in ("named", "alias"), r
+
+
+@pytest.mark.slow
+def test_effect_outside_the_vocabulary_is_unexplained_not_named(tmp_path):
+    """Coulomb friction on every load cell: no finding, a 'sign of cable velocity' structure."""
+    from diagnosis import run_one
+
+    r = run_one("oov_load_cell_coulomb", 3, tmp_path)
+    assert r["outcome"] == "correct-none", r
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("truth", [
+    [],
+    [("tension_gain", {"cable": 2, "gain": 1.05})],
+])
+def test_non_redundant_six_cable_robot(truth, tmp_path):
+    from diagnosis import run_case
+
+    r = run_case(truth, 1, tmp_path, "six")
+    assert r["outcome"] in ("named", "correct-none"), r
 
 
 def test_cli_json_contract(tmp_path):
@@ -167,14 +230,14 @@ def test_structure_tests_find_coulomb_like_structure_and_stay_quiet_on_noise():
     lags = 75
     coul = np.array([1.5, 0, 0, 0, 0, 0])
     y = np.einsum("nim,m->ni", feats["sign of cable velocity"], coul) + Z @ np.array([1.0, 2.0])
-    out = D.structure_tests(feats, Z, y + noise, np.ones(6), lags, 1e-3)
+    out = U.structure_tests(feats, Z, y + noise, np.ones(6), lags, 1e-3)
     top = out[0]
     assert top["correlates_with"] == "sign of cable velocity" and top["significant"]
     assert top["where"] == "load cells of cables 1"
     assert abs(top["coefficients"][0] - 1.5) < 0.1
     assert not any(u["significant"] for u in out[1:])
     # no structure: nothing significant (the HAC test is calibrated on filtered noise)
-    quiet = D.structure_tests(feats, Z, Z @ np.array([1.0, 2.0]) + noise, np.ones(6), lags,
+    quiet = U.structure_tests(feats, Z, Z @ np.array([1.0, 2.0]) + noise, np.ones(6), lags,
                               1e-3)
     assert not any(u["significant"] for u in quiet)
 
@@ -184,10 +247,10 @@ def test_structure_features_sign_matches_cable_rate():
     n, m = 50, 4
     W = rng.normal(size=(n, 6, m))
     v, om = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
-    f = D.structure_features(W, v, om, rng.normal(size=(n, m)) + 10, rng.normal(size=(n, 3)),
+    f = U.structure_features(W, v, om, rng.normal(size=(n, m)) + 10, rng.normal(size=(n, 3)),
                              np.arange(n) * 0.01, np.ones(n, bool))
     ldot = -np.einsum("nim,ni->nm", W, np.concatenate([v, om], axis=1))
-    assert set(f) == set(D.STRUCTURE_SIGNALS)
+    assert set(f) == set(U.STRUCTURE_SIGNALS)
     assert np.allclose(f["sign of cable velocity"], W * np.sign(ldot)[:, None, :])
 
 
@@ -198,8 +261,8 @@ def test_backward_step_drops_a_redundant_pick_and_keeps_a_needed_one():
     y = Z[:, :, 0] * 1.0 + Z[:, :, 2] * 0.5 + 0.1 * zero_phase_filter(
         rng.normal(size=(n, 6)), 0.01, 4.0)
     # model columns: 0 (base), 1 (a needless pick), 2 (a needed pick), 3 (needless)
-    picks = [D.Candidate("tension_gain", 1), D.Candidate("tension_gain", 2),
-             D.Candidate("tension_gain", 3)]
+    picks = [Candidate("tension_gain", 1), Candidate("tension_gain", 2),
+             Candidate("tension_gain", 3)]
     cols = {picks[0]: [1], picks[1]: [2], picks[2]: [3]}
     train = np.ones(n, bool)
 
@@ -210,9 +273,9 @@ def test_backward_step_drops_a_redundant_pick_and_keeps_a_needed_one():
         r = yc[half:] - np.einsum("nip,p->ni", Zc[half:], b)
         return float(np.sqrt(np.mean(r * r)))
 
-    k, why, _ = D.weakest_finding(picks, Z, y, cols.__getitem__, heldout, train, 75, 0.01, 1e-4)
+    k, why, _ = S.weakest_finding(picks, Z, y, cols.__getitem__, heldout, train, 75, 0.01, 1e-4)
     assert k in (0, 2) and why
     keep = [picks[1]]
-    k2, _, _ = D.weakest_finding(keep, Z[:, :, [0, 2]], y, lambda c: [1], heldout, train, 75,
+    k2, _, _ = S.weakest_finding(keep, Z[:, :, [0, 2]], y, lambda c: [1], heldout, train, 75,
                               0.01, 1e-4)
     assert k2 is None

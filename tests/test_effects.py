@@ -28,3 +28,15 @@ def test_load_cell_friction_opposes_the_cable_motion(rng):
     assert np.allclose(f[:, 2], -2.0 * np.sign(ldot[:, 2]) - 5.0 * ldot[:, 2], atol=1e-12)
     # hauling in (dl/dt < 0): the winch-side cell reads more than the platform side gets
     assert np.all(f[ldot[:, 2] < 0, 2] > 0)
+
+
+def test_docs_effects_md_is_generated_from_the_table():
+    from pathlib import Path
+
+    from cdprid.effects import vocabulary_markdown
+
+    text = vocabulary_markdown()
+    for name in VOCABULARY:
+        assert f"| `{name}` |" in text and f"### ``{name}" in text
+    doc = Path(__file__).resolve().parents[1] / "docs" / "effects.md"
+    assert doc.read_text() == text, "regenerate docs/effects.md with vocabulary_markdown()"

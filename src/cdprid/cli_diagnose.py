@@ -8,9 +8,15 @@ __all__ = ["add_parser"]
 
 
 def _run(args) -> int:
-    from .diagnose import diagnose, save_report
+    from .diagnosis import diagnose
     from .io import read_dataset
+    from .outputs import atomic_dir, check_output, write_json
+    from .report.diagnosis import save_report
 
+    if args.json:
+        check_output(args.json, force=args.force, flag="--json")
+    if args.report:
+        check_output(args.report, force=args.force, flag="--report", kind="dir")
     ds = read_dataset(args.dataset)
 
     def progress(msg):
@@ -34,13 +40,15 @@ def _run(args) -> int:
         print(f"weight at rest ({w['n_samples']} samples): {w['raw_kg']:.4g} kg from the raw "
               f"tensions, {w['corrected_kg']:.4g} kg with the extended model's sensor "
               "corrections (compare with the identified m)")
+    for u in res.unexplained:
+        print(f"unexplained: {u['where']}: {u['size']:.3g} N rms, like {u['correlates_with']} "
+              f"(p = {u['p_value']:.2e})")
     if args.json:
-        from .cli import write_json
-
-        print(f"wrote {write_json(args.json, res.as_json())}")
+        print(f"wrote {write_json(args.json, res.as_json(), force=args.force)}")
     if args.report:
-        path = save_report(res, args.report, dataset_name=str(args.dataset))
-        print(f"wrote {path}")
+        with atomic_dir(args.report, force=args.force) as tmp:
+            save_report(res, tmp, dataset_name=str(args.dataset))
+        print(f"wrote {args.report}/report.md")
     return 0
 
 
@@ -65,4 +73,6 @@ def add_parser(sub) -> None:
                    help="greedy selection stops here (>= 1)")
     p.add_argument("--seed", type=V.nonneg_int, default=0, help="seed of the null simulation")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--force", action="store_true",
+                   help="replace an existing --json file or --report folder")
     p.set_defaults(func=_run)

@@ -1,0 +1,96 @@
+"""Stage 1 of the diagnosis: base fit, noise levels and the null model.
+
+The paper's translation model (x = [m, m s_G]) with matched filtering; force and moment rows
+weighted by the inverse of their residual RMS. The sensor noise is estimated from the data and
+drives the null residuals that calibrate the thresholds of the tests.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..differentiators import differentiate
+from ..dynamics import PARAMETER_NAMES
+from ..identification import least_squares
+from .model import meas_and_jac, regs_jit, rotvec_from_quat
+from .problem import Problem
+from .testing import estimate_noise, wald
+
+
+@dataclasses.dataclass(frozen=True)
+class BaseFit:
+    """The paper's model fitted to the data (before any effect)."""
+
+    x: np.ndarray  # (4,) m, m s_G
+    parameters: dict
+    residual_rms: list
+    residual: np.ndarray  # (n, 6) unweighted, filtered
+    y: np.ndarray  # (n, 6) filtered measured wrench at theta = 0
+    A4: np.ndarray  # (n, 6, 4)
+    A10: np.ndarray | None  # (n, 6, 10) with rotation, else None
+
+
+@dataclasses.dataclass(frozen=True)
+class NoiseLevels:
+    """Sensor noise estimated from the data, and the rotation amplitude of the motion."""
+
+    position_m: float
+    tension_N: np.ndarray  # (m,)
+    rotation_amplitude: float
+    rotation_amplitude_std: float
+
+
+def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
+    """Fit the base model; returns the problem with its row weights set, and the fit."""
+    theta0 = jnp.zeros(prob.layout.size)
+    A4 = np.asarray(regs_jit(prob.d, theta0, prob.layout, False))
+    A10 = np.asarray(regs_jit(prob.d, theta0, prob.layout, True)) if prob.has_rotation else None
+    y0 = prob.filt(np.asarray(meas_and_jac(prob.d, theta0, prob.layout)[0]))
+    train = prob.train
+    beta, *_ = np.linalg.lstsq(A4[train].reshape(-1, 4), y0[train].reshape(-1), rcond=None)
+    e = y0[train] - np.einsum("nip,p->ni", A4[train], beta)
+    sf = np.sqrt(np.mean(e[:, :3] ** 2))
+    sm = np.sqrt(np.mean(e[:, 3:] ** 2))
+    wrow = np.array([1 / sf] * 3 + [1 / sm] * 3)
+    prob = dataclasses.replace(prob, wrow=wrow)
+    names = PARAMETER_NAMES["translation"]
+    x = least_squares((A4[train] * wrow[None, :, None]).reshape(-1, 4),
+                      (y0[train] * wrow).reshape(-1), names).x
+    res = y0 - np.einsum("nij,j->ni", A4, x)
+    Zb, yb = A4 * wrow[None, :, None], y0 * wrow
+    _, _, Vb, _ = wald(Zb[train], yb[train], [0], prob.lags)
+    params = {
+        nm: {"value": float(v_), "std": float(np.sqrt(Vb[i, i])),
+             "rel_std_percent": float(100 * np.sqrt(Vb[i, i]) / abs(v_))}
+        for i, (nm, v_) in enumerate(zip(names, x, strict=True))
+    }
+    rms = [float(np.sqrt(np.mean(res[train][:, i] ** 2))) for i in range(6)]
+    return prob, BaseFit(x, params, rms, res, y0, A4, A10)
+
+
+def noise_levels(prob: Problem) -> NoiseLevels:
+    """White-noise levels of position and tensions (4th differences, MAD) and rotation size."""
+    sig_p = float(np.median(estimate_noise(prob.position)))
+    sig_tau = estimate_noise(prob.tau_grid)
+    amp = std = 0.0
+    if prob.has_rotation:
+        rv = rotvec_from_quat(prob.quaternion[prob.use])
+        amp = float(np.max(np.percentile(np.abs(rv), 99.5, axis=0)))
+        std = float(np.median(estimate_noise(rv)))
+    return NoiseLevels(sig_p, sig_tau, amp, std)
+
+
+def null_residuals(prob: Problem, noise: NoiseLevels, x, n_null: int, rng):
+    """Residual replicates of the base model under sensor noise alone, ``(n, 6)`` each."""
+    n, m, dt = prob.n, prob.m, prob.dt
+    for _ in range(n_null):
+        eta_t = rng.normal(size=(n, m)) * noise.tension_N[None, :] * math.sqrt(prob.tdt / dt)
+        eta_p = rng.normal(size=(n, 3)) * noise.position_m
+        _, acc = differentiate(eta_p, dt, method="euler-filtfilt", cutoff_hz=prob.cutoff_hz)
+        yw = prob.filt(np.einsum("nij,nj->ni", prob.W_all, eta_t))
+        ms = np.einsum("nij,j->ni", prob.R, x[1:4])  # first moment, base frame
+        yield yw - np.concatenate([x[0] * acc, np.cross(ms, acc)], axis=1)

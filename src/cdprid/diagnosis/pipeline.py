@@ -1,0 +1,202 @@
+"""``diagnose``: the stages of the diagnosis, in order.
+
+1. :func:`cdprid.diagnosis.problem.prepare` — align, differentiate, masks.
+2. :func:`cdprid.diagnosis.base.base_fit` — the paper's model, row weights, noise levels.
+3. :func:`cdprid.diagnosis.selection.forward_step` — greedy forward selection with HAC Wald
+   tests, null-calibrated thresholds and the held-out criterion, nonlinear refit each step.
+4. :func:`cdprid.diagnosis.selection.swap_stage` — a pick is replaced by a better alternative;
+   ties are aliases with what would separate them.
+5. :func:`cdprid.diagnosis.selection.backward_stage` — a finding stays only if needed given the
+   others and the unexplained structure.
+6. :func:`cdprid.diagnosis.unexplained.structure_tests` — what remains, under ``unexplained``.
+7. :func:`summarize` — extended model, held-out figures, information criterion.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
+from ..dynamics import PARAMETER_NAMES
+from ..io.dataset import Dataset
+from .base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
+from .candidates import candidate_list
+from .model import meas_and_jac
+from .problem import Problem, force_heldout_rms, prepare
+from .result import DiagnosisResult
+from .selection import Selection, backward_stage, forward_step, linear_model, start, swap_stage
+from .testing import wald
+from .unexplained import structure_features, structure_tests
+
+
+def weight_at_rest(prob: Problem, theta, min_rest_s: float = 0.5):
+    """Platform weight (kg) from the cable forces where the platform is at rest.
+
+    Rest: speed < 3 cm/s over at least ``min_rest_s`` (vibrations average out). Given
+    with the raw tensions and with the extended model's sensor corrections (offsets, gains,
+    delay), to compare with the mass identified from the motion: a common load-cell gain is
+    indistinguishable from the mass, the two must agree under the same sensor model.
+    """
+    from scipy.ndimage import minimum_filter1d
+
+    still = np.linalg.norm(prob.v, axis=1) < 0.03
+    win = max(1, int(round(min_rest_s / prob.dt)))
+    rest = minimum_filter1d(still.astype(int), size=win, mode="nearest") > 0
+    if rest.sum() < win:
+        return None
+    g = np.asarray(prob.d.robot.gravity)
+    out = {"n_samples": int(rest.sum()), "t_first": float(prob.t[rest][0])}
+    for key, th in (("raw_kg", np.zeros(prob.layout.size)), ("corrected_kg", theta)):
+        y = np.asarray(meas_and_jac(prob.d, jnp.asarray(th), prob.layout)[0])[rest]
+        out[key] = float(np.mean(-(y[:, :3] @ g)) / float(g @ g))
+    return out
+
+
+def summarize(prob: Problem, base: BaseFit, s: Selection, noise: NoiseLevels, settings: dict):
+    """Extended-model parameters, held-out force RMS (base, extended), BIC and the info dict."""
+    train, wrow, lags = prob.train, prob.wrow, prob.lags
+    Zfw, yfw, _, _ = linear_model(prob, s)
+    names = PARAMETER_NAMES["full" if s.rotational else "translation"]
+    _, beta_f, V_f, _ = wald(Zfw[train], yfw[train], [0], lags)
+    ext_params = {
+        nm: {"value": float(beta_f[i]), "std": float(np.sqrt(V_f[i, i])),
+             "rel_std_percent": float(100 * np.sqrt(V_f[i, i]) / max(abs(beta_f[i]), 1e-300))}
+        for i, nm in enumerate(names)
+    }
+    Zb, yb = base.A4 * wrow[None, :, None], base.y * wrow
+    n_eff = max(10.0, train.sum() / max(1.0, lags / 2.0))
+    e_b = yb[train] - np.einsum("nip,p->ni", Zb[train], np.linalg.lstsq(
+        Zb[train].reshape(-1, 4), yb[train].reshape(-1), rcond=None)[0])
+    e_f = yfw[train] - np.einsum("nip,p->ni", Zfw[train], beta_f)
+    bic_b = n_eff * math.log(np.mean(e_b**2)) + 4 * math.log(n_eff)
+    bic_f = n_eff * math.log(np.mean(e_f**2)) + Zfw.shape[2] * math.log(n_eff)
+    info = {
+        "n_samples": int(prob.n),
+        "n_train": int(train.sum()),
+        "n_heldout": int(prob.test.sum()) if prob.test is not None else None,
+        "heldout": ("train/test split" if prob.test is not None
+                    else f"blocked {prob.n_folds}-fold CV"),
+        "heldout_units": "N (force rows)",
+        **settings,
+        "noise_position_m": noise.position_m,
+        "noise_tension_N": [float(v) for v in noise.tension_N],
+        "rotation_amplitude_rad": noise.rotation_amplitude,
+        "n_excluded_slack": prob.n_slack,
+        "row_weights": [float(w) for w in wrow],
+        "hac_lags": lags,
+        "weight_at_rest": weight_at_rest(prob, s.theta),
+        "information_criterion": {"kind": "BIC (effective sample size)", "base": bic_b,
+                                  "extended": bic_f, "n_eff": n_eff},
+    }
+    resid = (yfw - np.einsum("nip,p->ni", Zfw, beta_f)) / wrow[None, :]
+    return ext_params, force_heldout_rms(prob, Zb, yb), force_heldout_rms(prob, Zfw, yfw), \
+        info, resid
+
+
+def diagnose(
+    ds: Dataset,
+    train_until: float | None = None,
+    cutoff_hz: float = CUTOFF_HZ,
+    trim: float = TRIM_S,
+    n_folds: int = 5,
+    alpha: float = 1e-3,
+    n_null: int = 30,
+    max_effects: int = 3,
+    min_gain: float = 0.01,
+    seed: int = 0,
+    taut_N: float = TAUT_THRESHOLD_N,
+    progress=None,
+) -> DiagnosisResult:
+    """Diagnose what the paper's model misses in a dataset.
+
+    Parameters
+    ----------
+    ds : Dataset
+    train_until : float, optional
+        Fit everything on t < train_until and measure the held-out gain on t >= train_until.
+        Without it, held-out figures are blocked cross-validation over ``n_folds`` time blocks.
+    cutoff_hz : float
+        Zero-phase filter cutoff (differentiator and matched filter).
+    trim : float
+        Seconds dropped at both ends (filter transients).
+    n_folds : int
+        Number of contiguous time blocks for held-out validation.
+    alpha : float
+        Family-wise false-positive rate (Bonferroni over all candidates, and over the
+        structure signals of ``unexplained``).
+    n_null : int
+        Null residual replicates simulated from the fitted base model to calibrate thresholds.
+    max_effects : int
+        Greedy forward selection stops after this many effects.
+    min_gain : float
+        Smallest relative held-out RMS change for an effect to be accepted, kept or swapped.
+    seed : int
+        Seed of the null simulation.
+    taut_N : float
+        Samples where any cable is below this tension (N) within +-0.1 s are excluded.
+    progress : callable, optional
+        Called with progress strings.
+
+    Returns
+    -------
+    DiagnosisResult
+    """
+    t0 = time.perf_counter()
+
+    def say(msg):
+        if progress is not None:
+            progress(f"[{time.perf_counter() - t0:6.1f} s] {msg}")
+
+    prob = prepare(ds, train_until, cutoff_hz, trim, n_folds, taut_N)
+    say(f"aligned {prob.n} samples at {1 / prob.dt:.4g} Hz; {int(prob.train.sum())} used for "
+        "fitting" + (f" ({prob.n_slack} samples with a cable below {taut_N:g} N excluded)"
+                     if prob.n_slack else ""))
+    prob, base = base_fit(prob)
+    say(f"base fit: m = {base.x[0]:.4f} kg, force residual rms "
+        f"{np.sqrt(np.mean(np.square(base.residual_rms[:3]))):.3f} N")
+    noise = noise_levels(prob)
+    say(f"noise estimated from the data: position {1e3 * noise.position_m:.3f} mm, tensions "
+        f"{np.mean(noise.tension_N):.3f} N (rms over cables)")
+    axes = np.asarray(prob.d.robot.pulley_axis, float)
+    extra = {"rotation_amplitude": noise.rotation_amplitude,
+             "rotation_amplitude_std": noise.rotation_amplitude_std,
+             "pulley_axis": axes[0] if np.allclose(axes, axes[0]) else axes}
+    rng = np.random.default_rng(seed)
+    candidates = candidate_list(prob.m, prob.has_rotation, prob.d.robot)
+    s = start(prob, base)
+    ranking, thr_first = [], alpha / len(candidates)
+    for step in range(1, max_effects + 1):
+        nulls = null_residuals(prob, noise, s.x[:4], n_null, rng)
+        nxt, rank, thr = forward_step(prob, base, s, candidates, nulls, alpha, min_gain, extra,
+                                      say, step)
+        if step == 1:
+            ranking, thr_first = rank, thr
+        if nxt is None:
+            break
+        s = nxt
+    s = swap_stage(prob, s, candidates, min_gain, extra, say)
+    feats = {k: prob.filt(F) * prob.wrow[None, :, None] for k, F in structure_features(
+        prob.W_all, prob.v, prob.om, prob.tension, prob.position, prob.t, prob.use).items()}
+    s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
+    Z, y, _, _ = linear_model(prob, s)
+    train = prob.train
+    struct = structure_tests({k: F[train] for k, F in feats.items()}, Z[train], y[train],
+                             prob.wrow, prob.lags, alpha)
+    unexplained = [u for u in struct if u["significant"]] + hints
+    for u in unexplained:
+        say(f"unexplained: {u['where']}, {u['size']:.3g} N, like {u['correlates_with']}, "
+            f"p = {u['p_value']:.2e}")
+    settings = {"train_until": train_until, "taut_threshold_N": taut_N,
+                "n_candidates": len(candidates), "alpha": alpha}
+    ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, settings)
+    info["wall_time_s"] = time.perf_counter() - t0
+    arrays = {"t": prob.t, "residual_base": base.residual, "residual_extended": resid,
+              "velocity": prob.v, "acceleration": prob.a, "tension": prob.tension,
+              "position": prob.position, "train": prob.train, "use": prob.use}
+    say(f"done in {info['wall_time_s']:.1f} s: {len(s.findings)} finding(s)")
+    return DiagnosisResult(base.parameters, base.residual_rms, base_ho, list(s.findings),
+                           ext_params, ext_ho, ranking, info, arrays, unexplained=unexplained)

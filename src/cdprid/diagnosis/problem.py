@@ -1,0 +1,206 @@
+"""Stage 0 of the diagnosis: the aligned data, masks, matched filter and held-out error.
+
+:func:`prepare` turns a dataset into a :class:`Problem` (frozen) that every later stage
+reads; :func:`design` linearises the forward model at theta; :func:`heldout_rms` is the one
+held-out criterion of every selection step.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from scipy.ndimage import minimum_filter1d
+
+from ..defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
+from ..differentiators import differentiate, zero_phase_filter
+from ..errors import UserError
+from ..io.dataset import Dataset, align
+from ..regression import wrench_matrices
+from ..rotations import quat_to_matrix
+from .model import DiagData, ThetaLayout, meas_and_jac, model_jac_jit, model_jit, regs_jit
+from .testing import blocks, cv_sse
+
+
+@dataclasses.dataclass(frozen=True)
+class Problem:
+    """Everything the stages share: data in JAX form, masks, filter settings, row weights."""
+
+    d: DiagData
+    layout: ThetaLayout
+    t: np.ndarray
+    position: np.ndarray
+    quaternion: np.ndarray
+    tension: np.ndarray  # (n, m) at the pose times
+    tau_grid: np.ndarray
+    R: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    om: np.ndarray
+    W_all: np.ndarray  # (n, 6, m) nominal wrench matrices
+    has_rotation: bool
+    dt: float
+    tdt: float
+    cutoff_hz: float
+    use: np.ndarray
+    train: np.ndarray
+    test: np.ndarray | None
+    n_slack: int
+    n_folds: int
+    lags: int
+    wrow: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(6))
+
+    @property
+    def n(self) -> int:
+        """Number of aligned samples."""
+        return len(self.t)
+
+    @property
+    def m(self) -> int:
+        """Number of cables."""
+        return self.layout.m
+
+    def filt(self, x):
+        """Matched filter (zero-phase Butterworth, order 2) along time of ``(n, ...)``."""
+        x = np.asarray(x)
+        y = zero_phase_filter(x.reshape(x.shape[0], -1), self.dt, self.cutoff_hz, 2)
+        return y.reshape(x.shape)
+
+
+def _motion(sig, cutoff_hz):
+    dt = sig.dt
+    v, a = differentiate(sig.position, dt, method="euler-filtfilt", cutoff_hz=cutoff_hz)
+    R = np.asarray(jax.vmap(quat_to_matrix)(sig.quaternion))
+    if sig.has_rotation:
+        from ..rotations import angular_rates_from_quat
+
+        qd, qdd = differentiate(sig.quaternion, dt, method="euler-filtfilt", cutoff_hz=cutoff_hz)
+        om, al = (np.asarray(z) for z in
+                  jax.vmap(angular_rates_from_quat)(sig.quaternion, qd, qdd))
+    else:
+        om = np.zeros_like(v)
+        al = np.zeros_like(v)
+    return v, a, R, om, al
+
+
+def _tension_grid(ds: Dataset, m: int):
+    """The raw tension stream on a uniform grid (for the fractional delay)."""
+    tt = ds.tension_t
+    tdt = float(np.median(np.diff(tt)))
+    if np.max(np.abs(np.diff(tt) - tdt)) > 0.01 * tdt:
+        grid_t = np.arange(tt[0], tt[-1], tdt)
+        tau_grid = np.column_stack([np.interp(grid_t, tt, ds.tension[:, i]) for i in range(m)])
+        return grid_t, tau_grid, tdt
+    return tt, ds.tension, tdt
+
+
+def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CUTOFF_HZ,
+            trim: float = TRIM_S, n_folds: int = 5, taut_N: float = TAUT_THRESHOLD_N
+            ) -> Problem:
+    """Align the streams, differentiate, build the forward-model data and the masks.
+
+    Samples are used when inside the trimmed recording (and the delay margin of the tension
+    stream) and when every cable is above ``taut_N`` within +-0.1 s (slack phases are outside
+    every model here). With ``train_until``, t < train_until is fitted and the rest held out;
+    otherwise held-out figures are blocked cross-validation over ``n_folds`` time blocks.
+
+    Raises
+    ------
+    UserError
+        ``train_until`` leaves too few training or held-out samples.
+    """
+    sig = align(ds)
+    robot = ds.robot
+    m = robot.n_cables
+    dt = sig.dt
+    v, a, R, om, al = _motion(sig, cutoff_hz)
+    grid_t, tau_grid, tdt = _tension_grid(ds, m)
+    W_all = np.asarray(jax.jit(wrench_matrices)(robot, jnp.asarray(sig.position),
+                                                 jnp.asarray(R)))
+    ldot = -np.einsum("nim,ni->nm", W_all, np.concatenate([v, om], axis=1))
+    d = DiagData(robot, jnp.asarray(sig.t), jnp.asarray(sig.position), jnp.asarray(R),
+                 jnp.asarray(v), jnp.asarray(a), jnp.asarray(om), jnp.asarray(al),
+                 jnp.asarray(tau_grid), jnp.asarray(ldot), float(grid_t[0]), tdt)
+    margin = max(trim, 0.1)
+    use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
+           & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))
+    win = 2 * int(round(0.1 / dt)) + 1
+    taut = minimum_filter1d(sig.tension.min(axis=1), size=win, mode="nearest") > taut_N
+    n_slack = int((use & ~taut).sum())
+    use = use & taut
+    test = None
+    train = use
+    if train_until is not None:
+        train = use & (sig.t < train_until)
+        test = use & (sig.t >= train_until)
+        if train.sum() < 200 or test.sum() < 50:
+            raise UserError(
+                f"--train-until {train_until:g} leaves {int(train.sum())} training and "
+                f"{int(test.sum())} held-out samples; choose a time inside the recording."
+            )
+    return Problem(
+        d=d, layout=ThetaLayout(m), t=sig.t, position=sig.position, quaternion=sig.quaternion,
+        tension=sig.tension, tau_grid=np.asarray(tau_grid), R=R, v=v, a=a, om=om, W_all=W_all,
+        has_rotation=bool(sig.has_rotation), dt=dt, tdt=tdt, cutoff_hz=cutoff_hz, use=use,
+        train=train, test=test, n_slack=n_slack, n_folds=n_folds,
+        lags=int(math.ceil(3.0 / (cutoff_hz * dt))),  # correlation length, filtered residual
+    )
+
+
+def design(prob: Problem, theta, x_cur, rotational: bool):
+    """Filtered measured wrench y, model regressor A and theta columns C at theta.
+
+    Linearisation: ``y(theta') - model(theta') ~ y - A x - C (theta' - theta)``. The cable side
+    and its theta-Jacobian are jitted once (the data are an argument); the matched filter is
+    applied along time after (linear, so filtering the Jacobian equals the Jacobian of the
+    filtered side).
+    """
+    d, layout = prob.d, prob.layout
+    th = jnp.asarray(theta)
+    xin = jnp.asarray(x_cur if rotational else x_cur[:4])
+    ym, Jm = meas_and_jac(d, th, layout)
+    ym = prob.filt(ym)
+    Jm = prob.filt(Jm)  # (n, 6, ntheta)
+    Jmod = np.asarray(model_jac_jit(d, th, xin, layout, rotational))
+    Am = np.asarray(regs_jit(d, th, layout, rotational))
+    mod = np.asarray(model_jit(d, th, xin, layout, rotational))
+    y_now = ym - (mod - np.einsum("nij,j->ni", Am, np.asarray(xin)))
+    return y_now, Am, Jmod - Jm
+
+
+def heldout_rms(prob: Problem, Z, y) -> float:
+    """Held-out RMS (weighted units): blocked CV over the used samples, or train/test split."""
+    if prob.test is None:
+        use = prob.use
+        sse, cnt = cv_sse(Z[use], y[use], blocks(int(use.sum()), prob.n_folds), prob.lags)
+        return math.sqrt(sse / cnt)
+    p = Z.shape[2]
+    beta, *_ = np.linalg.lstsq(Z[prob.train].reshape(-1, p), y[prob.train].reshape(-1),
+                               rcond=None)
+    r = y[prob.test] - np.einsum("nip,p->ni", Z[prob.test], beta)
+    return float(np.sqrt(np.mean(r * r)))
+
+
+def force_heldout_rms(prob: Problem, Z, y) -> float:
+    """Held-out RMS of the force rows in newtons (weighted fit, unweighted residual)."""
+    wrow = prob.wrow
+    p = Z.shape[2]
+    if prob.test is None:
+        tot, cnt = 0.0, 0
+        idx = np.nonzero(prob.use)[0]
+        for lo, hi in blocks(len(idx), prob.n_folds):
+            tr = np.ones(len(idx), bool)
+            tr[max(0, lo - prob.lags):hi + prob.lags] = False
+            beta, *_ = np.linalg.lstsq(Z[idx[tr]].reshape(-1, p), y[idx[tr]].reshape(-1),
+                                       rcond=None)
+            r = (y[idx[lo:hi]] - np.einsum("nip,p->ni", Z[idx[lo:hi]], beta)) / wrow[None, :]
+            tot += float(np.sum(r[:, :3] ** 2))
+            cnt += r[:, :3].size
+        return math.sqrt(tot / cnt)
+    beta, *_ = np.linalg.lstsq(Z[prob.train].reshape(-1, p), y[prob.train].reshape(-1),
+                               rcond=None)
+    r = (y[prob.test] - np.einsum("nip,p->ni", Z[prob.test], beta)) / wrow[None, :]
+    return float(np.sqrt(np.mean(r[:, :3] ** 2)))

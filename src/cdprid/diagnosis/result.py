@@ -1,0 +1,74 @@
+"""Result types of the diagnosis (frozen; ``as_json`` is the CLI's JSON contract)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+
+@dataclasses.dataclass(frozen=True)
+class Finding:
+    """One accepted effect."""
+
+    effect: str
+    parameters: dict
+    interval: dict
+    aliases: list
+    heldout_rms_before: float
+    heldout_rms_after: float
+    p_value: float
+    statistic: float
+    threshold: float
+    #: alias label -> what trajectory or measurement would tell the two apart
+    separated_by: dict = dataclasses.field(default_factory=dict)
+
+    def as_json(self) -> dict:
+        return {
+            "effect": self.effect,
+            "parameters": self.parameters,
+            "interval": self.interval,
+            "aliases": self.aliases,
+            "heldout_rms_before": self.heldout_rms_before,
+            "heldout_rms_after": self.heldout_rms_after,
+            "p_value": self.p_value,
+            "statistic": self.statistic,
+            "threshold": self.threshold,
+            "separated_by": self.separated_by,
+        }
+
+
+@dataclasses.dataclass(frozen=True)
+class DiagnosisResult:
+    """Everything :func:`diagnose` found; ``as_json()`` is the CLI's JSON contract."""
+
+    base_parameters: dict
+    base_residual_rms: list
+    base_heldout_rms: float
+    findings: list
+    extended_parameters: dict
+    extended_heldout_rms: float
+    ranking: list
+    info: dict
+    arrays: dict = dataclasses.field(default_factory=dict, repr=False)
+    #: residual structure the extended model leaves, and hints (vocabulary effects removed
+    #: by backward elimination): ``where``, ``size`` (N), ``correlates_with``, ``p_value``
+    unexplained: list = dataclasses.field(default_factory=list)
+
+    def as_json(self) -> dict:
+        return {
+            "base": {
+                "parameters": self.base_parameters,
+                "residual_rms": self.base_residual_rms,
+                "heldout_residual_rms": self.base_heldout_rms,
+            },
+            "findings": [f.as_json() for f in self.findings],
+            "extended": {
+                "parameters": self.extended_parameters,
+                "heldout_residual_rms": self.extended_heldout_rms,
+                "effects": [f.effect for f in self.findings],
+                "information_criterion": self.info.get("information_criterion", {}),
+            },
+            "unexplained": [{k: v for k, v in u.items() if k != "significant"}
+                            for u in self.unexplained],
+            "ranking": self.ranking,
+            "info": {k: v for k, v in self.info.items() if k != "information_criterion"},
+        }

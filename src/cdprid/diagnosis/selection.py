@@ -1,0 +1,369 @@
+"""Stage 3 and 5 of the diagnosis: model selection that can take back a pick.
+
+Swap (replace a finding by a better alternative) and backward elimination (a finding stays
+only if removing it worsens held-out prediction given the others), with the same held-out
+criterion as the forward steps.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+from scipy import stats
+
+from .base import BaseFit
+from .candidates import (
+    Candidate,
+    alias_label,
+    implausible,
+    separated_by,
+    swap_alternatives,
+    vocab_interval,
+    vocab_params,
+)
+from .model import ThetaLayout
+from .problem import Problem, design, heldout_rms
+from .refit import refit_gauss_newton
+from .result import Finding
+from .testing import aliases_of, partial_wald, partial_wald_many
+from .unexplained import structure_tests
+
+
+def finding_columns(c: Candidate, layout: ThetaLayout, active_idx: list, n_model: int) -> list:
+    """Columns of the linearised extended model ``[A, C_active]`` that belong to a finding."""
+    if c.effect == "rotational_dynamics":
+        return list(range(4, n_model))
+    idx = layout.candidate_indices(c.effect, c.cable)
+    return [n_model + active_idx.index(i) for i in idx]
+
+
+def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int,
+                    min_gain: float, thr_p: float):
+    """Backward step: the finding whose removal hurts held-out prediction least, if it fails.
+
+    A finding stays when removing it (given every other column of ``Z``: the other
+    findings, and the unexplained structure when there is one) worsens the held-out RMS by
+    more than ``min_gain`` (relative) AND its HAC Wald test given the others passes
+    ``thr_p``. Returns ``(index, reason, p)`` of the worst failing finding (p: its Wald
+    p-value given the others), or ``(None, '', 1.0)``.
+    """
+    p = Z.shape[2]
+    rms_full = heldout_rms(Z, y)
+    worst, worst_gain, reason, worst_p = None, np.inf, "", 1.0
+    for k, c in enumerate(accepted):
+        cols = cols_of(c)
+        rest = [j for j in range(p) if j not in cols]
+        rms_minus = heldout_rms(Z[:, :, rest], y)
+        gain = 1.0 - rms_full / rms_minus
+        Zr = Z[train][:, :, rest]
+        Q = np.linalg.qr(Zr.reshape(-1, len(rest)))[0]
+        ntr = Zr.shape[0]
+        Ct = Z[train][:, :, cols].reshape(-1, len(cols))
+        Ct = (Ct - Q @ (Q.T @ Ct)).reshape(ntr, 6, -1)
+        yt = y[train].reshape(-1, 1)
+        yt = (yt - Q @ (Q.T @ yt)).reshape(ntr, 6)
+        stat, _, _ = partial_wald(Ct, yt, lags)
+        pv = float(stats.chi2.sf(stat, len(cols)))
+        fails = gain < min_gain or not pv < thr_p
+        if fails and gain < worst_gain:
+            worst, worst_gain, worst_p = k, gain, pv
+            reason = (f"{c.label}: removing it changes the held-out rms by {100 * gain:.2f} % "
+                      f"(p = {pv:.2e}) given the others")
+    return worst, reason, worst_p
+
+
+def best_swap(accepted: list, alts: dict, Z, y, cols_of, alt_cols, heldout_rms,
+              min_gain: float):
+    """Swap step: replace one finding by an alternative when that predicts held-out better.
+
+    Returns ``(k, alternative, ties)``: the finding index and its better replacement (or
+    ``None``), and for every finding the alternatives within ``min_gain`` of it (the data
+    cannot tell them apart: reported as aliases).
+    """
+    p = Z.shape[2]
+    rms_now = heldout_rms(Z, y)
+    best, best_rms = (None, None), rms_now * (1.0 - min_gain)
+    ties = {}
+    for k, c in enumerate(accepted):
+        if c.effect == "rotational_dynamics":
+            continue
+        rest = [j for j in range(p) if j not in cols_of(c)]
+        ties[c] = []
+        for a in alts[c]:
+            r = heldout_rms(np.concatenate([Z[:, :, rest], alt_cols(a)], axis=2), y)
+            if r < best_rms:
+                best, best_rms = (k, a), r
+            elif r < rms_now * (1.0 + min_gain):
+                ties[c].append(a)
+    return best[0], best[1], ties
+
+
+# ----------------------------------------------------------------------------- stages
+
+
+@dataclasses.dataclass(frozen=True)
+class Selection:
+    """The current extended model: effect parameters, x, and the findings behind them."""
+
+    theta: np.ndarray
+    x: np.ndarray  # (10,) m, m s_G, inertia (the last six used only when rotational)
+    rotational: bool
+    active_idx: tuple
+    accepted: tuple  # Candidate, one per finding
+    findings: tuple  # Finding
+    th_cov: np.ndarray
+
+
+def start(prob: Problem, base: BaseFit) -> Selection:
+    """The base model as a selection without findings."""
+    size = prob.layout.size
+    return Selection(np.zeros(size), np.concatenate([base.x, np.zeros(6)]), False, (), (), (),
+                     np.zeros((size, size)))
+
+
+def linear_model(prob: Problem, s: Selection):
+    """Weighted columns ``[A, C_active]``, target, number of model columns, all columns C."""
+    y_now, Am, C = design(prob, s.theta, s.x, s.rotational)
+    ai = list(s.active_idx)
+    Ca = C[:, :, ai]
+    Z = np.concatenate([Am, Ca], axis=2) * prob.wrow[None, :, None]
+    y = (y_now + np.einsum("nij,j->ni", Ca, s.theta[ai])) * prob.wrow
+    return Z, y, Am.shape[2], C
+
+
+def refit(prob: Problem, s: Selection, theta=None, active_idx=None, rotational=None,
+          x=None) -> Selection:
+    """Nonlinear refit (Gauss-Newton) of the active effects with x, from the given start."""
+    theta = s.theta if theta is None else theta
+    active = list(s.active_idx if active_idx is None else active_idx)
+    rot = s.rotational if rotational is None else rotational
+    x0 = s.x if x is None else x
+    theta, x_new, th_cov = refit_gauss_newton(functools.partial(design, prob), theta, x0,
+                                              active, rot, prob.wrow, prob.train, prob.lags)
+    return dataclasses.replace(s, theta=theta, x=x_new, rotational=rot,
+                               active_idx=tuple(active), th_cov=th_cov)
+
+
+def with_vocabulary(prob: Problem, s: Selection, extra: dict) -> Selection:
+    """Findings' parameters and intervals recomputed from the current theta."""
+    std = np.sqrt(np.clip(np.diag(s.th_cov), 0, None))
+    fs = tuple(dataclasses.replace(
+        f, parameters=vocab_params(c, s.theta, prob.layout, extra, s.th_cov),
+        interval=vocab_interval(c, s.theta, std, prob.layout, extra))
+        for c, f in zip(s.accepted, s.findings, strict=True))
+    return dataclasses.replace(s, findings=fs)
+
+
+def candidate_columns(prob: Problem, base: BaseFit, s: Selection, C, candidates) -> dict:
+    """Weighted linearised columns of every candidate not yet in the model."""
+    out = {}
+    for c in candidates:
+        if c in s.accepted:
+            continue
+        if c.effect == "rotational_dynamics":
+            if s.rotational:
+                continue
+            K = np.einsum("nij,j->ni", base.A10[:, :, :4] - base.A4, s.x[:4])[:, :, None]
+            cols = np.concatenate([K, base.A10[:, :, 4:]], axis=2)
+        else:
+            cols = C[:, :, prob.layout.candidate_indices(c.effect, c.cable)]
+        out[c] = cols * prob.wrow[None, :, None]
+    return out
+
+
+def score_step(prob: Problem, Zbase, y_target, cand_cols: dict, null_gen, alpha: float,
+               n_tests: int):
+    """Wald statistics of every candidate (base partialled out) and the step's threshold.
+
+    The threshold is the stricter of Bonferroni and the alpha-quantile of the smallest
+    p-value over candidates on the null replicates. Returns ``(scored, pcols, yt, thr_p)``,
+    ``scored`` sorted best first as ``(p, candidate, stat, dof, beta)``.
+    """
+    train = prob.train
+    Q = np.linalg.qr(Zbase[train].reshape(-1, Zbase.shape[2]))[0]
+    ntr = int(train.sum())
+
+    def partial(M):
+        M2 = M.reshape(ntr * 6, -1)
+        return (M2 - Q @ (Q.T @ M2)).reshape(ntr, 6, -1)
+
+    yt = partial(y_target[train])[:, :, 0]
+    pcols = {c: partial(cols[train]) for c, cols in cand_cols.items()}
+    scored = []
+    for c, Ct in pcols.items():
+        stat, beta, _ = partial_wald(Ct, yt, prob.lags)
+        scored.append((float(stats.chi2.sf(stat, Ct.shape[2])), c, stat, Ct.shape[2], beta))
+    scored.sort(key=lambda r: (r[0], -r[2]))
+    Yn = [partial((e * prob.wrow)[train])[:, :, 0] for e in null_gen]
+    thr_p = alpha / n_tests
+    if Yn:
+        Yn = np.stack(Yn, axis=-1)
+        null_p = np.ones(Yn.shape[-1])
+        for Ct in pcols.values():
+            st = partial_wald_many(Ct, Yn, prob.lags)
+            null_p = np.minimum(null_p, stats.chi2.sf(st, Ct.shape[2]))
+        thr_p = min(thr_p, float(np.quantile(null_p, alpha)))
+    return scored, pcols, yt, thr_p
+
+
+def try_candidate(prob: Problem, s: Selection, c, beta, rms_before: float, min_gain: float,
+                  extra: dict):
+    """Add one candidate, refit, and check plausibility and the held-out gain after the refit.
+
+    Returns ``(selection, parameters, rms_after, '')`` or ``(None, None, nan, reason)``.
+    """
+    layout = prob.layout
+    if c.effect == "rotational_dynamics":
+        t = refit(prob, s, rotational=True)
+    else:
+        idx = layout.candidate_indices(c.effect, c.cable)
+        theta = s.theta.copy()
+        theta[idx] = beta[:len(idx)]
+        t = refit(prob, s, theta=theta, active_idx=sorted(set(s.active_idx) | set(idx)))
+    vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
+    why = implausible(c.effect, vocab)
+    if why:
+        return None, None, float("nan"), f"refits to an implausible value ({why})"
+    Z, y, _, _ = linear_model(prob, t)
+    rms_after = heldout_rms(prob, Z, y)
+    if rms_after > rms_before * (1 - min_gain):
+        return None, None, rms_after, (f"after the nonlinear refit improves the held-out "
+                                       f"residual too little ({rms_before:.4f} -> "
+                                       f"{rms_after:.4f})")
+    return t, vocab, rms_after, ""
+
+
+def forward_step(prob, base, s, candidates, null_gen, alpha, min_gain, extra, say, step):
+    """One greedy forward step; returns ``(selection or None, ranking, thr_p)``."""
+    n_tests = len(candidates)
+    Zbase, y_target, _, C = linear_model(prob, s)
+    rms_before = heldout_rms(prob, Zbase, y_target)
+    cand_cols = candidate_columns(prob, base, s, C, candidates)
+    say(f"step {step}: testing {len(cand_cols)} candidates, thresholds from null replicates "
+        "simulated from the fitted base model")
+    scored, pcols, yt, thr_p = score_step(prob, Zbase, y_target, cand_cols, null_gen, alpha,
+                                          n_tests)
+    ranking = [{"candidate": c.label, "statistic": float(st), "dof": int(q),
+                "p_value": float(p), "p_bonferroni": float(min(1.0, p * n_tests))}
+               for p, c, st, q, _ in scored[:15]]
+    for p_best, c, stat, q, beta in scored[:6]:
+        say(f"step {step}: best candidate {c.label}: statistic {stat:.1f} (dof {q}), "
+            f"p = {p_best:.2e}, threshold p < {thr_p:.2e}")
+        if not p_best < thr_p:
+            break
+        rms_lin = heldout_rms(prob, np.concatenate([Zbase, cand_cols[c]], axis=2), y_target)
+        if rms_lin > rms_before * (1 - min_gain):
+            say(f"step {step}: {c.label} does not improve the held-out residual enough "
+                f"({rms_before:.4f} -> {rms_lin:.4f}); stop")
+            break
+        t, vocab, rms_after, why = try_candidate(prob, s, c, beta, rms_before, min_gain, extra)
+        if t is None:
+            say(f"step {step}: {c.label} {why}; rejected, trying the next candidate")
+            continue
+        std = np.sqrt(np.clip(np.diag(t.th_cov), 0, None))
+        f = Finding(effect=c.vocabulary_effect, parameters=vocab,
+                    interval=vocab_interval(c, t.theta, std, prob.layout, extra),
+                    aliases=aliases_of(c, [(r[0], r[1], r[2]) for r in scored], pcols),
+                    heldout_rms_before=float(rms_before), heldout_rms_after=float(rms_after),
+                    p_value=float(min(1.0, p_best * n_tests)), statistic=float(stat),
+                    threshold=float(thr_p))
+        say(f"step {step}: accepted {c.label}: {vocab}; held-out rms {rms_before:.4f} -> "
+            f"{rms_after:.4f} (weighted units)")
+        return (dataclasses.replace(t, accepted=t.accepted + (c,), findings=t.findings + (f,)),
+                ranking, thr_p)
+    return None, ranking, thr_p
+
+
+def swap_stage(prob: Problem, s: Selection, candidates, min_gain: float, extra: dict, say):
+    """Replace findings by better alternatives; ties within ``min_gain`` become aliases."""
+    layout = prob.layout
+    ties: dict = {}
+    for _ in range(len(s.accepted)):
+        Z, y, n_model, C = linear_model(prob, s)
+        cols_of = functools.partial(finding_columns, layout=layout,
+                                    active_idx=list(s.active_idx), n_model=n_model)
+        alts = {c: swap_alternatives(c, candidates, list(s.accepted)) for c in s.accepted}
+
+        def alt_cols(a, C=C):
+            return C[:, :, layout.candidate_indices(a.effect, a.cable)] * prob.wrow[None, :, None]
+
+        k, alt, ties = best_swap(list(s.accepted), alts, Z, y, cols_of, alt_cols,
+                                 functools.partial(heldout_rms, prob), min_gain)
+        if k is None:
+            break
+        old = s.accepted[k]
+        idx_old = layout.candidate_indices(old.effect, old.cable)
+        theta = s.theta.copy()
+        theta[idx_old] = 0.0
+        active = sorted((set(s.active_idx) - set(idx_old))
+                        | set(layout.candidate_indices(alt.effect, alt.cable)))
+        t = refit(prob, s, theta=theta, active_idx=active)
+        if implausible(alt.effect, vocab_params(alt, t.theta, layout, extra, t.th_cov)):
+            break
+        say(f"swap: {old.label} -> {alt.label} predicts the held-out data better")
+        f = s.findings[k]
+        f = dataclasses.replace(f, effect=alt.vocabulary_effect,
+                                aliases=sorted(set(f.aliases) | {alias_label(old)}))
+        s = dataclasses.replace(
+            t, accepted=s.accepted[:k] + (alt,) + s.accepted[k + 1:],
+            findings=s.findings[:k] + (f,) + s.findings[k + 1:])
+    s = with_vocabulary(prob, s, extra)
+    fs = tuple(dataclasses.replace(
+        f, aliases=sorted(set(f.aliases) | {alias_label(a) for a in ties.get(c, [])}),
+        separated_by={**f.separated_by, **{alias_label(a): separated_by(c.effect, a.effect)
+                                           for a in ties.get(c, [])}})
+        for c, f in zip(s.accepted, s.findings, strict=True))
+    return dataclasses.replace(s, findings=fs)
+
+
+def backward_stage(prob: Problem, s: Selection, feats: dict, alpha: float, min_gain: float,
+                   thr_p: float, extra: dict, say):
+    """Backward elimination given the others and the unexplained structure.
+
+    Returns the selection and the hints (findings removed because an unexplained structure
+    explains them better) for ``unexplained``.
+    """
+    train, use, wrow = prob.train, prob.use, prob.wrow
+    hints = []
+    while s.accepted:
+        Z, y, n_model, _ = linear_model(prob, s)
+        struct = structure_tests({k: F[train] for k, F in feats.items()}, Z[train], y[train],
+                                 wrow, prob.lags, alpha)
+        sig_names = [u["correlates_with"] for u in struct if u["significant"]]
+        Zs = np.concatenate([Z] + [feats[k] for k in sig_names], axis=2)
+        cols_of = functools.partial(finding_columns, layout=prob.layout,
+                                    active_idx=list(s.active_idx), n_model=n_model)
+        k, why, p_given = weakest_finding(list(s.accepted), Zs, y, cols_of,
+                                          functools.partial(heldout_rms, prob), train,
+                                          prob.lags, min_gain, thr_p)
+        if k is None:
+            break
+        c, f = s.accepted[k], s.findings[k]
+        say(f"backward elimination: {why}; removed")
+        if sig_names:  # a vocabulary effect that only fits part of a structure: a hint
+            cols = cols_of(c)
+            b, *_ = np.linalg.lstsq(Zs[train].reshape(-1, Zs.shape[2]), y[train].reshape(-1),
+                                    rcond=None)
+            part = np.einsum("nip,p->ni", Zs[use][:, :, cols], b[cols]) / wrow[None, :]
+            hints.append({
+                "where": c.label, "size": float(np.sqrt(np.mean(part[:, :3] ** 2))),
+                "correlates_with": f"the vocabulary effect {c.effect} {f.parameters} fits part "
+                "of the residual but is not needed given the other findings and the "
+                "unexplained structure (" + ", ".join(sig_names) + ")",
+                "p_value": p_given})
+        theta, x = s.theta.copy(), s.x.copy()
+        rot, active = s.rotational, list(s.active_idx)
+        if c.effect == "rotational_dynamics":
+            rot = False
+            x[4:] = 0.0
+        else:
+            idx = prob.layout.candidate_indices(c.effect, c.cable)
+            theta[idx] = 0.0
+            active = [i for i in active if i not in idx]
+        t = refit(prob, s, theta=theta, active_idx=active, rotational=rot, x=x)
+        s = with_vocabulary(prob, dataclasses.replace(
+            t, accepted=s.accepted[:k] + s.accepted[k + 1:],
+            findings=s.findings[:k] + s.findings[k + 1:]), extra)
+    return s, hints

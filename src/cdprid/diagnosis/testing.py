@@ -1,0 +1,142 @@
+"""Stage 2 of the diagnosis: statistics (HAC Wald tests, blocked held-out error, noise).
+
+The HAC covariance is :func:`cdprid.covariance.hac_covariance` with a fixed Bartlett window of
+``lags + 1`` samples (the correlation length of the matched-filtered residual).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..covariance import hac_covariance
+
+
+def hac_cov(Z, e, lags: int):
+    """Sandwich covariance of LS coefficients, Newey-West (Bartlett) HAC over time samples.
+
+    Z : (n, 6, p) design rows grouped by sample; e : (n, 6) residuals; lags up to ``lags``
+    get the Bartlett weights ``1 - j / (lags + 1)``. This is
+    :func:`cdprid.covariance.hac_covariance` with the window ``lags + 1``.
+    """
+    return hac_covariance(Z, e, bandwidth=int(lags) + 1)[0]
+
+
+def wald(Z, y, idx_extra, lags):
+    """LS of y on Z, Wald statistic of the coefficients idx_extra with HAC covariance."""
+    n, _, p = Z.shape
+    Zf = Z.reshape(-1, p)
+    beta, *_ = np.linalg.lstsq(Zf, y.reshape(-1), rcond=None)
+    e = y - np.einsum("nip,p->ni", Z, beta)
+    V = hac_cov(Z, e, lags)
+    b = beta[idx_extra]
+    Vb = V[np.ix_(idx_extra, idx_extra)]
+    try:
+        stat = float(b @ np.linalg.solve(Vb, b))
+    except np.linalg.LinAlgError:
+        stat = 0.0
+    return stat, beta, V, e
+
+
+def blocks(n: int, k: int):
+    """``k`` contiguous (lo, hi) index blocks covering ``range(n)``."""
+    edges = np.linspace(0, n, k + 1).astype(int)
+    return [(edges[i], edges[i + 1]) for i in range(k)]
+
+
+def cv_sse(Z, y, folds, guard):
+    """Blocked held-out sum of squared residuals of the LS of y on Z."""
+    n = Z.shape[0]
+    sse = 0.0
+    count = 0
+    p = Z.shape[2]
+    for lo, hi in folds:
+        train = np.ones(n, bool)
+        train[max(0, lo - guard):min(n, hi + guard)] = False
+        Zt = Z[train].reshape(-1, p)
+        beta, *_ = np.linalg.lstsq(Zt, y[train].reshape(-1), rcond=None)
+        r = y[lo:hi] - np.einsum("nip,p->ni", Z[lo:hi], beta)
+        sse += float(np.sum(r * r))
+        count += r.size
+    return sse, count
+
+
+def estimate_noise(x, order: int = 4) -> np.ndarray:
+    """White-noise standard deviation of each column of a smooth signal plus noise.
+
+    The ``order``-th difference of white noise of variance s^2 has variance
+    ``C(2 order, order) s^2`` while a smooth signal's is negligible at 100 Hz; a median
+    absolute deviation keeps it robust.
+    """
+    x = np.asarray(x, float)
+    d = np.diff(x, n=order, axis=0)
+    c = math.comb(2 * order, order)
+    mad = np.median(np.abs(d - np.median(d, axis=0)), axis=0) * 1.4826
+    return mad / math.sqrt(c)
+
+
+def partial_wald(Ct, yt, lags):
+    """Wald statistic (HAC) of the LS of yt on Ct, both already partialled on the base model."""
+    q = Ct.shape[2]
+    Cf = Ct.reshape(-1, q)
+    G = Cf.T @ Cf
+    try:
+        beta = np.linalg.solve(G, Cf.T @ yt.reshape(-1))
+    except np.linalg.LinAlgError:
+        return 0.0, np.zeros(q), np.eye(q)
+    e = yt - np.einsum("niq,q->ni", Ct, beta)
+    V = hac_cov(Ct, e, lags)
+    try:
+        stat = float(beta @ np.linalg.solve(V, beta))
+    except np.linalg.LinAlgError:
+        stat = 0.0
+    return stat, beta, V
+
+
+def partial_wald_many(Ct, Y, lags):
+    """:func:`partial_wald` statistics for many right-hand sides Y (n, 6, R) at once."""
+    n, _, q = Ct.shape
+    Cf = Ct.reshape(-1, q)
+    G = Cf.T @ Cf
+    Ginv = np.linalg.pinv(G)
+    B = Ginv @ (Cf.T @ Y.reshape(-1, Y.shape[-1]))  # (q, R)
+    E = Y - np.einsum("niq,qr->nir", Ct, B)
+    S = np.einsum("niq,nir->nqr", Ct, E)  # (n, q, R)
+    L = int(lags) + 1
+    c = np.concatenate([np.zeros((1, q, S.shape[2])), np.cumsum(S, axis=0)])
+    hi = np.minimum(np.arange(n + L - 1) + 1, n)
+    lo = np.maximum(np.arange(n + L - 1) - L + 1, 0)
+    M = c[hi] - c[lo]  # (n+L-1, q, R)
+    meat = np.einsum("kqr,kpr->rqp", M, M) / L
+    V = Ginv[None] @ meat @ Ginv[None]  # (R, q, q)
+    out = np.empty(B.shape[1])
+    for r in range(B.shape[1]):
+        try:
+            out[r] = B[:, r] @ np.linalg.solve(V[r], B[:, r])
+        except np.linalg.LinAlgError:
+            out[r] = 0.0
+    return out
+
+
+def aliases_of(c_best, scored, pcols, corr: float = 0.8) -> list[str]:
+    """Candidates the data cannot tell apart from the winner.
+
+    An alternative is an alias when its HAC Wald statistic is within
+    ``max(25, 5 %)`` of the winner's (it explains the residual nearly as well, the difference
+    being of the order of the noise) and the largest canonical correlation between the two
+    column spaces, with the base model partialled out, is at least ``corr``. ``scored`` holds
+    ``(p, candidate, statistic)`` best first; ``pcols`` the partialled columns by candidate.
+    """
+    stat_best = next(st for _, c, st in scored if c == c_best)
+    margin = max(25.0, 0.05 * stat_best)
+    Qb, _ = np.linalg.qr(pcols[c_best].reshape(-1, pcols[c_best].shape[2]))
+    out = []
+    for _, c, st in scored[:25]:
+        if c == c_best or st < stat_best - margin:
+            continue
+        Qc, _ = np.linalg.qr(pcols[c].reshape(-1, pcols[c].shape[2]))
+        s = np.linalg.svd(Qb.T @ Qc, compute_uv=False)
+        if s.max() >= corr:
+            out.append(c.effect if c.cable is None else f"{c.effect}:cable={c.cable}")
+    return out

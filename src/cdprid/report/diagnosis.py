@@ -1,0 +1,118 @@
+"""Report of a diagnosis: ``report.md`` with tables, findings, what remains unexplained, figures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def unexplained_lines(result) -> list[str]:
+    """The ``What remains unexplained`` section of report.md."""
+    lines = ["", "## What remains unexplained", ""]
+    if not result.unexplained:
+        return lines + ["The extended model's residual shows no structure against the tested "
+                        "signals (sign of cable velocity, tension level, pose, slow drift).", ""]
+    lines += ["Structure left in the residual of the extended model (HAC Wald tests, "
+              "Bonferroni over the signals). These are not findings: no effect of the "
+              "vocabulary explains them. A vocabulary effect listed here fitted part of a "
+              "structure without explaining it and was removed.", "",
+              "| where | size [N rms] | correlates with | p |", "|---|---|---|---|"]
+    for u in result.unexplained:
+        lines.append(f"| {u['where']} | {u['size']:.3g} | {u['correlates_with']} | "
+                     f"{u['p_value']:.2e} |")
+    return lines + [""]
+
+
+def unexplained_figure(result, out: Path) -> Path:
+    """Extended-model force residual over time beside the cable-velocity sign pattern."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..plots import save_fig
+
+    A = result.arrays
+    t, r, use = A["t"], A["residual_extended"], A["use"]
+    v = A["velocity"]
+    fig, axs = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    for i, c in enumerate("xyz"):
+        axs[0].plot(t[use], r[use, i], lw=0.6, label=f"f{c}")
+    axs[0].set_ylabel("extended residual [N]")
+    axs[0].legend(fontsize=8)
+    axs[0].set_title("; ".join(f"{u['correlates_with'][:40]} ({u['size']:.2g} N)"
+                               for u in result.unexplained[:3]), fontsize=8)
+    for i, c in enumerate("xyz"):
+        axs[1].plot(t[use], np.sign(v[use, i]), lw=0.6, label=f"sign v{c}")
+    axs[1].set_ylabel("sign of platform velocity")
+    axs[1].set_xlabel("t [s]")
+    axs[1].legend(fontsize=8)
+    fig.suptitle("What remains unexplained after the extended model")
+    return save_fig(fig, out / "unexplained.png")
+
+
+def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
+    """Write ``report.md`` and PNG figures of a diagnosis into ``out_dir``.
+
+    Parameters
+    ----------
+    result : cdprid.diagnosis.DiagnosisResult
+    out_dir : path
+        Folder (created; the CLI hands a fresh temporary folder of ``atomic_dir``).
+    dataset_name : str
+
+    Returns
+    -------
+    Path
+        ``out_dir / "report.md"``.
+    """
+    from ..plots import diagnosis_figures
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    figs = diagnosis_figures(result, out)
+    if result.unexplained:
+        figs.append(unexplained_figure(result, out))
+    lines = [f"# Diagnosis of {dataset_name}", ""]
+    bp = result.base_parameters
+    lines += ["## Base model (paper, translation only, matched filtering)", "",
+              "| parameter | estimate | std (HAC) | %std |", "|---|---|---|---|"]
+    for k, v in bp.items():
+        lines.append(f"| {k} | {v['value']:.6g} | {v['std']:.3g} | {v['rel_std_percent']:.3g} |")
+    lines += ["", "Residual RMS per wrench axis (fx, fy, fz [N], mx, my, mz [N m]): "
+              + ", ".join(f"{r:.4g}" for r in result.base_residual_rms), ""]
+    lines += ["## Findings", ""]
+    if not result.findings:
+        lines.append("No effect passes the tests: the paper's model explains this data within "
+                     "its noise (every candidate of the vocabulary was tested).")
+    for f in result.findings:
+        lines.append(f"- **{f.effect}** {f.parameters}; 95 % interval {f.interval}; "
+                     f"held-out rms {f.heldout_rms_before:.4g} -> {f.heldout_rms_after:.4g} "
+                     f"(weighted units); p (Bonferroni) = {f.p_value:.2e}"
+                     + (f"; indistinguishable on this data from: {', '.join(f.aliases)}"
+                        if f.aliases else ""))
+    lines += ["", "## Extended model", "", "| parameter | estimate | std (HAC) | change vs base |",
+              "|---|---|---|---|"]
+    for k, v in result.extended_parameters.items():
+        ch = v["value"] - bp[k]["value"] if k in bp else float("nan")
+        lines.append(f"| {k} | {v['value']:.6g} | {v['std']:.3g} | {ch:+.4g} |")
+    lines += ["", f"Held-out force residual RMS: base {result.base_heldout_rms:.4g} N -> "
+              f"extended {result.extended_heldout_rms:.4g} N ({result.info['heldout']}).", ""]
+    w = result.info.get("weight_at_rest")
+    if w:
+        lines += [f"Weight at rest ({w['n_samples']} samples from t = {w['t_first']:.3g} s): "
+                  f"{w['raw_kg']:.4g} kg from the raw tensions, {w['corrected_kg']:.4g} kg with "
+                  "the extended model's sensor corrections; a common load-cell gain is "
+                  "indistinguishable from the mass, so compare m with the latter.", ""]
+    ic = result.info["information_criterion"]
+    lines += [f"Information criterion ({ic['kind']}): base {ic['base']:.1f}, extended "
+              f"{ic['extended']:.1f}.", ""]
+    lines += ["## Candidate ranking (first step)", "",
+              "| candidate | statistic | dof | p | p Bonferroni |", "|---|---|---|---|---|"]
+    for r in result.ranking:
+        lines.append(f"| {r['candidate']} | {r['statistic']:.1f} | {r['dof']} | "
+                     f"{r['p_value']:.2e} | {r['p_bonferroni']:.2e} |")
+    lines += ["", "## Figures", ""] + [f"![{p.stem}]({p.name})" for p in figs]
+    (out / "report.md").write_text("\n".join(lines) + "\n")
+    return out / "report.md"
