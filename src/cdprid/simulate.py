@@ -222,6 +222,86 @@ def _quantise(x, step):
     return x if step <= 0 else np.round(x / step) * step
 
 
+def _default_params(robot):
+    """robot.toml's platform parameters, else the CRAFT-like truth."""
+    from .robots import craft_like_truth
+
+    pl = robot.platform
+    if pl.mass is None or pl.com is None:
+        return craft_like_truth()
+    return InertialParameters(pl.mass, pl.com, pl.inertia)
+
+
+def _tension_limits(robot, tension_min, tension_max):
+    """Tension bounds: the arguments, else robot.toml's limits, else 0 and inf."""
+    tmin = tension_min if tension_min is not None else (robot.limits.tension_min or 0.0)
+    if tension_max is not None:
+        return tmin, tension_max
+    return tmin, robot.limits.tension_max if robot.limits.tension_max is not None else np.inf
+
+
+def _describe(robot, trajectory, effects, noise, seed, rate_pose, rate_tension, tau_ref,
+              tmin, tmax, n_qp, duration):
+    """The one-line description and the ``[simulation]`` settings of meta.toml."""
+    names = [e.name for e in effects]
+    description = (
+        f"{robot.name} robot, trajectory '{trajectory.name}', {duration:g} s, pose at "
+        f"{rate_pose:g} Hz, tensions at {rate_tension:g} Hz, position noise "
+        f"{noise.position_m * 1e3:g} mm, orientation noise {noise.orientation_rad:g} rad, "
+        f"tension noise {noise.tension_N:g} N, "
+        + (f"effects: {', '.join(names)}" if names else "no unmodelled effect")
+    )
+    settings = {
+        "trajectory": trajectory.name,
+        "seed": int(seed),
+        "rate_pose_hz": float(rate_pose),
+        "rate_tension_hz": float(rate_tension),
+        "pretension_N": [
+            float(v) for v in np.broadcast_to(np.asarray(tau_ref, float), (robot.n_cables,))
+        ],
+        "tension_min_N": float(tmin),
+        "tension_max_N": float(tmax) if np.isfinite(tmax) else "inf",
+        "noise": dataclasses.asdict(noise),
+        "qp_fallback_samples": int(n_qp),
+    }
+    return description, settings
+
+
+def _measure(motion, tau_true, W, mt, effects, noise, seed, has_rotation, m):
+    """Sensor streams: noisy (quantised) position and quaternion, load-cell readings.
+
+    The load cells read ``gain * (tau + friction) + offset`` plus noise
+    (:func:`cdprid.effects.load_cell_friction` for ``pulley_friction``).
+    """
+    n_pose = np.asarray(motion.p).shape[0]
+    k = tau_true.shape[0]
+    ss = np.random.SeedSequence(seed).spawn(3)
+    rng_pos, rng_rot, rng_tau = (np.random.default_rng(s) for s in ss)
+    position = np.asarray(motion.p) + noise.position_m * rng_pos.standard_normal((n_pose, 3))
+    position = _quantise(position, noise.position_quantum_m)
+    quaternion = None
+    if has_rotation or noise.orientation_rad > 0:
+        q = np.asarray(motion.q)
+        dn = noise.orientation_rad * rng_rot.standard_normal((n_pose, 3))
+        if noise.orientation_rad > 0:
+            dq = np.asarray(jax.vmap(rotvec_to_quat)(jnp.asarray(dn)))
+            q = np.asarray(jax.vmap(quat_multiply)(jnp.asarray(q), jnp.asarray(dq)))
+        q = _quantise(q, noise.orientation_quantum)
+        q = q / np.linalg.norm(q, axis=1, keepdims=True)
+        quaternion = np.where(q[:, :1] < 0, -q, q)
+    gain = np.ones(m)
+    offset = np.zeros(m)
+    for e in effects:
+        if e.name == "tension_gain":
+            gain[e.params["cable"] - 1] *= e.params["gain"]
+        elif e.name == "tension_offset":
+            offset[e.params["cable"] - 1] += e.params["offset_N"]
+    friction = load_cell_friction(effects, W, np.asarray(mt.v)[:k], np.asarray(mt.omega)[:k])
+    tension = gain * (tau_true + friction) + offset
+    tension = tension + noise.tension_N * rng_tau.standard_normal(tension.shape)
+    return position, quaternion, _quantise(tension, noise.tension_quantum_N)
+
+
 def simulate(
     robot: CableRobot,
     trajectory,
@@ -274,35 +354,23 @@ def simulate(
     """
     effects = tuple(e for e in validate_effects(effects, robot.n_cables) if e.name != "none")
     noise = SensorNoise() if noise is None else noise
-    if params is None:
-        from .robots import craft_like_truth
-
-        pl = robot.platform
-        params = (
-            craft_like_truth()
-            if pl.mass is None or pl.com is None
-            else InertialParameters(pl.mass, pl.com, pl.inertia)
-        )
+    params = _default_params(robot) if params is None else params
     by_name = {e.name: e for e in effects}
     if "rotational_dynamics" in by_name:
         amp = by_name["rotational_dynamics"].params["amplitude_rad"]
         if amp > 0:
             trajectory = with_rotation(trajectory, amp)
-    delay = by_name["time_delay"].params["delay_s"] if "time_delay" in by_name else 0.0
-    drag = (
-        by_name["viscous_drag"].params["coefficient_Ns_per_m"] if "viscous_drag" in by_name else 0.0
-    )
-    rho = (
-        by_name["cable_mass"].params["linear_density_kg_per_m"] if "cable_mass" in by_name else 0.0
+    delay, drag, rho = (
+        by_name[name].params[key] if name in by_name else 0.0
+        for name, key in (
+            ("time_delay", "delay_s"),
+            ("viscous_drag", "coefficient_Ns_per_m"),
+            ("cable_mass", "linear_density_kg_per_m"),
+        )
     )
     robot_true = true_robot(robot, effects)
     g_true = true_gravity(robot, effects)
-    tmin = tension_min if tension_min is not None else (robot.limits.tension_min or 0.0)
-    tmax = (
-        tension_max
-        if tension_max is not None
-        else (robot.limits.tension_max if robot.limits.tension_max is not None else np.inf)
-    )
+    tmin, tmax = _tension_limits(robot, tension_min, tension_max)
 
     t0, t1 = trajectory.t_start, trajectory.t_end
     pose_t = _time_base(t0, t1, rate_pose)
@@ -315,12 +383,8 @@ def simulate(
     mt = TrajectoryState(*(x[:k] for x in state))
     motion = TrajectoryState(*(x[k:] for x in state))
     W, wp, wext, tau0 = _plant(
-        robot_true,
-        params,
-        jnp.asarray(g_true),
-        jnp.asarray(drag, float),
-        jnp.asarray(rho, float),
-        jnp.asarray(ref),
+        robot_true, params, jnp.asarray(g_true), jnp.asarray(drag, float),
+        jnp.asarray(rho, float), jnp.asarray(ref),
         *(jnp.asarray(_pad(x)) for x in (mt.p, mt.v, mt.a, mt.q, mt.omega, mt.alpha)),
     )
     if check_workspace_box:
@@ -331,76 +395,21 @@ def simulate(
     )
 
     # sensors
-    ss = np.random.SeedSequence(seed).spawn(3)
-    rng_pos, rng_rot, rng_tau = (np.random.default_rng(s) for s in ss)
-    position = np.asarray(motion.p) + noise.position_m * rng_pos.standard_normal((pose_t.size, 3))
-    position = _quantise(position, noise.position_quantum_m)
     has_rotation = bool(trajectory.has_rotation)
-    quaternion = None
-    if has_rotation or noise.orientation_rad > 0:
-        q = np.asarray(motion.q)
-        dn = noise.orientation_rad * rng_rot.standard_normal((pose_t.size, 3))
-        if noise.orientation_rad > 0:
-            dq = np.asarray(jax.vmap(rotvec_to_quat)(jnp.asarray(dn)))
-            q = np.asarray(jax.vmap(quat_multiply)(jnp.asarray(q), jnp.asarray(dq)))
-        q = _quantise(q, noise.orientation_quantum)
-        q = q / np.linalg.norm(q, axis=1, keepdims=True)
-        quaternion = np.where(q[:, :1] < 0, -q, q)
-    gain = np.ones(robot.n_cables)
-    offset = np.zeros(robot.n_cables)
-    for e in effects:
-        if e.name == "tension_gain":
-            gain[e.params["cable"] - 1] *= e.params["gain"]
-        elif e.name == "tension_offset":
-            offset[e.params["cable"] - 1] += e.params["offset_N"]
-    friction = load_cell_friction(effects, W, np.asarray(mt.v)[:k], np.asarray(mt.omega)[:k])
-    tension = gain * (tau_true + friction) + offset
-    tension = tension + noise.tension_N * rng_tau.standard_normal(tension.shape)
-    tension = _quantise(tension, noise.tension_quantum_N)
-
-    names = [e.name for e in effects]
-    description = (
-        f"{robot.name} robot, trajectory '{trajectory.name}', {t1 - t0:g} s, pose at "
-        f"{rate_pose:g} Hz, tensions at {rate_tension:g} Hz, position noise "
-        f"{noise.position_m * 1e3:g} mm, orientation noise {noise.orientation_rad:g} rad, "
-        f"tension noise {noise.tension_N:g} N, "
-        + (f"effects: {', '.join(names)}" if names else "no unmodelled effect")
+    position, quaternion, tension = _measure(
+        motion, tau_true, W, mt, effects, noise, seed, has_rotation, robot.n_cables
     )
-    settings = {
-        "trajectory": trajectory.name,
-        "seed": int(seed),
-        "rate_pose_hz": float(rate_pose),
-        "rate_tension_hz": float(rate_tension),
-        "pretension_N": [
-            float(v) for v in np.broadcast_to(np.asarray(tau_ref, float), (robot.n_cables,))
-        ],
-        "tension_min_N": float(tmin),
-        "tension_max_N": float(tmax) if np.isfinite(tmax) else "inf",
-        "noise": dataclasses.asdict(noise),
-        "qp_fallback_samples": int(n_qp),
-    }
+
+    description, settings = _describe(
+        robot, trajectory, effects, noise, seed, rate_pose, rate_tension, tau_ref, tmin, tmax,
+        n_qp, t1 - t0
+    )
     return SimResult(
-        robot=robot,
-        robot_true=robot_true,
-        params=params,
-        effects=effects,
-        noise=noise,
-        gravity_true=g_true,
-        pose_t=pose_t,
-        position=position,
-        quaternion=quaternion,
-        tension_t=tension_t,
-        tension=tension,
-        tension_true=tau_true,
-        motion=motion,
-        motion_tension=mt,
-        wrench_required=wp,
-        W_true=W,
-        n_qp=n_qp,
-        seed=int(seed),
-        has_rotation=has_rotation,
-        description=description,
-        settings=settings,
+        robot=robot, robot_true=robot_true, params=params, effects=effects, noise=noise,
+        gravity_true=g_true, pose_t=pose_t, position=position, quaternion=quaternion,
+        tension_t=tension_t, tension=tension, tension_true=tau_true, motion=motion,
+        motion_tension=mt, wrench_required=wp, W_true=W, n_qp=n_qp, seed=int(seed),
+        has_rotation=has_rotation, description=description, settings=settings,
     )
 
 
