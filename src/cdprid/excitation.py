@@ -267,7 +267,8 @@ class Fractions:
     """Safety factors of the optimiser: its constraints use these fractions of each limit so
     that the exact check on the dense output grid (not only the 10 Hz optimisation grid)
     passes. ``clearance`` multiplies the cable clearance; ``workspace_m`` is kept inside the
-    box; ``tension_N`` is the robust tension margin aimed at (capped at 10 % of the range)."""
+    box; ``tension_N`` is the robust tension margin aimed at (capped at 10 % of the range and
+    at half the margin at rest: :attr:`ExcitationProblem.tension_target`)."""
 
     kinematic: float = 0.92
     speed: float = 0.85
@@ -287,6 +288,7 @@ class ExcitationProblem:
     limits: SafetyLimits
     box: UncertaintyBox
     home: np.ndarray
+    tension_target: float = 3.0
     rate_opt_hz: float = 10.0
     fine_factor: int = 4  # kinematic constraints on a 4x finer grid (40 Hz)
     sigma_rho: float = 1.0
@@ -379,8 +381,24 @@ def make_problem(robot: CableRobot, family: str = "orbit", objective: str = "con
            else uncertainty_from_robot(robot, rotates))
     limits = safety_limits(robot, box.mass_max)
     fam = make_family(family, limits.workspace_min, limits.workspace_max, duration)
-    return ExcitationProblem(robot, fam, model, objective, limits, box,
-                             parse_home(home, limits), **kw)
+    home_p = parse_home(home, limits)
+    kw.setdefault("tension_target", _tension_target(robot, limits, box, fam, kw))
+    return ExcitationProblem(robot, fam, model, objective, limits, box, home_p, **kw)
+
+
+def _tension_target(robot, limits, box, family, kw) -> float:
+    """The robust tension margin the optimiser aims at (N): ``fractions.tension_N``, at most
+    10 % of the tension range and half the (smooth, worst-corner) margin of the platform at
+    rest at the initial design's start point, so that the aim is reachable."""
+    fr = kw.get("fractions", Fractions())
+    centre = family.initial_params(robot)["centre"]
+    R = jnp.eye(3)
+    W = wrench_matrices(robot, jnp.asarray(centre)[None], R[None])[0]
+    A = regressors("full", R[None], jnp.zeros((1, 3)), jnp.zeros((1, 3)), jnp.zeros((1, 3)),
+                   robot.gravity)[0]
+    rest = float(robust_tension_margin_smooth(W, A, jnp.asarray(box.x_lo), jnp.asarray(box.x_hi),
+                                              limits.tension_min, limits.tension_max))
+    return float(min(fr.tension_N, 0.1 * (limits.tension_max - limits.tension_min), 0.5 * rest))
 
 
 def _objective_value(prob, W_ID):
@@ -431,8 +449,8 @@ def _constraint_margins(prob, states, states_fine=None):
     x_lo, x_hi = jnp.asarray(prob.box.x_lo), jnp.asarray(prob.box.x_hi)
     tm = jax.vmap(lambda W_, A_: robust_tension_margin_smooth(W_, A_, x_lo, x_hi, lim.tension_min,
                                                               lim.tension_max))(Wm, A)
-    target = min(fr.tension_N, 0.1 * (lim.tension_max - lim.tension_min))
-    tn = (tm - target) / max(1.0, target)
+    target = prob.tension_target
+    tn = (tm - target) / max(1.0, abs(target))
     clr = lim.cable_clearance
     cc, cb = smooth_clearances(prob.robot, states.p, R, np.asarray(prob.pairs, int).reshape(-1, 2),
                                pulleys=prob.pulleys)
@@ -521,12 +539,13 @@ class _ProbModule(eqx.Module):
     penalty: float = eqx.field(static=True)
     pairs: tuple = eqx.field(static=True)
     pulleys: bool = eqx.field(static=True)
+    tension_target: float = eqx.field(static=True)
 
 
 def _as_module(prob: ExcitationProblem) -> _ProbModule:
     return _ProbModule(prob.robot, prob.family, prob.nominal, prob.model, prob.objective,
                        prob.limits, _HashableBox(prob.box), prob.sigma_rho, prob.fractions,
-                       prob.penalty, prob.pairs, prob.pulleys)
+                       prob.penalty, prob.pairs, prob.pulleys, prob.tension_target)
 
 
 class _HashableBox:
@@ -621,6 +640,7 @@ class ExcitationResult:
                             "parameter_order": list(PARAMETER_NAMES["full"])},
             "home": [float(v) for v in prob.home],
             "safety_fractions": dataclasses.asdict(prob.fractions),
+            "tension_margin_target_N": prob.tension_target,
             "starts": self.starts,
             "note": self.note,
         }
