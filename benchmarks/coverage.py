@@ -51,7 +51,7 @@ SIX_SUSPENDED = {
 _BOX = ((1, 1), (-1, 1), (-1, -1), (1, -1))
 EIGHT_REDUNDANT = {
     "name": "eight-redundant", "gravity": [0.0, 0.0, -9.81],
-    "limits": {"tension_min": 1.0, "tension_max": 1000.0},
+    "limits": {"tension_min": 1.0, "tension_max": 5000.0},
     "cable": [{"exit": [1.6 * sx, 1.3 * sy, 2.8],
                "anchor": [0.12 * _BOX[(k + 1) % 4][0], 0.1 * _BOX[(k + 1) % 4][1], 0.08]}
               for k, (sx, sy) in enumerate(_BOX)]

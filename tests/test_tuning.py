@@ -148,3 +148,39 @@ def test_cli_bad_input_exit_2(argv, capsys):
     assert main(["tune", *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("cdprid: error:")
+
+
+def test_acceleration_response_matches_the_butterworth_and_flags_resonance():
+    """euler-filtfilt: gain |H|^2 of the 4 Hz Butterworth, zero phase; kalman resonates."""
+    from scipy import signal as sps
+
+    from cdprid.tuning import acceleration_response
+
+    f = np.array([0.2, 1.0, 2.0, 4.0])
+    r = acceleration_response("euler-filtfilt", {"cutoff_hz": 4.0, "order": 2}, freqs_hz=f)
+    b, a = sps.butter(2, 4.0, fs=100.0)
+    _, h = sps.freqz(b, a, worN=f, fs=100.0)
+    # the central second difference adds its own sinc-like factor: small below 4 Hz
+    np.testing.assert_allclose(r.gain, np.abs(h) ** 2, rtol=0.02)
+    np.testing.assert_allclose(r.phase_deg, 0.0, atol=0.5)
+    assert r.ok and 1.0 <= r.bandwidth_hz <= 2.0
+    k = acceleration_response("kalman", {"q": 0.3, "r": 2.5e-7})
+    assert not k.ok and k.gain_max_above > 1.5
+    j = k.as_json()
+    assert j["within_bounds"] is False and len(j["gain"]) == len(j["freqs_hz"])
+
+
+def test_cli_tune_reports_response_and_refuses_to_overwrite(tmp_path, capsys):
+    import json
+
+    from cdprid.cli import main
+
+    out = tmp_path / "t.json"
+    assert main(["tune", "--noise-std", "3e-4", "--method", "euler-filtfilt", "--json", str(out),
+                 "--quiet"]) == 0
+    d = json.loads(out.read_text())
+    assert d["frequency_response"]["within_bounds"] is True and d["warnings"] == []
+    assert (tmp_path / "t.response.png").is_file()
+    assert main(["tune", "--noise-std", "3e-4", "--method", "euler-filtfilt", "--json", str(out),
+                 "--quiet"]) == 2
+    assert "--force" in capsys.readouterr().err

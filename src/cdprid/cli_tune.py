@@ -35,6 +35,13 @@ def _run(args) -> int:
     known = (*T.SIHD_METHODS, *T.BASELINE_GRIDS)
     if args.method not in known:
         raise ValueError(f"cannot tune method {args.method!r}; choose one of {', '.join(known)}.")
+    if args.json:
+        from .outputs import check_output
+
+        check_output(args.json, force=args.force, flag="--json")
+        check_output(_figure_path(args.json), force=args.force, flag="--json")
+    if args.train_signal is None:
+        args.train_signal = "dataset" if args.dataset is not None else "circle"
     dt = 0.01
     signal = None
     if args.dataset is not None:
@@ -71,15 +78,36 @@ def _run(args) -> int:
             raise ValueError("baselines are tuned on the acceleration objective only.")
         res = T.tune_baseline(args.method, noise, **kw)
     out = res.as_json()
+    resp = T.acceleration_response(res.method, res.params, dt=float(signal.dt))
+    out["frequency_response"] = resp.as_json()
+    warns = []
+    if not resp.ok:
+        warns.append(f"the tuned {res.method} resonates: acceleration gain up to "
+                     f"{max(resp.gain_max_below, resp.gain_max_above):.3g} (bounds "
+                     f"{T.GAIN_MAX_BELOW:g} below {resp.bandwidth_hz:.3g} Hz, {T.GAIN_MAX_ABOVE:g} "
+                     "above): its small training RMSE does not hold on other motions.")
+    out["warnings"] = warns
     print(f"{res.method}: noise {noise * 1e3:.4g} mm, train RMSE {res.train_rmse:.4g}, "
           f"held-out RMSE {res.test_rmse:.4g}, paper gains {res.paper_rmse:.4g} m/s^2 "
           f"(tuning {res.wall_s:.1f} s wall, {res.cpu_s:.1f} s CPU)")
     print("params: " + json.dumps(res.params))
+    print(resp.summary())
+    for w in warns:
+        print(f"warning: {w}", file=sys.stderr)
     if args.json:
-        from .cli import write_json
+        from .outputs import write_json
+        from .report.tuning import plot_response
 
-        print(f"wrote {write_json(args.json, out)}")
+        print(f"wrote {write_json(args.json, out, force=args.force)}")
+        print(f"wrote {plot_response(resp, _figure_path(args.json), res.method, force=args.force)}")
     return 0
+
+
+def _figure_path(json_path):
+    from pathlib import Path
+
+    p = Path(json_path)
+    return p.with_name(p.stem + ".response.png")
 
 
 def add_parser(sub) -> None:
@@ -100,8 +128,9 @@ def add_parser(sub) -> None:
                    help="acceleration RMSE (default), identified-parameter error, or a mix")
     p.add_argument("--weight", type=V.float_in(0.0, 1.0), default=0.5,
                    help="weight of the parameter term in mix")
-    p.add_argument("--train-signal", choices=["circle", "dataset"], default="circle",
-                   help="benchmark circle (default) or the dataset's smoothed trajectory")
+    p.add_argument("--train-signal", choices=["circle", "dataset"], default=None,
+                   help="the dataset's smoothed trajectory (default with --dataset) or the "
+                   "benchmark circle (default with --noise-std)")
     p.add_argument("--seeds", type=V.positive_int, default=4,
                    help="noise realisations used for tuning")
     p.add_argument("--max-steps", type=V.positive_int, default=60,
@@ -110,6 +139,8 @@ def add_parser(sub) -> None:
                    help="damping floor of SIHD-N root pairs (default of cdprid.tuning)")
     p.add_argument("--duration", type=V.positive_float, default=52.0,
                    help="training circle length, s")
-    p.add_argument("--json", help="write the result JSON here")
+    p.add_argument("--json", help="write the result JSON here (with its acceleration frequency "
+                   "response; the figure <stem>.response.png is written beside it)")
+    p.add_argument("--force", action="store_true", help="overwrite existing outputs")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=_run)

@@ -652,3 +652,114 @@ def tune_method(method: str, noise_std: float, **kw) -> TuneResult:
         return tune(method, noise_std, **kw)
     kw = {k: v for k, v in kw.items() if k in ("signal", "train_seeds", "test_seeds", "progress")}
     return tune_baseline(method, noise_std, **kw)
+
+
+# ----------------------------------------------------------------------------- frequency response
+
+RESPONSE_TOL = 0.05
+"""Bandwidth: the highest frequency up to which the acceleration gain stays within 5 % of 1."""
+
+GAIN_MAX_BELOW = 1.1
+"""Bound on the acceleration gain below the bandwidth (no resonance)."""
+
+GAIN_MAX_ABOVE = 1.0
+"""Bound on the acceleration gain above the bandwidth (noise must not be amplified)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class FrequencyResponse:
+    """Measured acceleration response of a differentiator (sinusoids through it).
+
+    Attributes
+    ----------
+    freqs_hz, gain, phase_deg : ndarray (F,)
+        Frequency, gain and phase of the estimated acceleration relative to the true one.
+    amplitude_m : float
+        Position amplitude of the test sinusoids (homogeneous differentiators depend on it).
+    bandwidth_hz : float
+        Highest tested frequency up to which ``|gain - 1| <= RESPONSE_TOL`` (0 if none).
+    gain_max_below, gain_max_above : float
+        Largest gain at or below / above the bandwidth.
+    phase_at_bandwidth_deg : float
+    ok : bool
+        ``gain_max_below <= GAIN_MAX_BELOW`` and ``gain_max_above <= GAIN_MAX_ABOVE``.
+    """
+
+    freqs_hz: np.ndarray
+    gain: np.ndarray
+    phase_deg: np.ndarray
+    amplitude_m: float
+    bandwidth_hz: float
+    gain_max_below: float
+    gain_max_above: float
+    phase_at_bandwidth_deg: float
+    ok: bool
+
+    def as_json(self) -> dict:
+        """Numbers for ``tune --json`` (key ``frequency_response``)."""
+        return {
+            "freqs_hz": [float(f) for f in self.freqs_hz],
+            "gain": [float(g) for g in self.gain],
+            "phase_deg": [float(p) for p in self.phase_deg],
+            "amplitude_m": self.amplitude_m,
+            "bandwidth_hz": self.bandwidth_hz,
+            "bandwidth_rule": f"|gain - 1| <= {RESPONSE_TOL:g}",
+            "gain_max_below_bandwidth": self.gain_max_below,
+            "gain_max_above_bandwidth": self.gain_max_above,
+            "phase_at_bandwidth_deg": self.phase_at_bandwidth_deg,
+            "bounds": {"gain_max_below": GAIN_MAX_BELOW, "gain_max_above": GAIN_MAX_ABOVE},
+            "within_bounds": self.ok,
+        }
+
+    def summary(self) -> str:
+        """One line of numbers."""
+        return (f"acceleration response: gain within {100 * RESPONSE_TOL:g} % of 1 up to "
+                f"{self.bandwidth_hz:.3g} Hz (phase there {self.phase_at_bandwidth_deg:.0f} deg), "
+                f"max gain {self.gain_max_below:.3g} below and {self.gain_max_above:.3g} above "
+                f"it (bounds {GAIN_MAX_BELOW:g}, {GAIN_MAX_ABOVE:g})")
+
+
+def acceleration_response(method: str, params: dict, dt: float = 0.01, freqs_hz=None,
+                          amplitude_m: float = 0.3, duration_s: float = 40.0
+                          ) -> FrequencyResponse:
+    """Gain and phase of ``method``'s acceleration on noise-free sinusoids.
+
+    Each frequency is one channel ``A sin(2 pi f t)`` (all in one call); the fundamental of the
+    estimated acceleration over the second half of the record (steady state) is compared with
+    the true ``-A (2 pi f)^2 sin(2 pi f t)``.
+
+    Parameters
+    ----------
+    method : str
+    params : dict
+        The differentiator's parameters.
+    dt : float
+        Sampling period, s.
+    freqs_hz : array, optional
+        Default: 30 log-spaced frequencies from 0.05 Hz to 0.4 / dt.
+    amplitude_m : float
+        Position amplitude (homogeneous SIHD/Levant respond differently at other amplitudes).
+    duration_s : float
+    """
+    f = (np.geomspace(0.05, 0.4 / dt, 30) if freqs_hz is None
+         else np.asarray(freqs_hz, float))
+    t = np.arange(0.0, duration_s, dt)
+    w = 2 * np.pi * f
+    y = amplitude_m * np.sin(np.outer(t, w))
+    _, a = any_differentiate(y, dt, method, **params)
+    half = t >= duration_s / 2
+    gain, phase = np.empty_like(f), np.empty_like(f)
+    for i, wi in enumerate(w):
+        X = np.column_stack([np.sin(wi * t[half]), np.cos(wi * t[half])])
+        c, *_ = np.linalg.lstsq(X, np.asarray(a)[half, i], rcond=None)
+        z = complex(c[0], c[1]) / (-amplitude_m * wi**2)  # relative to the true acceleration
+        gain[i], phase[i] = abs(z), math.degrees(math.atan2(z.imag, z.real))
+    inside = np.abs(gain - 1.0) <= RESPONSE_TOL
+    k = int(np.argmin(inside)) if not inside.all() else len(f)
+    bw = float(f[k - 1]) if k > 0 else 0.0
+    below = gain[:k] if k > 0 else gain[:1]
+    above = gain[k:] if k < len(f) else np.array([0.0])
+    gb, ga = float(below.max()), float(above.max())
+    return FrequencyResponse(f, gain, phase, float(amplitude_m), bw, gb, ga,
+                             float(phase[k - 1]) if k > 0 else float("nan"),
+                             bool(gb <= GAIN_MAX_BELOW and ga <= GAIN_MAX_ABOVE))
