@@ -93,9 +93,14 @@ def hand_made_orbits(prob):
 
 
 def worst_parameter(prob, rep):
-    """The parameter with the largest predicted std relative to its nominal value."""
+    """The parameter with the largest predicted std relative to its scale: |m| for the mass,
+    max(|x|, 1 cm x m) for a first moment, max(|x|, 1e-3 m^2 x m) for an inertia entry (a
+    relative std of a parameter whose nominal value is 0 means nothing)."""
     x = np.asarray(prob.nominal.vector(prob.model))
-    rel = {n: rep.sigma[n] / max(abs(v), 1e-3 * abs(x[0])) for n, v in zip(prob.names, x, strict=True)}
+    m = abs(float(x[0]))
+    floors = [0.0, 0.01 * m, 0.01 * m, 0.01 * m] + [1e-3 * m] * 6
+    rel = {n: rep.sigma[n] / max(abs(v), fl)
+           for n, v, fl in zip(prob.names, x, floors[: len(x)], strict=True)}
     return max(rel, key=rel.get)
 
 
@@ -149,7 +154,8 @@ def run_case(robot, family, args, out, L):
     L.append("|---|---|---|---|---|---|---|---|---|---|")
     rows = {}
     for name, r, note in designs:
-        rms = mc_pipeline(prob, r, args.mc, args.seed) if args.mc > 0 else np.full(len(names), np.nan)
+        rms = (mc_pipeline(prob, r, args.mc, args.seed) if args.mc > 0
+               else np.full(len(names), np.nan))
         rows[name] = (r, rms)
         pk = r.certificate.peaks
         L.append(f"| {name} | {r.cond:.3f} | {r.sigma[worst]:.4g} | {rms[j]:.4g} | "

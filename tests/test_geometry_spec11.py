@@ -53,7 +53,8 @@ def test_spec11_fields_read():
     ("platform", "com_uncertainty", -0.01, ">= 0"),
     ("platform", "body_max", [0.1, 0.1], "list of 3"),
     ("platform", "body_max", [-0.2, 0.15, 0.05], "must exceed"),
-    ("platform", "inertia", [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]], "positive definite"),
+    ("platform", "inertia", [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]],
+     "positive definite"),
 ])
 def test_spec11_invalid_fields_one_sentence(tmp_path, table, field, value, words):
     d = copy.deepcopy(BASE)

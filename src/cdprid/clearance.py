@@ -50,7 +50,8 @@ def cable_pairs(robot: CableRobot) -> np.ndarray:
     out = []
     for i in range(robot.n_cables):
         for j in range(i + 1, robot.n_cables):
-            if np.linalg.norm(A[i] - A[j]) > _SHARED_TOL and np.linalg.norm(b[i] - b[j]) > _SHARED_TOL:
+            apart = np.linalg.norm(A[i] - A[j]) > _SHARED_TOL
+            if apart and np.linalg.norm(b[i] - b[j]) > _SHARED_TOL:
                 out.append((i, j))
     return np.asarray(out, int).reshape(-1, 2)
 
@@ -86,17 +87,19 @@ def segment_distances(P0, P1, Q0, Q1, xp=np):
     den = a * e - b * b
     eps = 1e-300 if xp is np else 1e-30
     # parallel segments (den ~ 0): any s works, take s = 0
-    s = xp.where(den > 1e-12 * a * e, xp.clip((b * f - c * e) / xp.maximum(den, eps), 0.0, 1.0), 0.0)
+    s_free = xp.clip((b * f - c * e) / xp.maximum(den, eps), 0.0, 1.0)
+    s = xp.where(den > 1e-12 * a * e, s_free, 0.0)
     t = (b * s + f) / e
     # clamp t and recompute s for the clamped t
-    s = xp.where(t < 0.0, xp.clip(-c / a, 0.0, 1.0), xp.where(t > 1.0, xp.clip((b - c) / a, 0.0, 1.0), s))
+    s = xp.where(t < 0.0, xp.clip(-c / a, 0.0, 1.0),
+                 xp.where(t > 1.0, xp.clip((b - c) / a, 0.0, 1.0), s))
     t = xp.clip(t, 0.0, 1.0)
     diff = P0 + s[..., None] * d1 - (Q0 + t[..., None] * d2)
     return xp.sqrt(xp.sum(diff * diff, -1) + (0.0 if xp is np else 1e-12))
 
 
 def cable_cable_distances(robot: CableRobot, B_p, B_R_P) -> np.ndarray:
-    """Exact least distance (n, k) of every checked pair (:func:`cable_pairs`) at every sample, m."""
+    """Exact least distance (n, k), m, of every checked pair (:func:`cable_pairs`) per sample."""
     pairs = cable_pairs(robot)
     T, B = (np.asarray(x) for x in cable_segments(robot, jnp.asarray(B_p), jnp.asarray(B_R_P)))
     if len(pairs) == 0:

@@ -43,7 +43,8 @@ def _print_limits(prob):
     used = set(lim.defaults_used)
     rows = [("tension_min", lim.tension_min, "N"), ("tension_max", lim.tension_max, "N"),
             ("cable_speed_max", lim.cable_speed_max, "m/s"),
-            ("acceleration_max", lim.acceleration_max, "m/s^2"), ("jerk_max", lim.jerk_max, "m/s^3"),
+            ("acceleration_max", lim.acceleration_max, "m/s^2"),
+            ("jerk_max", lim.jerk_max, "m/s^3"),
             ("tilt_max", lim.tilt_max, "rad"),
             ("angular_velocity_max", lim.angular_velocity_max, "rad/s"),
             ("angular_acceleration_max", lim.angular_acceleration_max, "rad/s^2"),
@@ -80,7 +81,8 @@ def _write_outputs(tmp, prob, res, args):
     initial_traj = prob.homed(jax.numpy.asarray(res.initial.z))
     plot_trajectory(prob.robot, res.trajectory, tmp / "trajectory.png", initial=initial_traj,
                     box=(prob.limits.workspace_min, prob.limits.workspace_max),
-                    title=f"{prob.family.name}: cond {res.initial.cond:.2f} -> {res.optimised.cond:.2f}")
+                    title=f"{prob.family.name}: cond {res.initial.cond:.2f} -> "
+                    f"{res.optimised.cond:.2f}")
     tr = res.trajectory
     t = np.arange(int(np.floor(tr.t_end * 100.0 + 1e-9)) + 1) / 100.0
     ser = safety_series(prob.robot, tr.evaluate(t), prob.limits, prob.box)
@@ -131,7 +133,8 @@ def run(args) -> int:
     print(f"family {prob.family.name}, model {prob.model}, objective {prob.objective}")
     print(f"{'':12s}{'cond':>10s}{'cond_scaled':>13s}{'margin N':>10s}  certified")
     for name, r in (("initial", i), ("optimised", o)):
-        print(f"{name:12s}{r.cond:10.3f}{r.cond_scaled:13.3f}{r.min_tension_margin_N:10.2f}  {r.certified}")
+        print(f"{name:12s}{r.cond:10.3f}{r.cond_scaled:13.3f}{r.min_tension_margin_N:10.2f}  "
+              f"{r.certified}")
     if not i.certified:
         print("initial design not certified: " + "; ".join(i.certificate.failed))
     pk = o.certificate.peaks

@@ -183,7 +183,8 @@ def certify_trajectory(robot, states_grid: TrajectoryState, states_dense: Trajec
     check("acceleration_m_s2", kin["acceleration_m_s2"], lim.acceleration_max, "m/s^2")
     check("jerk_m_s3", kin["jerk_m_s3"], lim.jerk_max, "m/s^3")
     check("tilt_rad", kin["tilt_rad"], lim.tilt_max, "rad")
-    check("angular_velocity_rad_s", kin["angular_velocity_rad_s"], lim.angular_velocity_max, "rad/s")
+    check("angular_velocity_rad_s", kin["angular_velocity_rad_s"], lim.angular_velocity_max,
+          "rad/s")
     check("angular_acceleration_rad_s2", kin["angular_acceleration_rad_s2"],
           lim.angular_acceleration_max, "rad/s^2")
     lo, hi = np.asarray(lim.workspace_min), np.asarray(lim.workspace_max)

@@ -69,7 +69,8 @@ def _envelope(u, T, ramp):
 
 def _leibniz(env, f):
     """Derivatives 0..3 of ``env * f`` (env[..., None] broadcast against f)."""
-    return [sum(_BINOM[n][k] * env[k][..., None] * f[n - k] for k in range(n + 1)) for n in range(4)]
+    return [sum(_BINOM[n][k] * env[k][..., None] * f[n - k] for k in range(n + 1))
+            for n in range(4)]
 
 
 class OrbitFamily(eqx.Module):
@@ -190,7 +191,8 @@ class OrbitFamily(eqx.Module):
         for k in range(4):
             c = P["radius"] * w**k
             thk = th + k * jnp.pi / 2
-            circ.append(c[..., None] * (jnp.cos(thk)[..., None] * e1 + jnp.sin(thk)[..., None] * e2))
+            circ.append(c[..., None] * (jnp.cos(thk)[..., None] * e1
+                                        + jnp.sin(thk)[..., None] * e2))
         d = [jnp.sum(x, axis=1) for x in _leibniz(env, circ)]  # (n, 3) each
         n = t.shape[0]
         q = jnp.broadcast_to(jnp.array([1.0, 0.0, 0.0, 0.0]), (n, 4))
@@ -312,7 +314,7 @@ class FourierFamily(eqx.Module):
         return np.concatenate([_logit(params["centre"], lo, hi)] + [p.ravel() for p in parts])
 
     def initial_params(self, robot=None, radius=0.4, frequency=None, rotation=0.05) -> dict:
-        """Paper-like horizontal orbit (first harmonic) plus a small rotation (rad) about each axis."""
+        """Paper-like horizontal orbit (first harmonic) plus a small rotation (rad) per axis."""
         radius = _fitting_radius(self.box_lo, self.box_hi, radius)
         H = self.harmonics
         P_cos = np.zeros((H, 3))
@@ -377,7 +379,8 @@ def make_family(name: str, box_lo, box_hi, duration: float | None = None,
         raise ValueError(f"unknown excitation family {name!r}; use one of {', '.join(FAMILIES)}.")
     min_d = (5.0 * (n_orbits if name == "orbits" else 1) + 2 * _REST)
     if not np.isfinite(d) or d < min_d:
-        raise ValueError(f"the duration of the {name!r} family must be at least {min_d:g} s, got {d:g} s.")
+        raise ValueError(f"the duration of the {name!r} family must be at least {min_d:g} s, "
+                         f"got {d:g} s.")
     return fam
 
 
