@@ -21,13 +21,10 @@ MAX_FUNCTION_LINES = 120
 # --------------------------------------------------------------------------- allow-lists
 # "module:function" -> reason. Empty them as the modules are converted.
 ALLOWED_LONG_FUNCTIONS: dict[str, str] = {
-    "cdprid.diagnose:diagnose": "418 lines; being split into the diagnosis/ package (diag)",
-    "cdprid.simulate:simulate": "179 lines; to split into plant / sensor stages (diag)",
 }
 # "importer -> imported:name"
 ALLOWED_PRIVATE_IMPORTS: dict[str, str] = {
     "cdprid.cli_differentiate -> cdprid.cli:_parse_params": "make it public (reliab)",
-    "cdprid.diagnose -> cdprid.geometry:_one_cable": "diagnosis package (diag)",
     "cdprid.online -> cdprid.plots:_plt": "figures move to report/ (core)",
     "cdprid.simulate -> cdprid.tensions:_closed_form_one": "simulate (diag)",
 }
@@ -37,7 +34,6 @@ ALLOWED_CLI_IMPORTS: dict[str, str] = {
 }
 # "importer -> imported" for modules below the report layer that import it
 ALLOWED_REPORT_IMPORTS: dict[str, str] = {
-    "cdprid.diagnose -> cdprid.plots": "save_report draws figures (diag: report/diagnosis.py)",
     "cdprid.online -> cdprid.plots": "figure of the online run (core: move to report/)",
 }
 # test files that import benchmarks/
