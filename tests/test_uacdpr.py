@@ -318,3 +318,26 @@ def test_write_calibrated_dataset_moves_pose_to_base_frame(small_inputs, capsys,
     np.testing.assert_allclose(out.tension, src.tension)
     assert "swivel" in out.extra and "calibration" in out.meta
     np.testing.assert_allclose(np.asarray(out.robot.P_b), np.asarray(src.robot.P_b))
+
+
+def test_import_is_atomic_when_writing_fails(small_inputs, monkeypatch):
+    """A failure while the dataset is written leaves neither the folder nor a temporary one."""
+    import cdprid.io.uacdpr as uac
+
+    real_write = uac.write_uacdpr
+
+    def failing(rec, out, meta, *a, **kw):
+        real_write(rec, out, meta, *a, **kw)  # the files exist in the temporary folder ...
+        raise RuntimeError("disk full")  # ... and then the write fails
+
+    monkeypatch.setattr(uac, "write_uacdpr", failing)
+    out = small_inputs / "ds"
+    with pytest.raises(RuntimeError, match="disk full"):
+        uac.import_uacdpr(small_inputs / "vicon.txt", small_inputs / "log.mat",
+                          small_inputs / "cfg.mat", out)
+    assert not out.exists()
+    assert not [p for p in small_inputs.iterdir() if p.name.startswith(".ds")]
+    monkeypatch.setattr(uac, "write_uacdpr", real_write)
+    uac.import_uacdpr(small_inputs / "vicon.txt", small_inputs / "log.mat",
+                      small_inputs / "cfg.mat", out)
+    assert read_dataset(out).position.shape == (60, 3)
