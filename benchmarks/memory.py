@@ -63,10 +63,10 @@ def _run(argv: list[str], cap_gb: float, timeout: float) -> dict:
                     rss = next(int(line.split()[1]) for line in fh if line.startswith("VmRSS"))
             except (OSError, StopIteration):
                 break
-            if rss > cap_gb * 1024**2:
+            if state["killed"] is None and rss > cap_gb * 1024**2:
                 state["killed"] = f"killed above {cap_gb:g} GB"
                 proc.kill()
-            if time.perf_counter() - t0 > timeout:
+            if state["killed"] is None and time.perf_counter() - t0 > timeout:
                 state["killed"] = f"killed after {timeout:g} s"
                 proc.kill()
             time.sleep(0.2)
