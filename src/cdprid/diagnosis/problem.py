@@ -13,12 +13,12 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy.ndimage import minimum_filter1d
 
 from ..defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
 from ..differentiators import differentiate, zero_phase_filter
 from ..errors import UserError
 from ..io.dataset import Dataset, align
+from ..nuisance import taut_mask
 from ..regression import wrench_matrices
 from ..rotations import quat_to_matrix
 from .model import DiagData, ThetaLayout, meas_and_jac, model_jac_jit, model_jit, regs_jit
@@ -103,9 +103,11 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     """Align the streams, differentiate, build the forward-model data and the masks.
 
     Samples are used when inside the trimmed recording (and the delay margin of the tension
-    stream) and when every cable is above ``taut_N`` within +-0.1 s (slack phases are outside
-    every model here). With ``train_until``, t < train_until is fitted and the rest held out;
-    otherwise held-out figures are blocked cross-validation over ``n_folds`` time blocks.
+    stream) and when every cable is above ``taut_N`` within the window of
+    :func:`cdprid.nuisance.taut_mask` (the rule shared with real-data fitting; slack phases
+    are outside every model here). With ``train_until``, t < train_until is fitted and the
+    rest held out; otherwise held-out figures are blocked cross-validation over ``n_folds``
+    time blocks.
 
     Raises
     ------
@@ -127,8 +129,7 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     margin = max(trim, 0.1)
     use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
            & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))
-    win = 2 * int(round(0.1 / dt)) + 1
-    taut = minimum_filter1d(sig.tension.min(axis=1), size=win, mode="nearest") > taut_N
+    taut = taut_mask(sig.t, grid_t, tau_grid, threshold_N=taut_N)  # the shared rule
     n_slack = int((use & ~taut).sum())
     use = use & taut
     test = None
