@@ -389,3 +389,26 @@ def test_help_imports_no_jax():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env={**os.environ, "PYTHONPATH": SRC}, check=True).stdout.split()
     assert out == ["0", "False", "False"]
+
+
+CROSS_OUTPUTS = [
+    (["identify", "{ds}", "--json", "{keep}"], "already exists"),
+    (["identify", "{ds}", "--json", "{tmp}/no/x.json"], "does not exist"),
+    (["identify", "{ds}", "--json", "{tmp}"], "folder"),
+    (["diagnose", "{ds}", "--json", "{keep}"], "already exists"),
+    (["tune", "--noise-std", "1e-3", "--json", "{keep}"], "already exists"),
+    (["simulate", "--out", "{keep}", "--duration", "11"], "is a file"),
+]
+
+
+@pytest.mark.parametrize("argv,needle", CROSS_OUTPUTS,
+                         ids=[" ".join(a[:1] + a[-2:-1]) + str(i) for i, (a, _) in
+                              enumerate(CROSS_OUTPUTS)])
+def test_every_command_checks_outputs_before_work(tmp_path, ds_path, capsys, argv, needle):
+    keep = tmp_path / "keep.json"
+    keep.write_text("{}\n")
+    sha = _sha(keep)
+    argv = [a.format(ds=ds_path, tmp=tmp_path, keep=keep) for a in argv]
+    t0 = time.perf_counter()
+    assert needle in _one_sentence_rc2(capsys, argv)
+    assert time.perf_counter() - t0 < 30 and _sha(keep) == sha
