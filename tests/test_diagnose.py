@@ -199,6 +199,10 @@ def test_cli_json_contract(tmp_path):
     assert f["heldout_rms_after"] < f["heldout_rms_before"]
     assert res["extended"]["heldout_residual_rms"] < res["base"]["heldout_residual_rms"]
     assert (rep / "report.md").is_file() and (rep / "residual_time.png").is_file()
+    assert "## What remains unexplained" in (rep / "report.md").read_text()
+    assert isinstance(res["unexplained"], list)
+    # outputs are never overwritten without --force (checked before any work)
+    assert main(["diagnose", str(sim), "--json", str(out), "--quiet"]) == 2
 
 
 # ----------------------------------------------------------------------------- v2 stages

@@ -92,7 +92,8 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
                      f"(weighted units); p (Bonferroni) = {f.p_value:.2e}"
                      + (f"; indistinguishable on this data from: {', '.join(f.aliases)}"
                         if f.aliases else ""))
-    lines += ["", "## Extended model", "", "| parameter | estimate | std (HAC) | change vs base |",
+    lines += unexplained_lines(result)
+    lines += ["## Extended model", "", "| parameter | estimate | std (HAC) | change vs base |",
               "|---|---|---|---|"]
     for k, v in result.extended_parameters.items():
         ch = v["value"] - bp[k]["value"] if k in bp else float("nan")
