@@ -10,7 +10,7 @@ import tomllib
 
 import numpy as np
 import pytest
-from conftest import ROBOT_CRAFT, shared_dataset
+from conftest import ROBOT_CRAFT
 
 from cdprid.cli import main
 from cdprid.geometry import robot_from_dict
@@ -134,8 +134,8 @@ def test_alignment_interpolates_tensions_and_resamples_pose(tmp_path):
     assert np.allclose(sig.tension[:, 2], 10 + np.sin(3 * sig.t + 2), atol=1e-5)
 
 
-def test_identify_shared_sample_against_truth(tmp_path):
-    root = shared_dataset("craft-sim-orbits")
+def test_identify_craft_orbits_against_truth(tmp_path, craft_orbits):
+    root = craft_orbits
     out = tmp_path / "id.json"
     assert main(["identify", str(root), "--json", str(out)]) == 0
     res = json.loads(out.read_text())
