@@ -46,8 +46,8 @@ from cdprid.online import (  # noqa: E402
     online_identify,
     online_init,
     online_step,
-    plot_online,
 )
+from cdprid.report.online import plot_online  # noqa: E402
 from cdprid.robots import craft_like_robot, craft_like_truth  # noqa: E402
 from cdprid.simulate import simulate  # noqa: E402
 from cdprid.trajectories import preset  # noqa: E402

@@ -24,17 +24,13 @@ ALLOWED_LONG_FUNCTIONS: dict[str, str] = {
 }
 # "importer -> imported:name"
 ALLOWED_PRIVATE_IMPORTS: dict[str, str] = {
-    "cdprid.cli_differentiate -> cdprid.cli:_parse_params": "make it public (reliab)",
-    "cdprid.online -> cdprid.plots:_plt": "figures move to report/ (core)",
     "cdprid.simulate -> cdprid.tensions:_closed_form_one": "simulate (diag)",
 }
 # "importer -> imported" for modules below the CLI layer that import a cli* module
 ALLOWED_CLI_IMPORTS: dict[str, str] = {
-    "cdprid.online -> cdprid.cli": "CLI code in online.py (core helper moves it out)",
 }
 # "importer -> imported" for modules below the report layer that import it
 ALLOWED_REPORT_IMPORTS: dict[str, str] = {
-    "cdprid.online -> cdprid.plots": "figure of the online run (core: move to report/)",
 }
 # test files that import benchmarks/
 ALLOWED_BENCHMARK_USERS: dict[str, str] = {
@@ -42,7 +38,6 @@ ALLOWED_BENCHMARK_USERS: dict[str, str] = {
 }
 # import cycles as frozensets of module names
 ALLOWED_CYCLES: dict[frozenset, str] = {
-    frozenset({"cdprid.cli", "cdprid.online"}): "cli <-> online (core helper)",
 }
 
 

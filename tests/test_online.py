@@ -16,6 +16,8 @@ from cdprid.dynamics import InertialParameters, regressor_full, regressor_transl
 from cdprid.geometry import wrench_matrix
 from cdprid.identification import least_squares
 from cdprid.io import align, read_dataset
+from cdprid.cli_online import run_online_cli
+from cdprid.errors import UserError
 from cdprid.motion import estimate_motion
 from cdprid.online import (
     OnlineSample,
@@ -23,7 +25,6 @@ from cdprid.online import (
     online_init,
     online_step,
     recursive_least_squares,
-    run_online_cli,
 )
 from cdprid.robots import craft_like_robot, craft_like_truth
 from cdprid.simulate import SensorNoise, simulate, write_simulation
@@ -313,5 +314,5 @@ def test_run_online_cli_forgetting_and_out_csv(ds_path, tmp_path, capsys):
     n = len((tmp_path / "traj.csv").read_text().splitlines()) - 1
     assert n == len(align(ds, 2.0, None).t)
     args.differentiator = "savgol"
-    with pytest.raises(ValueError, match="not available on line"):
+    with pytest.raises(UserError, match="not available on line"):
         run_online_cli(ds, args, {})

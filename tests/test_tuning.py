@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from cdprid import tuning as T
-from cdprid.cli import _parse_params, build_parser, main
+from cdprid.cli import parse_params, build_parser, main
 from cdprid.differentiators import METHODS, differentiate
 from cdprid.geometry import robot_from_dict
 from cdprid.io import write_dataset
@@ -108,7 +108,7 @@ def test_cli_noise_std_roundtrip_through_differentiate_and_identify(tmp_path, no
     res = json.loads(out.read_text())
     assert {"method", "params", "noise_std", "train_rmse", "test_rmse", "paper_rmse"} <= set(res)
     assert res["method"] == "sihd3" and res["noise_std"] == 5e-4
-    params = _parse_params(str(out))  # the whole file is accepted as --params
+    params = parse_params(str(out))  # the whole file is accepted as --params
     assert params == res["params"]
     y = _noisy(SHORT, 5e-4, 3)
     d1, d2 = differentiate(y, 0.01, "sihd3", **params)

@@ -21,7 +21,7 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["main", "UserError", "build_parser", "load_json_object", "write_json"]
+__all__ = ["main", "UserError", "build_parser", "load_json_object", "parse_params", "write_json"]
 
 
 from .errors import OutputError, UserError  # noqa: E402  (re-exported: cdprid.cli.UserError)
@@ -125,7 +125,7 @@ def load_json_object(text: str, flag: str, expect: str) -> dict:
     return val
 
 
-def _parse_params(text: str | None, flag: str = "--params") -> dict:
+def parse_params(text: str | None, flag: str = "--params") -> dict:
     if not text:
         return {}
     val = load_json_object(text, flag, "a JSON object such as '{\"cutoff_hz\": 4}'")
@@ -172,9 +172,9 @@ def _cmd_identify(args) -> int:
         raise UserError("--wrench-filter delay exists only with --online (a fixed delay of W tau "
                         "in the stream); batch identify offers matched or none.")
     ds = read_dataset(args.dataset)
-    params = _parse_params(args.params)
+    params = parse_params(args.params)
     if args.online:
-        from .online import run_online_cli
+        from .cli_online import run_online_cli
 
         if args.differentiator is None:
             args.differentiator = "sihd2-cascade"

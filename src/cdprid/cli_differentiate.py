@@ -10,14 +10,14 @@ __all__ = ["add_parser"]
 def _run(args) -> int:
     import numpy as np
 
-    from .cli import _parse_params
+    from .cli import parse_params
     from .errors import UserError
     from .io.dataset import read_csv_stream, sampling_report
     from .outputs import atomic_file, check_output
     from .progress import Progress
 
     out = check_output(args.out, force=args.force, flag="--out")
-    params = _parse_params(args.params)
+    params = parse_params(args.params)
     from .differentiators import METHODS, differentiate
 
     if args.method not in METHODS:

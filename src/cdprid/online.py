@@ -62,8 +62,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
-import sys
-from pathlib import Path
 from typing import NamedTuple
 
 import equinox as eqx
@@ -91,13 +89,14 @@ __all__ = [
     "OnlineStepper",
     "online_identify",
     "recursive_least_squares",
-    "run_online_cli",
 ]
 
 WRENCH_FILTERS = ("matched", "delay", "none")
 """Treatments of the measured wrench ``W tau`` (see the module docstring, item 3)."""
 
-_SIHD = "sihd2-cascade"
+SIHD_METHOD = "sihd2-cascade"
+"""The causal differentiator of the online identification (the paper's SIHD-2 cascade)."""
+_SIHD = SIHD_METHOD
 
 
 # ----------------------------------------------------------------------------- data
@@ -881,208 +880,3 @@ def online_identify(signals, robot: CableRobot, model: str = "translation",
 
 
 # ----------------------------------------------------------------------------- CLI
-
-
-def plot_online(res: OnlineResult, path, truth=None, title: str | None = None) -> Path:
-    """Parameters vs time with +-2 sigma bands (one panel per parameter), saved as PNG.
-
-    Parameters
-    ----------
-    res : OnlineResult
-    path : str or Path
-    truth : array (p,) or (n, p), optional
-        Reference values drawn as dashed lines.
-    title : str, optional
-    """
-    from .plots import _plt, save_fig
-
-    plt = _plt()
-    p = len(res.names)
-    ncol = 2 if p > 4 else 1
-    nrow = int(math.ceil(p / ncol)) + 1
-    fig, axs = plt.subplots(nrow, ncol, figsize=(9 if ncol == 1 else 12, 1.7 * nrow),
-                            sharex=True, squeeze=False)
-    t = res.t
-    u = res.used
-    for i, name in enumerate(res.names):
-        ax = axs[i // ncol if ncol == 1 else i // 2][0 if ncol == 1 else i % 2]
-        x, s = res.x[:, i], res.sigma[:, i]
-        ax.fill_between(t[u], (x - 2 * s)[u], (x + 2 * s)[u], color="C0", alpha=0.25, lw=0,
-                        label="+-2 sigma")
-        ax.plot(t[u], x[u], color="C0", lw=1.0, label="online estimate")
-        if truth is not None:
-            tr = np.asarray(truth, float)
-            ax.plot(t, tr[:, i] if tr.ndim == 2 else np.full_like(t, tr[i]), "k--", lw=0.8,
-                    label="reference")
-        final = x[-1]
-        span = 10 * max(np.nanmedian(s[u][len(s[u]) // 2:]) if u.any() else 0.0,
-                        1e-3 * abs(final), 1e-9)
-        lo, hi = final - span, final + span
-        if truth is not None:  # keep every reference value (e.g. before a payload step) in view
-            ref = tr[:, i] if tr.ndim == 2 else np.array([tr[i]])
-            pad = 0.1 * (max(hi, ref.max()) - min(lo, ref.min()))
-            lo, hi = min(lo, ref.min() - pad), max(hi, ref.max() + pad)
-        ax.set_ylim(lo, hi)
-        ax.set_ylabel(name)
-        ax.grid(alpha=0.3)
-    for j in range(p, (nrow - 1) * ncol):
-        axs[j // ncol][j % ncol].set_visible(False)
-    axs[0][0].legend(loc="upper right", fontsize=7)
-    for c in range(ncol):
-        ax = axs[-1][c]
-        ax.plot(t, res.excitation, color="C2", lw=0.8, label="excitation [m/s^2]")
-        ax.fill_between(t, 0, np.nanmax(res.excitation) if res.excitation.size else 1.0,
-                        where=~res.excitation_ok, color="C3", alpha=0.15, lw=0,
-                        label="not exciting")
-        ax.set_xlabel("t [s]")
-        ax.grid(alpha=0.3)
-        ax.legend(loc="upper right", fontsize=7)
-    fig.suptitle(title or f"online identification ({res.model} model, lambda = "
-                          f"{res.forgetting:g}, wrench filter {res.wrench_filter})")
-    return save_fig(fig, path)
-
-
-def format_online_table(res: OnlineResult) -> str:
-    """Plain-text table of the final online estimate (like the paper's Table 1)."""
-    j = res.as_json()
-    lines = [
-        f"model: {res.model}   online RLS, lambda = {res.forgetting:g}   wrench filter: "
-        f"{res.wrench_filter}   samples: {res.n_samples}",
-        f"{'parameter':<10} {'estimate':>14} {'sigma':>12} {'%sigma':>9}",
-    ]
-    for n, d in j["parameters"].items():
-        lines.append(f"{n:<10} {d['value']:>14.6g} {d['std']:>12.4g} {d['rel_std_percent']:>9.3g}")
-    lines.append(f"sigma_rho = {j['sigma_rho']:.4g}   cond(W_ID) = {res.cond:.4g}   "
-                 f"cond scaled = {res.cond_scaled:.4g}   exciting at the end: "
-                 f"{'yes' if res.excitation_ok[-1] else 'no'} "
-                 f"({100 * res.excitation_ok[res.used].mean() if res.used.any() else 0:.0f} % "
-                 "of the used samples)")
-    return "\n".join(lines)
-
-
-def write_online_csv(res: OnlineResult, path) -> Path:
-    """CSV ``t, <names>, sigma_<names>, sigma_rho, excitation, excitation_ok`` (one row/sample)."""
-    path = Path(path)
-    cols = ["t", *res.names, *(f"sigma_{n}" for n in res.names), "sigma_rho", "excitation",
-            "excitation_ok"]
-    vals = np.column_stack([res.t, res.x, res.sigma, res.sigma_rho, res.excitation,
-                            res.excitation_ok.astype(float)])
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write(",".join(cols) + "\n")
-        np.savetxt(fh, vals, delimiter=",", fmt="%.12g")
-    return path
-
-
-def _free_path(path: Path) -> Path:
-    """``path`` if it does not exist, else ``stem-1.suffix``, ``stem-2.suffix``, ..."""
-    if not path.exists():
-        return path
-    k = 1
-    while (cand := path.with_name(f"{path.stem}-{k}{path.suffix}")).exists():
-        k += 1
-    return cand
-
-
-def run_online_cli(ds, args, params) -> int:
-    """``cdprid identify DATASET --online``: online identification of a dataset.
-
-    Uses ``args.model``, ``args.differentiator`` (a SIHD-2 cascade; the identify default
-    ``euler-filtfilt`` is not causal and is replaced by it, with a note), ``args.t_start``,
-    ``args.t_end``, ``args.json``, and, when present, ``args.forgetting`` (default 1.0),
-    ``args.out_csv``, ``args.wrench_filter``. Writes the parameter trajectory CSV
-    (``args.out_csv``, else ``<json stem>.online.csv`` beside ``args.json``, else
-    ``online.csv`` in the working directory; an existing file the user did not name is never
-    overwritten: ``-1``, ``-2``... are appended), a PNG of the parameters with +-2 sigma bands
-    beside it, prints the final table and writes the JSON of ``cdprid identify --json`` plus
-    ``"online": {"forgetting", "csv", "figure", ...}``.
-
-    Returns
-    -------
-    int
-        Exit code 0.
-    """
-    from .io.dataset import align
-
-    method = getattr(args, "differentiator", None) or _SIHD
-    notes = []
-    if method != _SIHD:
-        if METHODS.get(method) is not None and method != "euler-filtfilt":
-            raise ValueError(f"--online runs the causal SIHD-2 cascade (sihd2-cascade); the "
-                             f"differentiator {method!r} is not available on line.")
-        notes.append(f"differentiator {method!r} is not causal; the online identification uses "
-                     "sihd2-cascade")
-        params = {}
-    forgetting = getattr(args, "forgetting", None)
-    forgetting = 1.0 if forgetting is None else float(forgetting)
-    wfilt = getattr(args, "wrench_filter", None) or "matched"
-    sig = align(ds, getattr(args, "t_start", None), getattr(args, "t_end", None))
-    from .pipeline import ROTATION_WARN_DEG, rotation_angle_deg
-
-    rot = rotation_angle_deg(sig.quaternion) if sig.has_rotation else 0.0
-    warns = []
-    if args.model == "auto":
-        args.model = "full" if rot > ROTATION_WARN_DEG else "translation"
-    elif args.model == "translation" and rot > ROTATION_WARN_DEG:
-        warns.append(f"the platform rotates by up to {rot:.2g} deg but the translation model "
-                     "ignores rotation (its inertia and rotating first moment bias m s_G): use "
-                     "--model full or auto.")
-    if wfilt == "none":
-        warns.append("the causal SIHD cascade lags the accelerations but W tau is not filtered "
-                     "the same way (--wrench-filter none): m s_G is biased towards zero.")
-    if args.model == "full" and not sig.has_rotation:
-        raise ValueError(f"{ds.path}: the full model needs orientations (qw, qx, qy, qz in "
-                         "pose.csv) to identify the inertia; this dataset has none.")
-    res = online_identify(sig, ds.robot, model=args.model, forgetting=forgetting,
-                          gains=dict(params or {}), wrench_filter=wfilt)
-
-    out_csv = getattr(args, "out_csv", None)
-    json_path = getattr(args, "json", None)
-    if out_csv:
-        csv_path = Path(out_csv)
-    elif json_path:
-        jp = Path(json_path)
-        csv_path = _free_path(jp.with_name(jp.stem + ".online.csv"))
-    else:
-        csv_path = _free_path(Path("online.csv"))
-    csv_path.parent.mkdir(parents=True, exist_ok=True)
-    write_online_csv(res, csv_path)
-    png_path = csv_path.with_suffix(".png")
-    if not out_csv:
-        png_path = _free_path(png_path)
-    truth = None
-    tr = getattr(ds, "truth", {}) or {}
-    if "mass" in tr and "first_moment" in tr and args.model == "translation":
-        truth = np.r_[tr["mass"], tr["first_moment"]]
-    plot_online(res, png_path, truth=truth)
-
-    from .physical import physical_warnings
-
-    w3, n3 = physical_warnings(res.x_final, res.model, res.hac_cov_final()[0])
-    warns += w3
-    notes += n3
-    print(format_online_table(res))
-    for n in (*sig.notes, *notes):
-        print(f"note: {n}")
-    for w in warns:
-        print(f"warning: {w}")
-        print(f"warning: {w}", file=sys.stderr)
-    print(f"wrote {csv_path}")
-    print(f"wrote {png_path}")
-    if json_path:
-        data = res.as_json()
-        data.update({"differentiator": _SIHD, "differentiator_params": dict(params or {}),
-                     "notes": [*sig.notes, *notes], "warnings": warns})
-        data["online"] = {
-            "forgetting": forgetting,
-            "csv": str(csv_path),
-            "figure": str(png_path),
-            "wrench_filter": res.wrench_filter,
-            "excitation_ok_final": bool(res.excitation_ok[-1]),
-            "excitation_ok_fraction": float(res.excitation_ok[res.used].mean())
-            if res.used.any() else 0.0,
-        }
-        from .cli import write_json
-
-        write_json(json_path, data)
-        print(f"wrote {json_path}")
-    return 0

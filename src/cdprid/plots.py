@@ -7,4 +7,3 @@ from .report.figures import diagnosis_figures, pyplot, save_fig
 
 __all__ = ["diagnosis_figures", "pyplot", "save_fig"]
 
-_plt = pyplot  # old private name, still imported by cdprid.online (allow-listed)
