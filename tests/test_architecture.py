@@ -24,7 +24,6 @@ ALLOWED_LONG_FUNCTIONS: dict[str, str] = {
 }
 # "importer -> imported:name"
 ALLOWED_PRIVATE_IMPORTS: dict[str, str] = {
-    "cdprid.simulate -> cdprid.tensions:_closed_form_one": "simulate (diag)",
 }
 # "importer -> imported" for modules below the CLI layer that import a cli* module
 ALLOWED_CLI_IMPORTS: dict[str, str] = {

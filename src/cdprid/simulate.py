@@ -203,11 +203,11 @@ def plant_wrenches(robot_true, params, gravity, drag, rho, p, v, a, q, omega, al
 @eqx.filter_jit
 def _plant(robot_true, params, gravity, drag, rho, tau_ref, p, v, a, q, omega, alpha):
     """Plant wrenches and the closed-form tensions (one compilation for every trajectory)."""
-    from .tensions import _closed_form_one
+    from .tensions import closed_form_tensions
 
     one = lambda *x: _plant_one(robot_true, params, gravity, drag, rho, *x)  # noqa: E731
     W, wp, wext = jax.vmap(one)(p, v, a, q, omega, alpha)
-    tau0 = jax.vmap(_closed_form_one, in_axes=(0, 0, None))(W, wp - wext, tau_ref)
+    tau0 = closed_form_tensions(W, wp - wext, tau_ref)
     return W, wp, wext, tau0
 
 

@@ -131,7 +131,7 @@ def lissajous_signal(ax=0.25, ay=0.2, az=0.1, f=(0.2, 0.4, 0.3), dt=0.01, durati
 
 def noise_from_dataset(ds) -> float:
     """Position-noise std (m) of a dataset, from robust 4th differences, averaged over axes."""
-    from .diagnose import estimate_noise
+    from .diagnosis import estimate_noise
     from .io import align
 
     sig = align(ds)
