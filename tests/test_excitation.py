@@ -5,7 +5,6 @@ whose outputs are re-checked from trajectory.csv with independent code."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -16,7 +15,6 @@ from cdprid import excitation as ex
 from cdprid.geometry import robot_from_dict, wrench_matrix
 from cdprid.robots import CRAFT_LIKE
 
-SHARED_ROBOT = Path(__file__).resolve().parents[1].parent / "shared" / "datasets" / "craft-sim-orbits" / "robot.toml"
 
 
 @pytest.fixture(scope="module")
@@ -168,19 +166,17 @@ def test_cli_broken_robot_exit_2(tmp_path, capsys):
 
 
 @pytest.fixture(scope="module")
-def excite_run(tmp_path_factory):
-    if not SHARED_ROBOT.is_file():
-        pytest.skip(f"{SHARED_ROBOT} is not present (../shared is provided beside the repo)")
+def excite_run(tmp_path_factory, craft_robot_toml):
     out = tmp_path_factory.mktemp("excite")
-    rc = _main(["excite", str(SHARED_ROBOT), "--family", "orbit", "--duration", "12",
+    rc = _main(["excite", str(craft_robot_toml), "--family", "orbit", "--duration", "12",
                 "--starts", "2", "--out", str(out / "run"), "--json", str(out / "r.json"),
                 "--no-dataset"])
     assert rc == 0
     return out
 
 
-def test_cli_refuses_to_overwrite(excite_run, capsys):
-    rc = _main(["excite", str(SHARED_ROBOT), "--out", str(excite_run / "run"), "--no-dataset"])
+def test_cli_refuses_to_overwrite(excite_run, craft_robot_toml, capsys):
+    rc = _main(["excite", str(craft_robot_toml), "--out", str(excite_run / "run"), "--no-dataset"])
     assert rc == 2
     assert "--force" in capsys.readouterr().err
 
@@ -202,14 +198,14 @@ def test_cli_optimised_is_certified_and_better(excite_run):
     assert rep["optimised"]["cond"] < rep["initial"]["cond"] / 1.2
 
 
-def test_cli_trajectory_respects_limits(excite_run):
+def test_cli_trajectory_respects_limits(excite_run, craft_robot_toml):
     import tomllib
 
     data = np.loadtxt(excite_run / "run" / "trajectory.csv", delimiter=",", skiprows=1)
     header = (excite_run / "run" / "trajectory.csv").read_text().splitlines()[0].split(",")
     assert header == ["t", "x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az"]
     assert np.allclose(np.diff(data[:, 0]), 0.01)
-    robot = tomllib.loads(SHARED_ROBOT.read_text())
+    robot = tomllib.loads(craft_robot_toml.read_text())
     lim = robot["limits"]
     p, v, a = data[:, 1:4], data[:, 4:7], data[:, 7:10]
     # starts and ends at rest at the default home (the workspace centre)
