@@ -153,11 +153,40 @@ def _bartlett_meat(S, bandwidth: float):
     return (M.T @ M) / L
 
 
+def _leverage_adjusted_windows(Z, S, bandwidth: float, chunk: int = 2048):
+    """Bartlett meat from jackknife (leave-one-window-out) adjusted window scores.
+
+    A fitted residual under-represents the error it estimates: removing the window ``w`` from
+    the fit would move the estimate by ``(Z^T Z - G_w)^-1 m_w`` (``m_w`` the window's summed
+    score, ``G_w`` its Gram matrix), so the error's window score is estimated by
+    ``Z^T Z (Z^T Z - G_w)^-1 m_w`` (the HC3 / jackknife correction applied to each Bartlett
+    window instead of each row). Windows whose complement is singular keep the raw score.
+    """
+    n, p = S.shape
+    L = max(1, int(np.ceil(bandwidth)))
+    G = np.einsum("nkp,nkq->npq", Z, Z)
+    XtX = G.sum(axis=0)
+    c = np.concatenate([np.zeros((1, p)), np.cumsum(S, axis=0)])
+    cg = np.concatenate([np.zeros((1, p, p)), np.cumsum(G, axis=0)])
+    meat = np.zeros((p, p))
+    for k0 in range(0, n + L - 1, chunk):
+        k = np.arange(k0, min(k0 + chunk, n + L - 1))
+        hi, lo = np.minimum(k + 1, n), np.maximum(k - L + 1, 0)
+        m = c[hi] - c[lo]
+        try:
+            adj = np.linalg.solve(XtX[None] - (cg[hi] - cg[lo]), m[..., None])[..., 0] @ XtX.T
+        except np.linalg.LinAlgError:
+            adj = m
+        meat += adj.T @ adj
+    return meat / L
+
+
 def hac_covariance(
     Z: Float[np.ndarray, "n k p"],
     e: Float[np.ndarray, "n k"],
     bandwidth: float | None = None,
     R: Float[np.ndarray, "p p"] | None = None,
+    leverage: bool | None = None,
 ) -> tuple[Float[np.ndarray, "p p"], float]:
     """HAC (Newey-West / Bartlett) sandwich covariance of LS coefficients.
 
@@ -174,25 +203,35 @@ def hac_covariance(
     R : ndarray (p, p), optional
         R factor of the thin QR of the stacked design, reused for the bread
         ``(Z^T Z)^-1 = R^-1 R^-T``; computed when not given.
+    leverage : bool, optional
+        Jackknife-adjust each Bartlett window's score for the fit's leverage
+        (``Z^T Z (Z^T Z - G_w)^-1 m_w``, see the module notes). Default: True when the bandwidth
+        is data-driven (the std ``identify`` reports), False when a bandwidth is given (the
+        textbook Newey-West sum, as ``diagnose``'s fixed-lag tests use it).
 
     Returns
     -------
     cov : ndarray (p, p)
         ``B M B`` with ``B = (Z^T Z)^-1`` and ``M`` the Bartlett long-run covariance of the scores
-        (no small-sample factor: Andrews' form).
+        (leverage-adjusted or not, see ``leverage``).
     bandwidth : float
         The bandwidth used (samples).
     """
     Z, e = _grouped(Z, e)
     p = Z.shape[-1]
     S = np.einsum("nkp,nk->np", Z, e)
+    if leverage is None:
+        leverage = bandwidth is None
     if bandwidth is None:
         bandwidth = andrews_bandwidth(S)
     if R is None:
         R = np.linalg.qr(Z.reshape(-1, p), mode="r")
     Rinv = np.linalg.solve(np.asarray(R, float), np.eye(p))
     bread = Rinv @ Rinv.T
-    meat = _bartlett_meat(S, float(bandwidth))
+    if leverage:
+        meat = _leverage_adjusted_windows(Z, S, float(bandwidth))
+    else:
+        meat = _bartlett_meat(S, float(bandwidth))
     cov = bread @ meat @ bread
     return 0.5 * (cov + cov.T), float(bandwidth)
 
