@@ -177,3 +177,40 @@ def test_identify_default_std_covers_the_error(tmp_path, robot_dict, tau_ref):
     cover = np.mean(np.abs(z) < 1.96)
     assert 0.85 <= cover <= 1.0, cover
     assert np.sqrt(np.mean(zi**2)) > np.sqrt(np.mean(z**2))
+
+
+@pytest.mark.parametrize("k", [1, 6])
+def test_leverage_adjusted_hac_equals_leave_one_window_out_refits(rng, k):
+    """Reference: each Bartlett window's score replaced by ``Z^T Z (b - b_(-w))``, where
+    ``b_(-w)`` is the LS estimate refitted without the window's rows (explicit lstsq)."""
+    n, L, p = 80, 5, 3
+    Z = _design(n, k) + 0.1 * rng.standard_normal((n, k, p) if k > 1 else (n, p))
+    Zg = Z if k > 1 else Z[:, None, :]
+    y = Zg @ np.array([1.0, -2.0, 0.5]) + rng.standard_normal((n, Zg.shape[1]))
+    Zf, yf = Zg.reshape(-1, p), y.reshape(-1)
+    b = np.linalg.lstsq(Zf, yf, rcond=None)[0]
+    e = y - Zg @ b
+    meat = np.zeros((p, p))
+    for w in range(n + L - 1):  # windows [w - L + 1, w] clipped to the data
+        keep = np.ones(n, bool)
+        keep[max(w - L + 1, 0): min(w + 1, n)] = False
+        bw = np.linalg.lstsq(Zg[keep].reshape(-1, p), y[keep].reshape(-1), rcond=None)[0]
+        a = Zf.T @ Zf @ (b - bw)
+        meat += np.outer(a, a)
+    B = np.linalg.inv(Zf.T @ Zf)
+    cov, bw_used = hac_covariance(Zg, e, bandwidth=L, leverage=True)
+    assert bw_used == L
+    np.testing.assert_allclose(cov, B @ (meat / L) @ B, rtol=1e-8, atol=1e-15)
+    # the adjustment only inflates: the adjusted variance exceeds the plain Newey-West one
+    plain, _ = hac_covariance(Zg, e, bandwidth=L)
+    assert np.all(np.diag(cov) > np.diag(plain))
+
+
+def test_default_hac_is_leverage_adjusted_with_the_andrews_bandwidth(rng):
+    n = 600
+    X = _design(n)
+    e = _ar1(rng, n, 0.8)
+    cov, bw = hac_covariance(X, e)
+    assert bw == andrews_bandwidth(sample_scores(X, e))
+    np.testing.assert_allclose(cov, hac_covariance(X, e, bandwidth=bw, leverage=True)[0],
+                               rtol=1e-12)
