@@ -280,3 +280,42 @@ def test_backward_step_drops_a_redundant_pick_and_keeps_a_needed_one():
     k2, _, _ = S.weakest_finding(keep, Z[:, :, [0, 2]], y, lambda c: [1], heldout, train, 75,
                               0.01, 1e-4)
     assert k2 is None
+
+
+# ----------------------------------------------------------------------------- sample budget
+
+
+def test_sample_budget_subset_keeps_real_samples_and_says_so(tmp_path):
+    """Above the budget: evenly spaced real blocks, joins excluded, a note; findings still come."""
+    from cdprid.cli import main
+    from cdprid.diagnosis import diagnose
+    from cdprid.diagnosis.budget import subset
+    from cdprid.io import read_dataset
+
+    sim = tmp_path / "sim"
+    assert main(["simulate", "--preset", "rich", "--out", str(sim), "--seed", "5",
+                 "--effect", "viscous_drag", "--param", "coefficient_Ns_per_m=6"]) == 0
+    ds = read_dataset(sim)
+    n = len(ds.pose_t)
+    assert subset(ds, max_samples=n) is None
+    budget = n * 4 // 5  # two blocks of 20.8 s
+    sub = subset(ds, max_samples=budget)
+    pt = sub.dataset.pose_t
+    assert sub.n_samples_used == len(pt) <= budget and sub.n_samples_total == n
+    assert len(sub.windows) >= 2 and len(sub.joins) == len(sub.windows) - 1
+    assert np.all(np.diff(pt) > 0) and np.all(np.diff(sub.dataset.tension_t) > 0)
+    # every analysed sample is a recorded one (same position, same tension), none invented
+    assert set(map(tuple, sub.dataset.position.round(12))) <= set(map(tuple,
+                                                                     ds.position.round(12)))
+    assert set(map(tuple, sub.dataset.tension.round(12))) <= set(map(tuple,
+                                                                    ds.tension.round(12)))
+    assert sub.windows[0][0] == ds.pose_t[0] and sub.windows[-1][1] == ds.pose_t[-1]
+    res = diagnose(ds, max_samples=budget, n_null=10)
+    assert len(res.notes) == 1 and f"{n} pose samples > {budget}" in res.notes[0]
+    js = res.as_json()
+    assert js["notes"] == res.notes and js["info"]["subset"]["n_samples_analysed"] == len(pt)
+    assert js["info"]["n_samples"] == len(pt)
+    t = res.arrays["t"]
+    for tj in sub.joins:  # samples next to a join take no part
+        assert not np.any(res.arrays["use"][np.abs(t - tj) < 1.0])
+    assert [f.effect for f in res.findings][:1] == ["viscous_drag"]

@@ -25,6 +25,8 @@ def _run(args) -> int:
 
     res = diagnose(ds, train_until=args.train_until, alpha=args.alpha, n_null=args.n_null,
                    max_effects=args.max_effects, seed=args.seed, progress=progress)
+    for note in res.notes:
+        print(f"note: {note}")
     print(f"base model: m = {res.base_parameters['m']['value']:.5g} kg, held-out force residual "
           f"rms {res.base_heldout_rms:.4g} N")
     if not res.findings:

@@ -24,6 +24,7 @@ from ..defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
 from ..dynamics import PARAMETER_NAMES
 from ..io.dataset import Dataset
 from .base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
+from .budget import MAX_SAMPLES, joined_time, subset
 from .candidates import candidate_list
 from .model import meas_and_jac
 from .problem import Problem, force_heldout_rms, prepare
@@ -110,6 +111,7 @@ def diagnose(
     seed: int = 0,
     taut_N: float = TAUT_THRESHOLD_N,
     progress=None,
+    max_samples: int = MAX_SAMPLES,
 ) -> DiagnosisResult:
     """Diagnose what the paper's model misses in a dataset.
 
@@ -140,6 +142,10 @@ def diagnose(
         Samples where any cable is below this tension (N) within +-0.1 s are excluded.
     progress : callable, optional
         Called with progress strings.
+    max_samples : int
+        Sample budget (bounded memory): a longer recording is analysed on evenly spaced
+        contiguous blocks (:func:`cdprid.diagnosis.budget.subset`); the result's ``notes``
+        and ``info["subset"]`` say which.
 
     Returns
     -------
@@ -151,7 +157,16 @@ def diagnose(
         if progress is not None:
             progress(f"[{time.perf_counter() - t0:6.1f} s] {msg}")
 
-    prob = prepare(ds, train_until, cutoff_hz, trim, n_folds, taut_N)
+    sub = subset(ds, max_samples, margin_s=max(trim, 0.1))
+    notes = []
+    if sub is not None:
+        notes.append(sub.note)
+        say(sub.note)
+        ds = sub.dataset
+        if train_until is not None:
+            train_until = joined_time(sub, train_until)
+    prob = prepare(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
+                   joins=sub.joins if sub is not None else ())
     say(f"aligned {prob.n} samples at {1 / prob.dt:.4g} Hz; {int(prob.train.sum())} used for "
         "fitting" + (f" ({prob.n_slack} samples with a cable below {taut_N:g} N excluded)"
                      if prob.n_slack else ""))
@@ -194,9 +209,12 @@ def diagnose(
                 "n_candidates": len(candidates), "alpha": alpha}
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, settings)
     info["wall_time_s"] = time.perf_counter() - t0
+    if sub is not None:
+        info["subset"] = sub.as_json()
     arrays = {"t": prob.t, "residual_base": base.residual, "residual_extended": resid,
               "velocity": prob.v, "acceleration": prob.a, "tension": prob.tension,
               "position": prob.position, "train": prob.train, "use": prob.use}
     say(f"done in {info['wall_time_s']:.1f} s: {len(s.findings)} finding(s)")
     return DiagnosisResult(base.parameters, base.residual_rms, base_ho, list(s.findings),
-                           ext_params, ext_ho, ranking, info, arrays, unexplained=unexplained)
+                           ext_params, ext_ho, ranking, info, arrays, unexplained=unexplained,
+                           notes=notes)

@@ -98,8 +98,8 @@ def _tension_grid(ds: Dataset, m: int):
 
 
 def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CUTOFF_HZ,
-            trim: float = TRIM_S, n_folds: int = 5, taut_N: float = TAUT_THRESHOLD_N
-            ) -> Problem:
+            trim: float = TRIM_S, n_folds: int = 5, taut_N: float = TAUT_THRESHOLD_N,
+            joins: tuple = ()) -> Problem:
     """Align the streams, differentiate, build the forward-model data and the masks.
 
     Samples are used when inside the trimmed recording (and the delay margin of the tension
@@ -107,7 +107,8 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     :func:`cdprid.nuisance.taut_mask` (the rule shared with real-data fitting; slack phases
     are outside every model here). With ``train_until``, t < train_until is fitted and the
     rest held out; otherwise held-out figures are blocked cross-validation over ``n_folds``
-    time blocks.
+    time blocks. ``joins`` (times where blocks of a budgeted subset meet, see
+    :mod:`cdprid.diagnosis.budget`) exclude the samples within the trim margin of each join.
 
     Raises
     ------
@@ -129,6 +130,8 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     margin = max(trim, 0.1)
     use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
            & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))
+    for tj in joins:
+        use &= np.abs(sig.t - tj) > margin
     taut = taut_mask(sig.t, grid_t, tau_grid, threshold_N=taut_N)  # the shared rule
     n_slack = int((use & ~taut).sum())
     use = use & taut

@@ -52,6 +52,8 @@ class DiagnosisResult:
     #: residual structure the extended model leaves, and hints (vocabulary effects removed
     #: by backward elimination): ``where``, ``size`` (N), ``correlates_with``, ``p_value``
     unexplained: list = dataclasses.field(default_factory=list)
+    #: sentences the user must read with the numbers (e.g. a budgeted subset of the recording)
+    notes: list = dataclasses.field(default_factory=list)
 
     def as_json(self) -> dict:
         return {
@@ -70,5 +72,6 @@ class DiagnosisResult:
             "unexplained": [{k: v for k, v in u.items() if k != "significant"}
                             for u in self.unexplained],
             "ranking": self.ranking,
+            "notes": list(self.notes),
             "info": {k: v for k, v in self.info.items() if k != "information_criterion"},
         }

@@ -75,6 +75,8 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     if result.unexplained:
         figs.append(unexplained_figure(result, out))
     lines = [f"# Diagnosis of {dataset_name}", ""]
+    for note in result.notes:
+        lines += [f"**Note:** {note}", ""]
     bp = result.base_parameters
     lines += ["## Base model (paper, translation only, matched filtering)", "",
               "| parameter | estimate | std (HAC) | %std |", "|---|---|---|---|"]
