@@ -41,32 +41,11 @@ from cdprid import excitation as ex  # noqa: E402
 from cdprid.excitation_check import safety_series  # noqa: E402
 from cdprid.geometry import robot_from_dict  # noqa: E402
 from cdprid.report.excitation import plot_safety_series  # noqa: E402
-from cdprid.robots import CRAFT_LIKE  # noqa: E402
+from cdprid.robots import CRAFT_LIKE, SMALL_EIGHT  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SMALL8 = {
-    "name": "small-8",
-    "limits": {"tension_min": 2.0, "tension_max": 80.0, "cable_speed_max": 1.0,
-               "workspace_min": [-0.4, -0.35, 0.6], "workspace_max": [0.4, 0.35, 1.05],
-               "acceleration_max": 1.5, "jerk_max": 8.0, "tilt_max": 0.15,
-               "angular_velocity_max": 0.6, "angular_acceleration_max": 2.0,
-               "cable_clearance": 0.01},
-    "cable": [
-        {"exit": [-1.14, -1.02, 1.82], "anchor": [0.098, -0.098, -0.07]},
-        {"exit": [-1.17, -0.97, 1.82], "anchor": [-0.098, 0.07, 0.07]},
-        {"exit": [-1.17, 0.97, 1.82], "anchor": [-0.098, -0.056, -0.07]},
-        {"exit": [-1.14, 1.02, 1.82], "anchor": [0.098, 0.07, 0.07]},
-        {"exit": [1.14, 1.02, 1.82], "anchor": [-0.098, 0.098, -0.07]},
-        {"exit": [1.17, 0.97, 1.82], "anchor": [0.098, -0.07, 0.07]},
-        {"exit": [1.17, -0.97, 1.82], "anchor": [0.098, 0.056, -0.07]},
-        {"exit": [1.14, -1.02, 1.82], "anchor": [-0.098, -0.07, 0.07]},
-    ],
-    "platform": {"mass": 4.3, "com": [0.0, 0.0, -0.02],
-                 "inertia": [[0.03, 0.0, 0.0], [0.0, 0.03, 0.0], [0.0, 0.0, 0.04]],
-                 "mass_uncertainty": 0.2, "com_uncertainty": 0.02, "inertia_uncertainty": 0.3,
-                 "body_min": [-0.11, -0.11, -0.08], "body_max": [0.11, 0.11, 0.08]},
-}
+SMALL8 = SMALL_EIGHT  # the sample robot of cdprid.robots (also used by the tests)
 
 
 def hand_made_orbits(prob):

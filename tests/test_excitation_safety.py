@@ -16,31 +16,11 @@ from cdprid import excitation as ex
 from cdprid.excitation_check import robust_tension_margins
 from cdprid.excitation_safety import corner_parameters, uncertainty_from_prior
 from cdprid.geometry import robot_from_dict
+from cdprid.robots import SMALL_EIGHT
 
 # ----------------------------------------------------------------------------- robots
 
-EIGHT = {  # 8 cables (CRAFT-like, scaled), small workspace, tight limits, uncertain platform with a body
-    "name": "eight-small",
-    "limits": {"tension_min": 2.0, "tension_max": 80.0, "cable_speed_max": 1.0,
-               "workspace_min": [-0.4, -0.35, 0.6], "workspace_max": [0.4, 0.35, 1.05],
-               "acceleration_max": 1.5, "jerk_max": 8.0, "tilt_max": 0.15,
-               "angular_velocity_max": 0.6, "angular_acceleration_max": 2.0,
-               "cable_clearance": 0.01},
-    "cable": [
-        {"exit": [-1.14, -1.02, 1.82], "anchor": [0.098, -0.098, -0.07]},
-        {"exit": [-1.17, -0.97, 1.82], "anchor": [-0.098, 0.07, 0.07]},
-        {"exit": [-1.17, 0.97, 1.82], "anchor": [-0.098, -0.056, -0.07]},
-        {"exit": [-1.14, 1.02, 1.82], "anchor": [0.098, 0.07, 0.07]},
-        {"exit": [1.14, 1.02, 1.82], "anchor": [-0.098, 0.098, -0.07]},
-        {"exit": [1.17, 0.97, 1.82], "anchor": [0.098, -0.07, 0.07]},
-        {"exit": [1.17, -0.97, 1.82], "anchor": [0.098, 0.056, -0.07]},
-        {"exit": [1.14, -1.02, 1.82], "anchor": [-0.098, -0.07, 0.07]},
-    ],
-    "platform": {"mass": 4.3, "com": [0.0, 0.0, -0.02],
-                 "inertia": [[0.03, 0.0, 0.0], [0.0, 0.03, 0.0], [0.0, 0.0, 0.04]],
-                 "mass_uncertainty": 0.2, "com_uncertainty": 0.02, "inertia_uncertainty": 0.3,
-                 "body_min": [-0.11, -0.11, -0.08], "body_max": [0.11, 0.11, 0.08]},
-}
+EIGHT = SMALL_EIGHT  # 8 cables, small workspace, tight limits, uncertain platform with a body
 
 FOUR = {  # suspended point-mass robot: 4 cables meeting at P, com at P (no moment to balance)
     "name": "four-point",

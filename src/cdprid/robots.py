@@ -9,7 +9,7 @@ from __future__ import annotations
 from .dynamics import InertialParameters
 from .geometry import CableRobot, robot_from_dict
 
-__all__ = ["CRAFT_LIKE", "craft_like_robot", "craft_like_truth"]
+__all__ = ["CRAFT_LIKE", "SMALL_EIGHT", "craft_like_robot", "craft_like_truth"]
 
 #: robot.toml mapping (spec v1) of the CRAFT-like robot.
 CRAFT_LIKE: dict = {
@@ -38,6 +38,32 @@ CRAFT_LIKE: dict = {
         "inertia": [[0.12, 0.0, 0.0], [0.0, 0.12, 0.0], [0.0, 0.0, 0.10]],
     },
 }
+
+SMALL_EIGHT: dict = {
+    "name": "small-8",
+    "limits": {"tension_min": 2.0, "tension_max": 80.0, "cable_speed_max": 1.0,
+               "workspace_min": [-0.4, -0.35, 0.6], "workspace_max": [0.4, 0.35, 1.05],
+               "acceleration_max": 1.5, "jerk_max": 8.0, "tilt_max": 0.15,
+               "angular_velocity_max": 0.6, "angular_acceleration_max": 2.0,
+               "cable_clearance": 0.01},
+    "cable": [
+        {"exit": [-1.14, -1.02, 1.82], "anchor": [0.098, -0.098, -0.07]},
+        {"exit": [-1.17, -0.97, 1.82], "anchor": [-0.098, 0.07, 0.07]},
+        {"exit": [-1.17, 0.97, 1.82], "anchor": [-0.098, -0.056, -0.07]},
+        {"exit": [-1.14, 1.02, 1.82], "anchor": [0.098, 0.07, 0.07]},
+        {"exit": [1.14, 1.02, 1.82], "anchor": [-0.098, 0.098, -0.07]},
+        {"exit": [1.17, 0.97, 1.82], "anchor": [0.098, -0.07, 0.07]},
+        {"exit": [1.17, -0.97, 1.82], "anchor": [0.098, 0.056, -0.07]},
+        {"exit": [1.14, -1.02, 1.82], "anchor": [-0.098, -0.07, 0.07]},
+    ],
+    "platform": {"mass": 4.3, "com": [0.0, 0.0, -0.02],
+                 "inertia": [[0.03, 0.0, 0.0], [0.0, 0.03, 0.0], [0.0, 0.0, 0.04]],
+                 "mass_uncertainty": 0.2, "com_uncertainty": 0.02, "inertia_uncertainty": 0.3,
+                 "body_min": [-0.11, -0.11, -0.08], "body_max": [0.11, 0.11, 0.08]},
+}
+"""An 8-cable robot (the CRAFT-like layout scaled by 0.6) with a small workspace, tight spec 1.1
+limits and an uncertain 4.3 kg platform with a body box: the sample robot of the excitation
+tests and benchmark (``cdprid.geometry.robot_from_dict(SMALL_EIGHT)``)."""
 
 
 def craft_like_robot() -> CableRobot:
