@@ -122,12 +122,12 @@ def group_weights(residual, groups) -> np.ndarray:
 def _check_rank(A, names, tol: float = 1e-10) -> None:
     """Raise a clear ValueError when W_ID is (numerically) rank deficient."""
     norms = np.linalg.norm(A, axis=0)
-    zero = [n for n, v in zip(names, norms) if v == 0]
+    zero = [n for n, v in zip(names, norms, strict=False) if v == 0]
     As = A / np.where(norms > 0, norms, 1.0)
     _, s, Vt = np.linalg.svd(As, full_matrices=False)
     if zero or s[-1] < tol * s[0]:
         v = np.abs(Vt[-1])
-        culprits = zero or [n for n, c in zip(names, v) if c > 0.3 * v.max()]
+        culprits = zero or [n for n, c in zip(names, v, strict=False) if c > 0.3 * v.max()]
         raise ValueError(
             f"the regressor W_ID is rank deficient: {', '.join(culprits)} not identifiable from "
             "this motion (excite it, or use a smaller model)."
@@ -187,11 +187,13 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None, rows_per_sa
         first = least_squares(A, y, names, covariance="iid")
         weights = group_weights(first.residual, groups)
     w = np.ones(N) if weights is None else np.asarray(weights, float)
-    Aw = A * w[:, None]
-    yw = y * w
+    # unweighted: no (N, p) copy (memory on long recordings, issue 17)
+    Aw = A if weights is None else A * w[:, None]
+    yw = y if weights is None else y * w
     _check_rank(Aw, names)
     Q, R = np.linalg.qr(Aw, mode="reduced")
     x = np.linalg.solve(R, Q.T @ yw)
+    del Q  # (N, p): freed before the HAC sums
     rw = yw - Aw @ x
     sigma2 = float(rw @ rw) / (N - p)
     cov_iid = iid_covariance(R, sigma2)
