@@ -12,7 +12,6 @@ Run: ``PYTHONPATH=src python benchmarks/coverage.py [--reps 20]`` -> ``results/c
 from __future__ import annotations
 
 import argparse
-import math
 import platform
 import subprocess
 import sys
@@ -30,35 +29,18 @@ from cdprid.dynamics import PARAMETER_NAMES, InertialParameters  # noqa: E402
 from cdprid.geometry import robot_from_dict  # noqa: E402
 from cdprid.io import read_dataset  # noqa: E402
 from cdprid.pipeline import identify_dataset  # noqa: E402
-from cdprid.robots import craft_like_robot, craft_like_truth  # noqa: E402
+from cdprid.robots import (  # noqa: E402
+    EIGHT_REDUNDANT,
+    SIX_SUSPENDED,
+    craft_like_robot,
+    craft_like_truth,
+)
 from cdprid.simulate import SensorNoise, simulate, write_simulation  # noqa: E402
 from cdprid.trajectories import preset  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _hexa(R, z):
-    return [[R * math.cos(k * math.pi / 3), R * math.sin(k * math.pi / 3), z] for k in range(6)]
-
-
-_EX, _AN = _hexa(2.0, 3.0), _hexa(0.15, 0.1)
-SIX_SUSPENDED = {
-    "name": "six-suspended", "gravity": [0.0, 0.0, -9.81],
-    "limits": {"tension_min": 1.0, "tension_max": 300.0},
-    "cable": [{"exit": _EX[k], "anchor": _AN[(k + 1) % 6 if k % 2 == 0 else (k - 1) % 6]}
-              for k in range(6)],
-}
-_BOX = ((1, 1), (-1, 1), (-1, -1), (1, -1))
-EIGHT_REDUNDANT = {
-    "name": "eight-redundant", "gravity": [0.0, 0.0, -9.81],
-    "limits": {"tension_min": 1.0, "tension_max": 5000.0},
-    "cable": [{"exit": [1.6 * sx, 1.3 * sy, 2.8],
-               "anchor": [0.12 * _BOX[(k + 1) % 4][0], 0.1 * _BOX[(k + 1) % 4][1], 0.08]}
-              for k, (sx, sy) in enumerate(_BOX)]
-    + [{"exit": [1.6 * sx, 1.3 * sy, 0.0],
-        "anchor": [0.12 * _BOX[(k + 3) % 4][0], 0.1 * _BOX[(k + 3) % 4][1], -0.08]}
-       for k, (sx, sy) in enumerate(_BOX)],
-}
 SMALL = InertialParameters(4.5, np.array([0.01, -0.005, -0.04]), np.diag([0.03, 0.035, 0.05]))
 
 

@@ -12,6 +12,7 @@ from cdprid.covariance import (
     sample_scores,
     std_from_cov,
 )
+from cdprid.robots import EIGHT_REDUNDANT, SIX_SUSPENDED
 
 
 def _ar1(rng, n, phi, burn=200):
@@ -116,32 +117,6 @@ def test_hac_covers_ar1_noise_where_iid_does_not():
 
 
 # ----------------------------------------------------------------------------- robots (slow)
-
-
-def _hexa(R, z):
-    import math
-
-    return [[R * math.cos(k * math.pi / 3), R * math.sin(k * math.pi / 3), z] for k in range(6)]
-
-
-_EX, _AN = _hexa(2.0, 3.0), _hexa(0.15, 0.1)
-SIX_SUSPENDED = {  # 6 cables, no redundancy, suspended (gravity keeps the cables taut)
-    "name": "six-suspended", "gravity": [0.0, 0.0, -9.81],
-    "limits": {"tension_min": 1.0, "tension_max": 300.0},
-    "cable": [{"exit": _EX[k], "anchor": _AN[(k + 1) % 6 if k % 2 == 0 else (k - 1) % 6]}
-              for k in range(6)],
-}
-_BOX = ((1, 1), (-1, 1), (-1, -1), (1, -1))
-EIGHT_REDUNDANT = {  # 8 cables, fully constrained, crossed anchors
-    "name": "eight-redundant", "gravity": [0.0, 0.0, -9.81],
-    "limits": {"tension_min": 1.0, "tension_max": 5000.0},
-    "cable": [{"exit": [1.6 * sx, 1.3 * sy, 2.8],
-               "anchor": [0.12 * _BOX[(k + 1) % 4][0], 0.1 * _BOX[(k + 1) % 4][1], 0.08]}
-              for k, (sx, sy) in enumerate(_BOX)]
-    + [{"exit": [1.6 * sx, 1.3 * sy, 0.0],
-        "anchor": [0.12 * _BOX[(k + 3) % 4][0], 0.1 * _BOX[(k + 3) % 4][1], -0.08]}
-       for k, (sx, sy) in enumerate(_BOX)],
-}
 
 
 @pytest.mark.slow

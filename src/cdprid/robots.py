@@ -6,10 +6,15 @@ The numbers are those of the shared synthetic dataset ``craft-sim-orbits/robot.t
 
 from __future__ import annotations
 
+import math
+
 from .dynamics import InertialParameters
 from .geometry import CableRobot, robot_from_dict
 
-__all__ = ["CRAFT_LIKE", "SMALL_EIGHT", "craft_like_robot", "craft_like_truth"]
+__all__ = [
+    "CRAFT_LIKE", "EIGHT_REDUNDANT", "SIX_SUSPENDED", "SMALL_EIGHT", "craft_like_robot",
+    "craft_like_truth",
+]
 
 #: robot.toml mapping (spec v1) of the CRAFT-like robot.
 CRAFT_LIKE: dict = {
@@ -64,6 +69,33 @@ SMALL_EIGHT: dict = {
 """An 8-cable robot (the CRAFT-like layout scaled by 0.6) with a small workspace, tight spec 1.1
 limits and an uncertain 4.3 kg platform with a body box: the sample robot of the excitation
 tests and benchmark (``cdprid.geometry.robot_from_dict(SMALL_EIGHT)``)."""
+
+
+def _hexa(R: float, z: float) -> list:
+    """Six points on a circle of radius R at height z, 60 degrees apart."""
+    return [[R * math.cos(k * math.pi / 3), R * math.sin(k * math.pi / 3), z] for k in range(6)]
+
+
+_EX, _AN = _hexa(2.0, 3.0), _hexa(0.15, 0.1)
+SIX_SUSPENDED = {  # 6 cables, no redundancy, suspended (gravity keeps the cables taut)
+    "name": "six-suspended", "gravity": [0.0, 0.0, -9.81],
+    "limits": {"tension_min": 1.0, "tension_max": 300.0},
+    "cable": [{"exit": _EX[k], "anchor": _AN[(k + 1) % 6 if k % 2 == 0 else (k - 1) % 6]}
+              for k in range(6)],
+}
+_BOX = ((1, 1), (-1, 1), (-1, -1), (1, -1))
+EIGHT_REDUNDANT = {  # 8 cables, fully constrained, crossed anchors
+    "name": "eight-redundant", "gravity": [0.0, 0.0, -9.81],
+    "limits": {"tension_min": 1.0, "tension_max": 5000.0},
+    "cable": [{"exit": [1.6 * sx, 1.3 * sy, 2.8],
+               "anchor": [0.12 * _BOX[(k + 1) % 4][0], 0.1 * _BOX[(k + 1) % 4][1], 0.08]}
+              for k, (sx, sy) in enumerate(_BOX)]
+    + [{"exit": [1.6 * sx, 1.3 * sy, 0.0],
+        "anchor": [0.12 * _BOX[(k + 3) % 4][0], 0.1 * _BOX[(k + 3) % 4][1], -0.08]}
+       for k, (sx, sy) in enumerate(_BOX)],
+}
+"""Sample robots other than the CRAFT-like one (robot.toml dicts): a 6-cable suspended robot
+without redundancy and an 8-cable fully constrained one (coverage tests and benchmark)."""
 
 
 def craft_like_robot() -> CableRobot:
