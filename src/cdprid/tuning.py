@@ -562,7 +562,10 @@ def tune(
         if not (math.isfinite(v_end) and v_end <= best[0]):
             th, v_end = best[1], best[0]
         steps = int(sol.stats.get("num_steps", 0))
-        say(f"tune {method}: end loss {v_end:.4f} after {steps} BFGS steps")
+        status = ("converged" if sol.result == optx.RESULTS.successful
+                  else "not converged: " + optx.RESULTS[sol.result].split(".")[0])
+        say(f"tune {method}: end loss {v_end:.4f} after {steps} BFGS steps ({status}; the best "
+            "loss seen is kept)")
     params = params_from_theta(method, th, zeta_min)
     wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
     train = float(np.mean(evaluate(method, params, signal, noise_std, train_seeds)))
