@@ -61,6 +61,27 @@ __all__ = [
     "tune_baseline",
     "tune_method",
     "ParamProblem",
+    "ResponseBounds",
+    "FrequencyResponse",
+    "TRAIN_FAMILY",
+    "HELDOUT_FAMILY",
+    "trajectory_signal",
+    "trajectory_family",
+    "content_bandwidth",
+    "resolve_bounds",
+    "dense_freqs",
+    "penalty_freqs",
+    "sihd_linear_response",
+    "response_penalty",
+    "simulated_penalty",
+    "response_warnings",
+    "acceleration_response",
+    "is_linear",
+    "RESPONSE_TOL",
+    "PHASE_MAX_DEG",
+    "GAIN_MAX_BELOW",
+    "GAIN_MAX_ABOVE",
+    "PENALTY_WEIGHT",
 ]
 
 SIHD_METHODS = ("sihd2-cascade", "sihd3", "sihd4", "sihd5")
@@ -240,20 +261,25 @@ def _poly_from_theta(th, n, zeta_min=None):
     return coef[1:]
 
 
-def _theta_to_gains(method, th, zeta_min=None):
-    """(lambdas tuple, alpha) from theta (JAX-traceable)."""
+def _theta_to_gains(method, th, zeta_min=None, fixed_alpha=None):
+    """(lambdas tuple, alpha) from theta (JAX-traceable); with ``fixed_alpha`` theta has no
+    alpha entry."""
     n = _order(method)
-    amin = _alpha_min(method)
-    alpha = amin + (1.0 - amin) * _sigmoid(th[-1])
+    if fixed_alpha is None:
+        amin = _alpha_min(method)
+        alpha = amin + (1.0 - amin) * _sigmoid(th[-1])
+        g = th[:-1]
+    else:
+        alpha, g = jnp.asarray(fixed_alpha, th.dtype), th
     if method == "sihd2-cascade":
-        return tuple(jnp.exp(th[q]) for q in range(4)), alpha
-    lam = _poly_from_theta(th[:-1], n, zeta_min)
+        return tuple(jnp.exp(g[q]) for q in range(4)), alpha
+    lam = _poly_from_theta(g, n, zeta_min)
     return tuple(lam[q] for q in range(n)), alpha
 
 
-def params_from_theta(method, th, zeta_min=None) -> dict:
+def params_from_theta(method, th, zeta_min=None, fixed_alpha=None) -> dict:
     """Method parameters (names of ``METHODS``/``METHOD_INFO``) from theta."""
-    lams, alpha = _theta_to_gains(method, jnp.asarray(th, jnp.float64), zeta_min)
+    lams, alpha = _theta_to_gains(method, jnp.asarray(th, jnp.float64), zeta_min, fixed_alpha)
     p = {f"lambda{q + 1}": float(v) for q, v in enumerate(lams)}
     p["alpha"] = float(min(alpha, 1.0))
     p["mu"] = 1.0
@@ -282,8 +308,9 @@ def _roots_theta(lams, zeta_min=None):
     return th
 
 
-def theta_from_params(method, params, zeta_min=None) -> np.ndarray:
-    """Inverse of :func:`params_from_theta` (alpha clipped into the open interval)."""
+def theta_from_params(method, params, zeta_min=None, fixed_alpha=None) -> np.ndarray:
+    """Inverse of :func:`params_from_theta` (alpha clipped into the open interval; no alpha
+    entry with ``fixed_alpha``)."""
     n = _order(method)
     amin = _alpha_min(method)
     mu = float(params.get("mu", 1.0))
@@ -294,6 +321,8 @@ def theta_from_params(method, params, zeta_min=None) -> np.ndarray:
     else:
         th = _roots_theta([float(params[f"lambda{q}"]) * mu**q for q in range(1, n + 1)],
                            zeta_min)
+    if fixed_alpha is not None:
+        return np.asarray(th, float)
     a = min(max(float(params["alpha"]), amin + 1e-4 * (1 - amin)), 1 - 1e-4 * (1 - amin))
     th.append(_logit((a - amin) / (1 - amin)))
     return np.asarray(th, float)
@@ -392,6 +421,134 @@ class ParamProblem:
         return errs
 
 
+
+# ----------------------------------------------------------------------------- trajectory families
+
+#: Training family of :func:`trajectory_family`: (frequency Hz, radius m, azimuth rad, tilt rad,
+#: ramp s) of one ramped orbit each (spiral in from rest, orbit, spiral out).  Orbits at
+#: 0.1-0.8 Hz, radii 0.05-0.3 m, horizontal, vertical and tilted planes, and one long-ramp member.
+TRAIN_FAMILY = (
+    (0.10, 0.30, 0.0, 0.0, 3.0),
+    (0.25, 0.20, 0.0, math.pi / 2, 3.0),
+    (0.40, 0.15, 0.5, 0.6, 3.0),
+    (0.55, 0.10, math.pi / 2, math.pi / 2, 3.0),
+    (0.70, 0.08, 0.0, 0.0, 3.0),
+    (0.80, 0.05, 1.0, 1.0, 3.0),
+    (0.30, 0.25, 0.0, 0.0, 8.0),
+)
+
+#: Held-out family (never used for tuning): other frequencies, radii, planes and ramps.  The
+#: held-out set of :func:`trajectory_family` adds a 3-D Lissajous and a two-orbit sequence.
+HELDOUT_FAMILY = (
+    (0.15, 0.25, math.pi / 2, math.pi / 2, 3.0),
+    (0.33, 0.30, 0.0, 0.0, 3.0),
+    (0.45, 0.12, 0.0, math.pi / 2, 3.0),
+    (0.60, 0.10, 0.8, 0.5, 3.0),
+    (0.75, 0.06, 0.3, math.pi / 2, 3.0),
+    (0.50, 0.15, 2.0, 0.3, 8.0),
+)
+
+
+def trajectory_signal(traj, dt: float, name: str | None = None, t0: float = 2.0
+                      ) -> TrainingSignal:
+    """Sample a :class:`cdprid.trajectories.Trajectory` (exact derivatives) as a training signal.
+
+    Parameters
+    ----------
+    traj : cdprid.trajectories.Trajectory
+    dt : float
+        Sampling period, s.
+    name : str, optional
+    t0 : float
+        Errors are measured over ``t >= t0``.
+
+    Returns
+    -------
+    TrainingSignal
+    """
+    t = np.arange(int(round(traj.t_end / dt)) + 1) * dt
+    s = traj.evaluate(t)
+    return TrainingSignal(t, float(dt), np.asarray(s.p, float), np.asarray(s.a, float),
+                          name or traj.name, t0)
+
+
+def _orbit_member(f, r, az, tilt, ramp, dt, duration):
+    from .trajectories import Orbit, orbit_sequence
+
+    ramp = min(ramp, duration / 3)
+    plane = {0.0: "horizontal"}.get(tilt, "vertical" if abs(tilt - math.pi / 2) < 1e-9 else
+                                    "tilted")
+    traj = orbit_sequence([Orbit(r, f, duration - 1.0, az, tilt, 0.0, ramp)], (0.0, 0.0, 1.2))
+    return trajectory_signal(traj, dt, f"orbit {f:g} Hz R {r:g} m {plane}, ramp {ramp:g} s")
+
+
+def trajectory_family(which: str = "train", dt: float = 0.01, duration: float = 25.0
+                      ) -> list[TrainingSignal]:
+    """The training or held-out family of trajectories (ramped orbits of
+    :mod:`cdprid.trajectories`; see :data:`TRAIN_FAMILY`, :data:`HELDOUT_FAMILY`).
+
+    Parameters
+    ----------
+    which : {"train", "heldout"}
+    dt : float
+        Sampling period, s.
+    duration : float
+        Length of each member, s (>= 5).
+
+    Returns
+    -------
+    list of TrainingSignal
+    """
+    if which not in ("train", "heldout"):
+        raise ValueError(f"unknown family {which!r}; use train or heldout.")
+    if not duration >= 5.0:
+        raise ValueError(f"family members must last at least 5 s, got {duration!r}.")
+    rows = TRAIN_FAMILY if which == "train" else HELDOUT_FAMILY
+    out = [_orbit_member(*row, dt, duration) for row in rows]
+    if which == "heldout":
+        from .trajectories import Orbit, orbit_sequence
+
+        d = (duration - 1.5) / 2
+        seq = orbit_sequence([Orbit(0.2, 0.2, d, 0.0, 0.0, 0.0, min(3.0, d / 3)),
+                              Orbit(0.07, 0.65, d, 0.0, math.pi / 2, 0.0, min(3.0, d / 3))],
+                             (0.0, 0.0, 1.2))
+        out.append(trajectory_signal(seq, dt, "sequence 0.2 Hz + 0.65 Hz orbits"))
+        out.append(lissajous_signal(dt=dt, duration=duration))
+    return out
+
+
+def content_bandwidth(signals, fraction: float = 0.99, step_hz: float = 0.05) -> float:
+    """Default stated bandwidth: the frequency below which ``fraction`` of the training
+    accelerations' energy lies (Hann-windowed periodogram over ``t >= t0``, all axes; the
+    largest over the members), rounded
+    up to ``step_hz`` and clipped to ``[0.1 Hz, 0.1 / dt]``.
+
+    Parameters
+    ----------
+    signals : sequence of TrainingSignal
+    fraction : float
+    step_hz : float
+
+    Returns
+    -------
+    float
+        Bandwidth, Hz.
+    """
+    best = 0.0
+    dt = float(signals[0].dt)
+    for s in signals:
+        a = s.acceleration[s.mask]
+        a = (a - a.mean(axis=0)) * np.hanning(a.shape[0])[:, None]  # Hann: little leakage
+        p = np.sum(np.abs(np.fft.rfft(a, axis=0)) ** 2, axis=1)
+        f = np.fft.rfftfreq(a.shape[0], s.dt)
+        c = np.cumsum(p)
+        if c[-1] <= 0:
+            continue
+        best = max(best, float(f[int(np.searchsorted(c, fraction * c[-1]))]))
+    bw = math.ceil(best / step_hz - 1e-9) * step_hz
+    return round(float(min(max(bw, 0.1), 0.1 / dt)), 6)
+
+
 # ----------------------------------------------------------------------------- tuning
 
 
@@ -415,6 +572,8 @@ class TuneResult:
     steps: int = 0
     history: list = dataclasses.field(default_factory=list)
     extra: dict = dataclasses.field(default_factory=dict)
+    response: FrequencyResponse | None = None
+    warnings: list = dataclasses.field(default_factory=list)
 
     def as_json(self) -> dict:
         d = {
@@ -434,6 +593,13 @@ class TuneResult:
             "steps": self.steps,
         }
         d.update(self.extra)
+        if self.response is not None:
+            d["frequency_response"] = self.response.as_json()
+            if self.response.bounds is not None:
+                d["bandwidth_hz"] = self.response.bounds.bandwidth_hz
+                d["response_bounds"] = self.response.bounds.as_json()
+                d.update(self.response.check_json())
+        d["warnings"] = list(self.warnings)
         return d
 
 
@@ -455,7 +621,7 @@ def _init_candidates(method, noise_std):
         return cands
     n = _order(method)
     # Butterworth patterns of a few bandwidths (Kalman-like pole sets), alpha near 1
-    for om in (5.0, 8.0, 12.0, 18.0):
+    for om in (5.0, 8.0, 12.0, 18.0, 30.0):
         roots = [om * complex(math.cos(math.pi * (2 * k + n + 1) / (2 * n)),
                               math.sin(math.pi * (2 * k + n + 1) / (2 * n))) for k in range(n)]
         lam = np.real(np.poly(roots))[1:]
@@ -463,6 +629,112 @@ def _init_candidates(method, noise_std):
         p.update(alpha=0.995, mu=1.0)
         cands.append(p)
     return cands
+
+
+def _as_signals(signal, signals, dt: float = 0.01) -> list:
+    if signals is not None:
+        sigs = list(signals)
+        if not sigs:
+            raise ValueError("give at least one training signal.")
+        if len({float(s.dt) for s in sigs}) != 1:
+            raise ValueError("all training signals must share one sampling period.")
+        return sigs
+    return [signal] if signal is not None else trajectory_family("train", dt)
+
+
+def resolve_bounds(bounds, signals) -> ResponseBounds:
+    """``"auto"``/None: :class:`ResponseBounds` at :func:`content_bandwidth` of ``signals``;
+    a number: that bandwidth (Hz) with the default tolerances; a ResponseBounds: itself."""
+    if isinstance(bounds, ResponseBounds):
+        return bounds
+    if bounds is None or bounds == "auto":
+        return ResponseBounds(content_bandwidth(signals))
+    return ResponseBounds(float(bounds))
+
+
+def penalty_freqs(dt: float, bandwidth_hz: float) -> np.ndarray:
+    """Frequency grid of the response penalty (coarser than :func:`dense_freqs`)."""
+    return np.union1d(np.geomspace(0.02, 0.49 / dt, 120), np.linspace(0.02, bandwidth_hz, 25))
+
+
+def _groups(sigs, noise_std, seeds, noisy: bool):
+    """Training arrays grouped by length: (Y (n, 3 k S), acc (n, 3 k S), mask (n,), k)."""
+    by_len: dict = {}
+    for s in sigs:
+        by_len.setdefault((s.t.size, float(s.t0)), []).append(s)
+    out = []
+    for group in by_len.values():
+        Ys, As = [], []
+        for s in group:
+            if noisy:
+                Y, A = _stack_train(s, noise_std, seeds)
+            else:
+                Y, A = s.position, s.acceleration
+            Ys.append(Y)
+            As.append(A)
+        out.append((jnp.asarray(np.concatenate(Ys, 1)), jnp.asarray(np.concatenate(As, 1)),
+                    jnp.asarray(group[0].mask.astype(float)), len(group)))
+    return out
+
+
+def _accel_loss(method, sigs, noise_std, seeds, zeta_min, bounds, constrain, dt):
+    """``f(theta, None)``: mean over members of the log mean-square 3-D acceleration error,
+    plus :data:`PENALTY_WEIGHT` x :func:`response_penalty` when ``constrain``.
+
+    Constrained (alpha = 1, a linear observer), the noise term is exact: ``3 sigma^2`` times
+    :func:`_noise_gain`, added to the noise-free tracking error of each member; otherwise the
+    noise is simulated with ``seeds``.
+    """
+    groups = _groups(sigs, noise_std, seeds, noisy=not constrain)
+    S = 1 if constrain else len(seeds)
+    fa = 1.0 if constrain else None
+    pf = penalty_freqs(dt, bounds.bandwidth_hz)
+
+    def f(th, args):
+        lams, alpha = _theta_to_gains(method, th, zeta_min, fa)
+        nv = 3 * noise_std**2 * _noise_gain(method, lams, dt) if constrain else 0.0
+        logs = []
+        for Y, acc, mask, k in groups:
+            A = jax.vmap(lambda c: _acc_channel(method, c, dt, lams, alpha), 1, 1)(Y)
+            se = jnp.sum(((A - acc) ** 2) * mask[:, None], axis=0).reshape(k, S, 3)
+            logs.append(jnp.log(jnp.sum(se, axis=(1, 2)) / (S * jnp.sum(mask)) + nv))
+        L = jnp.mean(jnp.concatenate(logs))
+        if constrain:
+            H = sihd_linear_response(method, lams, dt, pf)
+            L = L + PENALTY_WEIGHT * response_penalty(H, pf, bounds)
+        return L
+
+    return f
+
+
+def _param_loss(method, signal, noise_std, seeds, objective, weight, zeta_min, bounds,
+                constrain):
+    """``f(theta, None)`` for the ``params``/``mix`` objectives (first training signal)."""
+    pp = ParamProblem(signal, seeds)
+    Y, acc = _stack_train(signal, noise_std, seeds)
+    Y, acc = jnp.asarray(Y), jnp.asarray(acc)
+    mask = signal.mask.astype(float)
+    maskj = jnp.asarray(mask)
+    h = float(signal.dt)
+    a_ms = float(np.mean(np.sum(signal.acceleration[signal.mask] ** 2, axis=1)))
+    fa = 1.0 if constrain else None
+    pf = penalty_freqs(h, bounds.bandwidth_hz)
+
+    def f(th, args):
+        lams, alpha = _theta_to_gains(method, th, zeta_min, fa)
+        A = jax.vmap(lambda c: _acc_channel(method, c, h, lams, alpha), 1, 1)(Y)
+        pe = jnp.mean(pp.rel_error(A.reshape(A.shape[0], -1, 3), mask))
+        if objective == "params":
+            L = jnp.log(pe)
+        else:
+            se = jnp.sum(((A - acc) ** 2) * maskj[:, None]) / (jnp.sum(maskj) * len(seeds))
+            L = jnp.log((1 - weight) * se / a_ms + weight * pe)
+        if constrain:
+            L = L + PENALTY_WEIGHT * response_penalty(
+                sihd_linear_response(method, lams, h, pf), pf, bounds)
+        return L
+
+    return f
 
 
 def tune(
@@ -477,8 +749,12 @@ def tune(
     init: dict | None = None,
     zeta_min: float | None = None,
     progress=None,
+    signals=None,
+    bounds="auto",
+    constrain: bool = True,
+    heldout=None,
 ) -> TuneResult:
-    """Tune an SIHD method by BFGS through the scan.
+    """Tune an SIHD method by BFGS through the scan, under acceleration-response bounds.
 
     Parameters
     ----------
@@ -486,25 +762,36 @@ def tune(
     noise_std : float
         Position-noise std (m) of the training realisations.
     signal : TrainingSignal, optional
-        Default :func:`circle_signal` (benchmark circle).
+        One training signal (kept for compatibility; see ``signals``).
     train_seeds, test_seeds : iterables of int
-        Noise seeds used for tuning and for the held-out evaluation.
+        Noise seeds used for tuning (simulated noise) and for the held-out evaluation.
     objective : {"accel", "params", "mix"}
-        ``accel``: mean-square acceleration error; ``params``: scaled LS
-        parameter error (:class:`ParamProblem`); ``mix``:
-        ``(1-weight) accel_mse / a_rms^2 + weight params``.
+        ``accel``: mean over the training signals of the log mean-square acceleration error;
+        ``params``: scaled LS parameter error (:class:`ParamProblem`, first signal);
+        ``mix``: ``(1-weight) accel_mse / a_rms^2 + weight params`` (first signal).
     max_steps : int
         BFGS iterations.
     init : dict, optional
         Start here instead of the best of a few standard starts.
     zeta_min : float, optional
-        Damping floor of the root pairs (SIHD-N, N >= 3; default :data:`ZETA_MIN`;
-        0 lets the optimiser fit resonances to the training spectrum).
+        Damping floor of the root pairs (SIHD-N, N >= 3; default :data:`ZETA_MIN`).
     progress : callable(str), optional
+    signals : sequence of TrainingSignal, optional
+        Training signals (default: ``[signal]``, or :func:`trajectory_family` ``"train"``).
+    bounds : "auto", float or ResponseBounds
+        Acceleration-response bounds (``"auto"``: :func:`content_bandwidth` of the signals).
+    constrain : bool
+        Enforce ``bounds`` in the optimisation (alpha fixed at 1: a linear observer whose
+        response is amplitude-independent; :func:`response_penalty` on
+        :func:`sihd_linear_response`).  False: alpha free, no penalty (the response is still
+        verified and reported).
+    heldout : sequence of TrainingSignal, optional
+        Signals never used for tuning, evaluated on ``test_seeds``.
 
     Returns
     -------
     TuneResult
+        With ``response`` verified on :func:`dense_freqs` against the bounds and ``warnings``.
     """
     import optimistix as optx
 
@@ -515,50 +802,34 @@ def tune(
     if not (math.isfinite(noise_std) and noise_std > 0):
         raise ValueError(f"noise std must be a positive number of metres, got {noise_std!r}.")
     say = progress or (lambda s: None)
-    signal = signal or circle_signal()
+    sigs = _as_signals(signal, signals)
+    bounds = resolve_bounds(bounds, sigs)
     train_seeds, test_seeds = list(train_seeds), list(test_seeds)
     t_wall, t_cpu = time.perf_counter(), time.process_time()
+    fa = 1.0 if constrain else None
+    h = float(sigs[0].dt)
 
     with jax.enable_x64(True):
-        Y, acc = _stack_train(signal, noise_std, train_seeds)
-        mask = signal.mask.astype(float)
-        h = float(signal.dt)
-        args = (jnp.asarray(Y), jnp.asarray(acc), jnp.asarray(mask), jnp.asarray(h))
-        mse = sihd_loss_fn(method, zeta_min)
-        a_ms = float(np.mean(np.sum(signal.acceleration[signal.mask] ** 2, axis=1)))
-        pp = None
-        if objective != "accel":
-            pp = ParamProblem(signal, train_seeds)
-
-        def loss(th, args):
-            Yv, accv, maskv, hv = args
-            if objective == "accel":
-                return jnp.log(mse(th, args))
-            lams, alpha = _theta_to_gains(method, th, zeta_min)
-            A = jax.vmap(lambda c: _acc_channel(method, c, hv, lams, alpha),
-                         in_axes=1, out_axes=1)(Yv)
-            pe = jnp.mean(pp.rel_error(A.reshape(A.shape[0], -1, 3), np.asarray(maskv)))
-            if objective == "params":
-                return jnp.log(pe)
-            se = jnp.sum(((A - accv) ** 2) * maskv[:, None])
-            se = se / (jnp.sum(maskv) * (Yv.shape[1] // 3))
-            return jnp.log((1 - weight) * se / a_ms + weight * pe)
-
+        if objective == "accel":
+            loss = _accel_loss(method, sigs, noise_std, train_seeds, zeta_min, bounds,
+                               constrain, h)
+        else:
+            loss = _param_loss(method, sigs[0], noise_std, train_seeds, objective, weight,
+                               zeta_min, bounds, constrain)
         loss_j = jax.jit(loss)
-        # pick the best start (forward passes only)
         cands = [init] if init is not None else _init_candidates(method, noise_std)
         best = None
         for c in cands:
-            th0 = jnp.asarray(theta_from_params(method, c, zeta_min))
-            v = float(loss_j(th0, args))
+            th0 = jnp.asarray(theta_from_params(method, c, zeta_min, fa))
+            v = float(loss_j(th0, None))
             if best is None or (math.isfinite(v) and v < best[0]):
                 best = (v, th0)
         say(f"tune {method}: start loss {best[0]:.4f} (best of {len(cands)} starts)")
         solver = optx.BFGS(rtol=1e-5, atol=1e-6)
-        sol = optx.minimise(loss_j, solver, best[1], args=args, max_steps=max_steps,
+        sol = optx.minimise(loss_j, solver, best[1], args=None, max_steps=max_steps,
                             throw=False)
         th = sol.value
-        v_end = float(loss_j(th, args))
+        v_end = float(loss_j(th, None))
         if not (math.isfinite(v_end) and v_end <= best[0]):
             th, v_end = best[1], best[0]
         steps = int(sol.stats.get("num_steps", 0))
@@ -566,16 +837,65 @@ def tune(
                   else "not converged: " + optx.RESULTS[sol.result].split(".")[0])
         say(f"tune {method}: end loss {v_end:.4f} after {steps} BFGS steps ({status}; the best "
             "loss seen is kept)")
-    params = params_from_theta(method, th, zeta_min)
-    wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
-    train = float(np.mean(evaluate(method, params, signal, noise_std, train_seeds)))
-    test = float(np.mean(evaluate(method, params, signal, noise_std, test_seeds)))
-    paper = float(np.mean(evaluate("sihd2-cascade", PAPER_PARAMS, signal, noise_std, test_seeds)))
-    dflt = float(np.mean(evaluate(method, default_params(method), signal, noise_std, test_seeds)))
+    params = params_from_theta(method, th, zeta_min, fa)
+    res = _finish(method, params, noise_std, sigs, train_seeds, test_seeds, objective,
+                  (t_wall, t_cpu), steps, bounds, heldout, say)
+    res.extra["solver_status"] = status
+    res.extra["constrained"] = bool(constrain)
+    return res
+
+
+def response_warnings(method: str, resp: FrequencyResponse) -> list[str]:
+    """One sentence when ``resp`` is not within its stated bounds (else nothing)."""
+    if resp.ok:
+        return []
+    why = ""
+    if method in ("sihd4", "sihd5", "kalman"):
+        why = (" (this structure estimates the acceleration without lag at low frequency, "
+               "which forces a gain above 1 somewhere above the band; sihd3 or sihd2-cascade "
+               "can meet such bounds)")
+    if not resp.linear:
+        why += f" (describing response at {resp.amplitude_m:g} m amplitude)"
+    return [f"the tuned {method} is not within the acceleration-response bounds: "
+            + "; ".join(resp.violations) + why
+            + ", so its small training RMSE does not hold on motions with other spectra."]
+
+
+def _family_name(sigs) -> str:
+    if len(sigs) == 1:
+        return sigs[0].name
+    return f"family of {len(sigs)} trajectories: " + "; ".join(s.name for s in sigs)
+
+
+def _finish(method, params, noise_std, sigs, train_seeds, test_seeds, objective, t0, steps,
+            bounds, heldout, say) -> TuneResult:
+    """Evaluate, verify the response on the dense grid and build the TuneResult."""
+    wall, cpu = time.perf_counter() - t0[0], time.process_time() - t0[1]
+    per = []
+    for s in sigs:
+        per.append({"name": s.name,
+                    "train_rmse": float(np.mean(evaluate(method, params, s, noise_std,
+                                                         train_seeds))),
+                    "test_rmse": float(np.mean(evaluate(method, params, s, noise_std,
+                                                        test_seeds)))})
+    train = float(np.mean([p["train_rmse"] for p in per]))
+    test = float(np.mean([p["test_rmse"] for p in per]))
+    paper = float(np.mean([np.mean(evaluate("sihd2-cascade", PAPER_PARAMS, s, noise_std,
+                                            test_seeds)) for s in sigs]))
+    dflt = float(np.mean([np.mean(evaluate(method, default_params(method), s, noise_std,
+                                           test_seeds)) for s in sigs]))
+    extra = {"signals": per}
+    if heldout:
+        ho = [{"name": s.name, "rmse": float(np.mean(evaluate(method, params, s, noise_std,
+                                                               test_seeds)))} for s in heldout]
+        extra["heldout"] = ho
+        extra["heldout_rmse"] = float(np.mean([r["rmse"] for r in ho]))
+    resp = acceleration_response(method, params, dt=float(sigs[0].dt), bounds=bounds)
     say(f"tune {method}: train {train:.4g}, test {test:.4g}, paper {paper:.4g} m/s^2 "
         f"({wall:.1f} s wall, {cpu:.1f} s CPU)")
     return TuneResult(method, params, float(noise_std), train, test, paper, dflt, objective,
-                      train_seeds, test_seeds, signal.name, wall, cpu, steps)
+                      train_seeds, test_seeds, _family_name(sigs), wall, cpu, steps,
+                      extra=extra, response=resp, warnings=response_warnings(method, resp))
 
 
 def _golden(f, lo, hi, iters):
@@ -595,6 +915,15 @@ def _golden(f, lo, hi, iters):
     return (c, fc) if fc < fd else (d, fd)
 
 
+def simulated_penalty(method: str, params: dict, dt: float, bounds: ResponseBounds,
+                      amplitude_m: float = 0.3) -> float:
+    """:func:`response_penalty` of the simulated (describing) response on a 40-point grid."""
+    f = np.union1d(np.geomspace(0.05, 0.45 / dt, 30), np.linspace(0.05, bounds.bandwidth_hz, 10))
+    r = acceleration_response(method, params, dt, freqs_hz=f, amplitude_m=amplitude_m)
+    H = r.gain * np.exp(1j * np.radians(r.phase_deg))
+    return float(response_penalty(jnp.asarray(H), f, bounds))
+
+
 def tune_baseline(
     method: str,
     noise_std: float = 5e-4,
@@ -604,29 +933,42 @@ def tune_baseline(
     n_grid: int = 17,
     refine: int = 10,
     progress=None,
+    signals=None,
+    bounds="auto",
+    constrain: bool = True,
+    heldout=None,
 ) -> TuneResult:
     """Tune one baseline's hyperparameter (see :data:`BASELINE_GRIDS`) on a log grid,
-    refined by golden section, minimising the mean train acceleration RMSE.
+    refined by golden section, minimising the mean over the training signals of the log
+    train acceleration RMSE, plus :data:`PENALTY_WEIGHT` x :func:`simulated_penalty` when
+    ``constrain`` (the response is measured by simulation: the describing response at 0.3 m
+    for Levant).  Other arguments as :func:`tune`.
 
     ``kalman``/``rts`` use the measurement variance ``r = noise_std^2``.
     """
     if method not in BASELINE_GRIDS:
         raise ValueError(f"grid tuning supports {', '.join(BASELINE_GRIDS)}; got {method!r}.")
     say = progress or (lambda s: None)
-    signal = signal or circle_signal()
+    sigs = _as_signals(signal, signals)
+    bounds = resolve_bounds(bounds, sigs)
+    dt = float(sigs[0].dt)
     train_seeds, test_seeds = list(train_seeds), list(test_seeds)
     name, lo, hi, fixed = BASELINE_GRIDS[method]
     fixed = dict(fixed)
     if method in ("kalman", "rts"):
         fixed["r"] = float(noise_std) ** 2
     if method in ("euler-filtfilt", "euler-butter-causal"):
-        hi = min(hi, 0.45 / signal.dt)
+        hi = min(hi, 0.45 / dt)
     t_wall, t_cpu = time.perf_counter(), time.process_time()
 
     def cost(logv):
+        p = {**fixed, name: math.exp(logv)}
         try:
-            return float(np.mean(evaluate(method, {**fixed, name: math.exp(logv)}, signal,
-                                          noise_std, train_seeds)))
+            v = float(np.mean([math.log(np.mean(evaluate(method, p, s, noise_std, train_seeds)))
+                               for s in sigs]))
+            if constrain:
+                v += PENALTY_WEIGHT * simulated_penalty(method, p, dt, bounds)
+            return v if math.isfinite(v) else float("inf")
         except ValueError:
             return float("inf")
 
@@ -637,36 +979,167 @@ def tune_baseline(
     lv, _ = _golden(cost, a, b, refine)
     params = {**fixed, name: float(math.exp(lv))}
     if method == "savgol":  # report the window actually used (odd number of samples)
-        w = int(round(params["window_s"] / signal.dt)) | 1
-        params["window_s"] = w * signal.dt
-    wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
-    train = float(np.mean(evaluate(method, params, signal, noise_std, train_seeds)))
-    test = float(np.mean(evaluate(method, params, signal, noise_std, test_seeds)))
-    paper = float(np.mean(evaluate("sihd2-cascade", PAPER_PARAMS, signal, noise_std, test_seeds)))
-    dflt = float(np.mean(evaluate(method, default_params(method), signal, noise_std, test_seeds)))
-    say(f"tune {method}: {name} = {params[name]:.4g}, train {train:.4g}, test {test:.4g} m/s^2")
-    return TuneResult(method, params, float(noise_std), train, test, paper, dflt, "accel",
-                      train_seeds, test_seeds, signal.name, wall, cpu, n_grid + refine + 2)
+        w = int(round(params["window_s"] / dt)) | 1
+        params["window_s"] = w * dt
+    res = _finish(method, params, noise_std, sigs, train_seeds, test_seeds, "accel",
+                  (t_wall, t_cpu), n_grid + refine + 2, bounds, heldout, say)
+    res.extra["constrained"] = bool(constrain)
+    say(f"tune {method}: {name} = {params[name]:.4g}")
+    return res
 
 
 def tune_method(method: str, noise_std: float, **kw) -> TuneResult:
     """:func:`tune` for the SIHD family, :func:`tune_baseline` otherwise."""
     if method in SIHD_METHODS:
         return tune(method, noise_std, **kw)
-    kw = {k: v for k, v in kw.items() if k in ("signal", "train_seeds", "test_seeds", "progress")}
-    return tune_baseline(method, noise_std, **kw)
+    keep = ("signal", "train_seeds", "test_seeds", "progress", "signals", "bounds", "constrain",
+            "heldout")
+    return tune_baseline(method, noise_std, **{k: v for k, v in kw.items() if k in keep})
 
 
 # ----------------------------------------------------------------------------- frequency response
 
 RESPONSE_TOL = 0.05
-"""Bandwidth: the highest frequency up to which the acceleration gain stays within 5 % of 1."""
+"""Default gain tolerance: ``|gain - 1| <= RESPONSE_TOL`` up to the stated bandwidth."""
+
+PHASE_MAX_DEG = 30.0
+"""Default bound on ``|phase|`` of the acceleration estimate up to the stated bandwidth, deg."""
 
 GAIN_MAX_BELOW = 1.1
 """Bound on the acceleration gain below the bandwidth (no resonance)."""
 
-GAIN_MAX_ABOVE = 1.0
-"""Bound on the acceleration gain above the bandwidth (noise must not be amplified)."""
+GAIN_MAX_ABOVE = 1.0 + RESPONSE_TOL
+"""Bound on the acceleration gain above the bandwidth: no peak above 1 beyond the tolerance
+(no resonance; the noise is not amplified)."""
+
+PENALTY_WEIGHT = 100.0
+"""Weight of the response penalty in the (log) tuning loss."""
+
+
+@dataclasses.dataclass(frozen=True)
+class ResponseBounds:
+    """Bounds on a differentiator's acceleration frequency response.
+
+    Attributes
+    ----------
+    bandwidth_hz : float
+        Stated bandwidth B, Hz.
+    gain_tol : float
+        ``|gain - 1| <= gain_tol`` for ``f <= B``.
+    phase_max_deg : float
+        ``|phase| <= phase_max_deg`` for ``f <= B``.
+    gain_max_below : float
+        ``gain <= gain_max_below`` for ``f <= B``.
+    gain_max_above : float
+        ``gain <= gain_max_above`` for ``f > B`` (no resonance).
+    """
+
+    bandwidth_hz: float
+    gain_tol: float = RESPONSE_TOL
+    phase_max_deg: float = PHASE_MAX_DEG
+    gain_max_below: float = GAIN_MAX_BELOW
+    gain_max_above: float = GAIN_MAX_ABOVE
+
+    def __post_init__(self):
+        for k in ("bandwidth_hz", "gain_tol", "phase_max_deg", "gain_max_below", "gain_max_above"):
+            v = getattr(self, k)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"response bound {k} must be a positive number, got {v!r}.")
+
+    def as_json(self) -> dict:
+        """The bounds as JSON numbers."""
+        return dataclasses.asdict(self)
+
+
+def dense_freqs(dt: float, bandwidth_hz: float | None = None, n: int = 160) -> np.ndarray:
+    """Verification grid: ``n`` log-spaced frequencies from 0.05 Hz to ``0.45 / dt`` (plus the
+    bandwidth itself and 40 linearly spaced points up to it)."""
+    f = np.geomspace(0.05, 0.45 / dt, n)
+    if bandwidth_hz is not None:
+        f = np.union1d(f, np.linspace(0.05, bandwidth_hz, 40))
+    return f
+
+
+def _pascal(n, h):
+    return np.array([[h ** (j - i) / math.factorial(j - i) if j >= i else 0.0 for j in range(n)]
+                     for i in range(n)])
+
+
+def _stage_response(lams, h, out, zeta):
+    """Transfer function ``y -> w_out`` of one linear (alpha = 1) SIHD stage at points ``zeta``.
+
+    With alpha = 1 the SIHD correction of line q is ``e min(lambda_q, h^-q)`` (mu = 1), so the
+    stage is the observer ``z+ = F (z + K e)``, ``w = z + K e``, ``e = y - z_1``,
+    ``K = h min(lambda, h^-q)``, F the Taylor (Pascal) matrix.
+    """
+    n = len(lams)
+    F = jnp.asarray(_pascal(n, h))
+    lam = jnp.minimum(jnp.stack([jnp.asarray(v, jnp.float64) for v in lams]),
+                      jnp.asarray([h ** -(q + 1) for q in range(n)]))
+    K = h * lam
+    e1 = jnp.zeros(n).at[0].set(1.0)
+    A = F - jnp.outer(F @ K, e1)
+    B = (F @ K).astype(jnp.complex128)
+    c = jnp.zeros(n).at[out].set(1.0) - K[out] * e1
+    eye = jnp.eye(n, dtype=jnp.complex128)
+    return K[out] + jax.vmap(lambda z: c @ jnp.linalg.solve(z * eye - A, B))(zeta)
+
+
+def sihd_linear_response(method: str, lams, dt: float, freqs_hz):
+    """Acceleration response (complex, relative to the true acceleration) of a SIHD with
+    alpha = 1, mu = 1 (a linear observer), JAX-traceable in the gains.
+
+    Parameters
+    ----------
+    method : {"sihd2-cascade", "sihd3", "sihd4", "sihd5"}
+    lams : sequence of scalars
+        ``lambda1..lambdaN`` (4 for the cascade).
+    dt : float
+    freqs_hz : array (F,)
+
+    Returns
+    -------
+    jax.Array (F,) complex
+        ``H(f)``: the estimate of ``a sin(2 pi f t + p)`` is ``|H| a sin(2 pi f t + p + arg H)``.
+    """
+    w = 2 * np.pi * np.asarray(freqs_hz, float)
+    zeta = jnp.asarray(np.exp(1j * w * dt))
+    if method == "sihd2-cascade":
+        hy = (_stage_response(lams[:2], dt, 1, zeta) * _stage_response(lams[2:], dt, 1, zeta))
+    else:
+        hy = _stage_response(lams, dt, 2, zeta)
+    return hy / jnp.asarray(-(w**2))
+
+
+def _noise_gain(method, lams, dt, n_grid: int = 2048):
+    """Variance of the acceleration estimate per unit white position-noise variance
+    (Parseval: the mean of ``|H_y|^2`` over the unit circle)."""
+    om = (np.arange(n_grid) + 0.5) * np.pi / n_grid
+    zeta = jnp.asarray(np.exp(1j * om))
+    if method == "sihd2-cascade":
+        hy = _stage_response(lams[:2], dt, 1, zeta) * _stage_response(lams[2:], dt, 1, zeta)
+    else:
+        hy = _stage_response(lams, dt, 2, zeta)
+    return jnp.mean(jnp.abs(hy) ** 2)
+
+
+def response_penalty(H, freqs_hz, bounds: ResponseBounds, margin: float = 0.9):
+    """Smooth (squared-hinge) penalty of a response ``H`` outside ``bounds``.
+
+    The gain and phase bounds are tightened by ``margin`` so that the optimum lies inside them
+    (the final result is verified on a dense grid by :func:`acceleration_response`).
+    """
+    f = np.asarray(freqs_hz, float)
+    below = jnp.asarray(f <= bounds.bandwidth_hz)
+    g, ph = jnp.abs(H), jnp.angle(H)
+    tol, phm = bounds.gain_tol, math.radians(bounds.phase_max_deg)
+    relu = jax.nn.relu
+    p_gain = relu(jnp.abs(g - 1.0) - margin * tol) / tol
+    p_gmax = relu(g - (bounds.gain_max_below - (1 - margin) * tol)) / tol
+    p_phase = relu(jnp.abs(ph) - margin * phm) / phm
+    p_above = relu(g - (bounds.gain_max_above - (1 - margin) * tol)) / tol
+    pen = jnp.where(below, p_gain**2 + p_gmax**2 + p_phase**2, p_above**2)
+    return jnp.sum(pen)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -680,12 +1153,27 @@ class FrequencyResponse:
     amplitude_m : float
         Position amplitude of the test sinusoids (homogeneous differentiators depend on it).
     bandwidth_hz : float
-        Highest tested frequency up to which ``|gain - 1| <= RESPONSE_TOL`` (0 if none).
+        Measured: the highest tested frequency up to which ``|gain - 1| <= RESPONSE_TOL``
+        (0 if none).
     gain_max_below, gain_max_above : float
-        Largest gain at or below / above the bandwidth.
+        Largest gain at or below / above the (stated if given, else measured) bandwidth.
     phase_at_bandwidth_deg : float
+        Phase at the measured bandwidth.
     ok : bool
-        ``gain_max_below <= GAIN_MAX_BELOW`` and ``gain_max_above <= GAIN_MAX_ABOVE``.
+        Within the stated bounds (``bounds``), else ``gain_max_below <= GAIN_MAX_BELOW`` and
+        ``gain_max_above <= GAIN_MAX_ABOVE`` about the measured bandwidth.
+    bounds : ResponseBounds or None
+        The stated bounds the response was checked against.
+    max_gain_error_below, max_phase_below_deg : float
+        ``max |gain - 1|`` and ``max |phase|`` for ``f <= bounds.bandwidth_hz``.
+    max_gain, peak_frequency_hz : float
+        Largest gain over the grid and its frequency.
+    phase_at_stated_bandwidth_deg : float
+    violations : tuple of str
+        One phrase per bound not met.
+    linear : bool
+        True when the method is linear (the response does not depend on the amplitude); else
+        it is the describing response (fundamental of the output) at ``amplitude_m``.
     """
 
     freqs_hz: np.ndarray
@@ -697,10 +1185,18 @@ class FrequencyResponse:
     gain_max_above: float
     phase_at_bandwidth_deg: float
     ok: bool
+    bounds: ResponseBounds | None = None
+    max_gain_error_below: float = float("nan")
+    max_phase_below_deg: float = float("nan")
+    max_gain: float = float("nan")
+    peak_frequency_hz: float = float("nan")
+    phase_at_stated_bandwidth_deg: float = float("nan")
+    violations: tuple = ()
+    linear: bool = True
 
     def as_json(self) -> dict:
         """Numbers for ``tune --json`` (key ``frequency_response``)."""
-        return {
+        d = {
             "freqs_hz": [float(f) for f in self.freqs_hz],
             "gain": [float(g) for g in self.gain],
             "phase_deg": [float(p) for p in self.phase_deg],
@@ -712,24 +1208,80 @@ class FrequencyResponse:
             "phase_at_bandwidth_deg": self.phase_at_bandwidth_deg,
             "bounds": {"gain_max_below": GAIN_MAX_BELOW, "gain_max_above": GAIN_MAX_ABOVE},
             "within_bounds": self.ok,
+            "response_kind": ("linear (amplitude-independent), measured with sinusoids"
+                              if self.linear else
+                              f"describing response: fundamental of the output for position "
+                              f"sinusoids of {self.amplitude_m:g} m (nonlinear method; other "
+                              "amplitudes respond differently)"),
+        }
+        if self.bounds is not None:
+            d.update(self.check_json())
+            d["bounds"] = self.bounds.as_json()
+        return d
+
+    def check_json(self) -> dict:
+        """The verification against the stated bounds (top-level keys of ``tune --json``)."""
+        b = self.bounds
+        return {
+            "stated_bandwidth_hz": b.bandwidth_hz if b else None,
+            "max_gain_error_below_bandwidth": self.max_gain_error_below,
+            "max_phase_below_bandwidth_deg": self.max_phase_below_deg,
+            "max_gain": self.max_gain,
+            "peak_frequency_hz": self.peak_frequency_hz,
+            "phase_at_stated_bandwidth_deg": self.phase_at_stated_bandwidth_deg,
+            "within_bounds": self.ok,
+            "violations": list(self.violations),
+            "verification_grid": {"n": int(self.freqs_hz.size),
+                                  "f_min_hz": float(self.freqs_hz[0]),
+                                  "f_max_hz": float(self.freqs_hz[-1])},
         }
 
     def summary(self) -> str:
         """One line of numbers."""
+        if self.bounds is not None:
+            b = self.bounds
+            return (f"acceleration response up to the stated bandwidth {b.bandwidth_hz:.3g} Hz: "
+                    f"max |gain - 1| {self.max_gain_error_below:.3g} (bound {b.gain_tol:g}), "
+                    f"max |phase| {self.max_phase_below_deg:.3g} deg (bound {b.phase_max_deg:g}),"
+                    f" phase there {self.phase_at_stated_bandwidth_deg:.3g} deg; max gain "
+                    f"{self.max_gain:.3g} at {self.peak_frequency_hz:.3g} Hz, "
+                    f"{self.gain_max_above:.3g} above B (bound {b.gain_max_above:g}): "
+                    + ("within bounds" if self.ok else "NOT within bounds"))
         return (f"acceleration response: gain within {100 * RESPONSE_TOL:g} % of 1 up to "
                 f"{self.bandwidth_hz:.3g} Hz (phase there {self.phase_at_bandwidth_deg:.0f} deg), "
                 f"max gain {self.gain_max_below:.3g} below and {self.gain_max_above:.3g} above "
                 f"it (bounds {GAIN_MAX_BELOW:g}, {GAIN_MAX_ABOVE:g})")
 
 
+def is_linear(method: str, params: dict) -> bool:
+    """True when ``method`` with ``params`` is a linear filter (SIHD with alpha = 1 and gains
+    below the dead-beat clip are linear; Levant and SIHD with alpha < 1 are not)."""
+    if method == "levant":
+        return False
+    if method in SIHD_METHODS:
+        return float(params.get("alpha", default_params(method)["alpha"])) == 1.0
+    return True
+
+
+def _fundamental(a, t, w, amplitude_m):
+    """Complex gain of the fundamental of each column of ``a`` w.r.t. ``-A w^2 sin(w t)``."""
+    out = np.empty(w.size, complex)
+    for i, wi in enumerate(w):
+        X = np.column_stack([np.sin(wi * t), np.cos(wi * t)])
+        c, *_ = np.linalg.lstsq(X, a[:, i], rcond=None)
+        out[i] = complex(c[0], c[1]) / (-amplitude_m * wi**2)
+    return out
+
+
 def acceleration_response(method: str, params: dict, dt: float = 0.01, freqs_hz=None,
-                          amplitude_m: float = 0.3, duration_s: float = 40.0
-                          ) -> FrequencyResponse:
+                          amplitude_m: float = 0.3, duration_s: float = 40.0,
+                          bounds: ResponseBounds | None = None) -> FrequencyResponse:
     """Gain and phase of ``method``'s acceleration on noise-free sinusoids.
 
     Each frequency is one channel ``A sin(2 pi f t)`` (all in one call); the fundamental of the
     estimated acceleration over the second half of the record (steady state) is compared with
-    the true ``-A (2 pi f)^2 sin(2 pi f t)``.
+    the true ``-A (2 pi f)^2 sin(2 pi f t)``.  For a nonlinear method (Levant, SIHD with
+    alpha < 1) this is the describing response at amplitude ``A``.
 
     Parameters
     ----------
@@ -739,30 +1291,66 @@ def acceleration_response(method: str, params: dict, dt: float = 0.01, freqs_hz=
     dt : float
         Sampling period, s.
     freqs_hz : array, optional
-        Default: 30 log-spaced frequencies from 0.05 Hz to 0.4 / dt.
+        Default: 30 log-spaced frequencies from 0.05 Hz to 0.4 / dt, or :func:`dense_freqs`
+        when ``bounds`` is given.
     amplitude_m : float
         Position amplitude (homogeneous SIHD/Levant respond differently at other amplitudes).
     duration_s : float
+        Record length (default 40 s; 80 s with ``bounds``).
+    bounds : ResponseBounds, optional
+        Check the response against these stated bounds (``ok``, ``violations``...).
     """
-    f = (np.geomspace(0.05, 0.4 / dt, 30) if freqs_hz is None
-         else np.asarray(freqs_hz, float))
+    if freqs_hz is None:
+        f = (np.geomspace(0.05, 0.4 / dt, 30) if bounds is None
+             else dense_freqs(dt, bounds.bandwidth_hz))
+        if bounds is not None:
+            duration_s = max(duration_s, 80.0)
+    else:
+        f = np.asarray(freqs_hz, float)
     t = np.arange(0.0, duration_s, dt)
     w = 2 * np.pi * f
     y = amplitude_m * np.sin(np.outer(t, w))
     _, a = any_differentiate(y, dt, method, **params)
     half = t >= duration_s / 2
-    gain, phase = np.empty_like(f), np.empty_like(f)
-    for i, wi in enumerate(w):
-        X = np.column_stack([np.sin(wi * t[half]), np.cos(wi * t[half])])
-        c, *_ = np.linalg.lstsq(X, np.asarray(a)[half, i], rcond=None)
-        z = complex(c[0], c[1]) / (-amplitude_m * wi**2)  # relative to the true acceleration
-        gain[i], phase[i] = abs(z), math.degrees(math.atan2(z.imag, z.real))
+    z = _fundamental(np.asarray(a)[half], t[half], w, amplitude_m)
+    gain, phase = np.abs(z), np.degrees(np.angle(z))
     inside = np.abs(gain - 1.0) <= RESPONSE_TOL
     k = int(np.argmin(inside)) if not inside.all() else len(f)
     bw = float(f[k - 1]) if k > 0 else 0.0
-    below = gain[:k] if k > 0 else gain[:1]
-    above = gain[k:] if k < len(f) else np.array([0.0])
-    gb, ga = float(below.max()), float(above.max())
-    return FrequencyResponse(f, gain, phase, float(amplitude_m), bw, gb, ga,
-                             float(phase[k - 1]) if k > 0 else float("nan"),
-                             bool(gb <= GAIN_MAX_BELOW and ga <= GAIN_MAX_ABOVE))
+    ph_bw = float(phase[k - 1]) if k > 0 else float("nan")
+    lin = is_linear(method, params)
+    if bounds is None:
+        below = gain[:k] if k > 0 else gain[:1]
+        above = gain[k:] if k < len(f) else np.array([0.0])
+        gb, ga = float(below.max()), float(above.max())
+        return FrequencyResponse(f, gain, phase, float(amplitude_m), bw, gb, ga, ph_bw,
+                                 bool(gb <= GAIN_MAX_BELOW and ga <= GAIN_MAX_ABOVE), linear=lin)
+    return _checked(f, gain, phase, float(amplitude_m), bw, ph_bw, bounds, lin)
+
+
+def _checked(f, gain, phase, amp, bw, ph_bw, b: ResponseBounds, lin) -> FrequencyResponse:
+    """FrequencyResponse with the verification against the stated bounds ``b``."""
+    below = f <= b.bandwidth_hz
+    if not below.any():
+        raise ValueError(f"the stated bandwidth {b.bandwidth_hz:g} Hz is below the lowest "
+                         f"verified frequency {f[0]:g} Hz.")
+    gerr = float(np.max(np.abs(gain[below] - 1.0)))
+    phmax = float(np.max(np.abs(phase[below])))
+    gb = float(np.max(gain[below]))
+    ga = float(np.max(gain[~below])) if (~below).any() else 0.0
+    k = int(np.argmax(gain))
+    ph_b = float(np.interp(b.bandwidth_hz, f, phase))
+    v = []
+    if gerr > b.gain_tol:
+        v.append(f"|gain - 1| reaches {gerr:.3g} below {b.bandwidth_hz:g} Hz "
+                 f"(bound {b.gain_tol:g})")
+    if phmax > b.phase_max_deg:
+        v.append(f"|phase| reaches {phmax:.3g} deg below {b.bandwidth_hz:g} Hz "
+                 f"(bound {b.phase_max_deg:g})")
+    if gb > b.gain_max_below:
+        v.append(f"gain {gb:.3g} below {b.bandwidth_hz:g} Hz (bound {b.gain_max_below:g})")
+    if ga > b.gain_max_above:
+        v.append(f"gain {ga:.3g} above {b.bandwidth_hz:g} Hz, peak at {f[k]:.3g} Hz "
+                 f"(bound {b.gain_max_above:g})")
+    return FrequencyResponse(f, gain, phase, amp, bw, gb, ga, ph_bw, not v, b, gerr, phmax,
+                             float(gain[k]), float(f[k]), ph_b, tuple(v), lin)
