@@ -8,7 +8,7 @@
    ties are aliases with what would separate them.
 5. :func:`cdprid.diagnosis.selection.backward_stage` — a finding stays only if needed given the
    others and the unexplained structure.
-6. :func:`cdprid.diagnosis.unexplained.structure_tests` — what remains, under ``unexplained``.
+6. :func:`cdprid.diagnosis.unexplained.unexplained_stage` — what remains, under ``unexplained``.
 7. :func:`summarize` — extended model, held-out figures, information criterion.
 """
 
@@ -31,7 +31,7 @@ from .problem import Problem, force_heldout_rms, prepare
 from .result import DiagnosisResult
 from .selection import Selection, backward_stage, forward_step, linear_model, start, swap_stage
 from .testing import wald
-from .unexplained import structure_features, structure_tests
+from .unexplained import structure_features, unexplained_stage
 
 
 def weight_at_rest(prob: Problem, theta, min_rest_s: float = 0.5):
@@ -198,16 +198,14 @@ def diagnose(
         prob.W_all, prob.v, prob.om, prob.tension, prob.position, prob.t, prob.use).items()}
     s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
     Z, y, _, _ = linear_model(prob, s)
-    train = prob.train
-    struct = structure_tests({k: F[train] for k, F in feats.items()}, Z[train], y[train],
-                             prob.wrow, prob.lags, alpha)
-    unexplained = [u for u in struct if u["significant"]] + hints
+    unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
     for u in unexplained:
         say(f"unexplained: {u['where']}, {u['size']:.3g} N, like {u['correlates_with']}, "
             f"p = {u['p_value']:.2e}")
     settings = {"train_until": train_until, "taut_threshold_N": taut_N,
                 "n_candidates": len(candidates), "alpha": alpha}
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, settings)
+    info["unexplained_rule"] = rule
     info["wall_time_s"] = time.perf_counter() - t0
     if sub is not None:
         info["subset"] = sub.as_json()

@@ -8,47 +8,93 @@ import numpy as np
 
 
 def unexplained_lines(result) -> list[str]:
-    """The ``What remains unexplained`` section of report.md."""
+    """The ``What remains unexplained`` section of report.md (items, rule, every test)."""
     lines = ["", "## What remains unexplained", ""]
+    rule = result.info.get("unexplained_rule")
+    if rule:
+        lines += [f"Tests of the extended model's residual: structure regressions (sign of "
+                  "cable velocity, tension level, pose, slow drift; HAC Wald), a spectral peak "
+                  "of the held-out force residual and its whiteness over time; "
+                  f"{rule['multiple_testing']}. An item is {rule['rule']} "
+                  f"(floor {rule['floor_N']:.3g} N: tension noise {rule['tension_noise_N']:.3g} "
+                  f"N, held-out force residual rms {rule['heldout_force_residual_rms_N']:.3g} "
+                  "N).", ""]
     if not result.unexplained:
-        return lines + ["The extended model's residual shows no structure against the tested "
-                        "signals (sign of cable velocity, tension level, pose, slow drift).", ""]
-    lines += ["Structure left in the residual of the extended model (HAC Wald tests, "
-              "Bonferroni over the signals). These are not findings: no effect of the "
-              "vocabulary explains them. A vocabulary effect listed here fitted part of a "
-              "structure without explaining it and was removed.", "",
-              "| where | size [N rms] | correlates with | p |", "|---|---|---|---|"]
-    for u in result.unexplained:
-        lines.append(f"| {u['where']} | {u['size']:.3g} | {u['correlates_with']} | "
-                     f"{u['p_value']:.2e} |")
-    return lines + [""]
+        lines += ["Nothing: no test finds a material structure in the residual of the "
+                  "extended model.", ""]
+    else:
+        lines += ["These are not findings: no effect of the vocabulary explains them. A "
+                  "vocabulary effect listed here fitted part of a structure without "
+                  "explaining it and was removed.", "",
+                  "| where | size [N rms] | correlates with | p (Holm) |", "|---|---|---|---|"]
+        for u in result.unexplained:
+            lines.append(f"| {u['where']} | {u['size']:.3g} | {u['correlates_with']} | "
+                         f"{u['p_value']:.2e} |")
+        lines.append("")
+    if rule:
+        lines += ["Every test:", "", "| test | correlates with | where | size [N] | p raw | "
+                  "p (Holm) | listed |", "|---|---|---|---|---|---|---|"]
+        for u in rule["tests"]:
+            extra = (f" (n_eff {u['effective_sample_size']}, {u['lags']} lags, spacing "
+                     f"{u['spacing_s']:.3g} s)" if "effective_sample_size" in u else "")
+            lines.append(f"| {u['test']}{extra} | {u['correlates_with']} | {u['where']} | "
+                         f"{u['size']:.3g} | {u['p_raw']:.2e} | {u['p_value']:.2e} | "
+                         f"{'yes' if u['significant'] else 'no'} |")
+        lines.append("")
+    return lines
 
 
 def unexplained_figure(result, out: Path) -> Path:
-    """Extended-model force residual over time beside the cable-velocity sign pattern."""
+    """Extended residual over time, its spectrum (peak marked) and autocorrelation."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from ..diagnosis.unexplained import decimate_runs, periodogram
     from ..plots import save_fig
 
     A = result.arrays
     t, r, use = A["t"], A["residual_extended"], A["use"]
-    v = A["velocity"]
-    fig, axs = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    dt = float(np.median(np.diff(t)))
+    tests = (result.info.get("unexplained_rule") or {}).get("tests", [])
+    fig, axs = plt.subplots(3, 1, figsize=(10, 9))
     for i, c in enumerate("xyz"):
         axs[0].plot(t[use], r[use, i], lw=0.6, label=f"f{c}")
     axs[0].set_ylabel("extended residual [N]")
+    axs[0].set_xlabel("t [s]")
     axs[0].legend(fontsize=8)
     axs[0].set_title("; ".join(f"{u['correlates_with'][:40]} ({u['size']:.2g} N)"
-                               for u in result.unexplained[:3]), fontsize=8)
+                               for u in result.unexplained[:3]) or "nothing unexplained",
+                     fontsize=8)
     for i, c in enumerate("xyz"):
-        axs[1].plot(t[use], np.sign(v[use, i]), lw=0.6, label=f"sign v{c}")
-    axs[1].set_ylabel("sign of platform velocity")
-    axs[1].set_xlabel("t [s]")
+        f, P = periodogram(r[:, i], use, dt)
+        axs[1].semilogy(f[1:], P[1:] + 1e-300, lw=0.6, label=f"f{c}")
+    for u in tests:
+        if "frequency_hz" in u:
+            axs[1].axvline(u["frequency_hz"], color="k", ls="--", lw=0.8,
+                           label=f"peak {u['frequency_hz']:.3g} Hz (p {u['p_value']:.1e})")
+    axs[1].set_xlim(0, min(10.0, 0.5 / dt))
+    axs[1].set_xlabel("frequency [Hz]")
+    axs[1].set_ylabel("periodogram [N^2]")
     axs[1].legend(fontsize=8)
+    white = [u for u in tests if "spacing_s" in u]
+    step = max(1, int(round(white[0]["spacing_s"] / dt))) if white else 1
+    h = white[0]["lags"] if white else 20
+    for i, c in enumerate("xyz"):
+        x, rid = decimate_runs(r[:, i], use, step)
+        x = x - x.mean()
+        acf = [float(x[k:][rid[k:] == rid[:-k]] @ x[:-k][rid[k:] == rid[:-k]] / (x @ x))
+               for k in range(1, h + 1)]
+        axs[2].plot(np.arange(1, h + 1) * step * dt, acf, "o-", ms=3, lw=0.8, label=f"f{c}")
+    if white:
+        band = 1.96 / np.sqrt(white[0]["effective_sample_size"])
+        axs[2].axhspan(-band, band, color="0.85", label="95 % band of white noise")
+    axs[2].set_xlabel("lag [s] (residual taken every %.3g s)" % (step * dt))
+    axs[2].set_ylabel("autocorrelation")
+    axs[2].legend(fontsize=8)
     fig.suptitle("What remains unexplained after the extended model")
+    fig.tight_layout()
     return save_fig(fig, out / "unexplained.png")
 
 
@@ -72,8 +118,7 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figs = diagnosis_figures(result, out)
-    if result.unexplained:
-        figs.append(unexplained_figure(result, out))
+    figs.append(unexplained_figure(result, out))
     lines = [f"# Diagnosis of {dataset_name}", ""]
     for note in result.notes:
         lines += [f"**Note:** {note}", ""]
