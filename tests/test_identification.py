@@ -54,6 +54,44 @@ def test_weighted_least_squares_by_groups(rng):
     assert np.all(wls.std < ols.std)
 
 
+def test_least_squares_blocks_equal_the_stacked_solution(rng):
+    """Block-by-block QR, residual and HAC passes give the stacked arrays' answer to rounding."""
+    from cdprid.covariance import hac_covariance, hac_covariance_blocks, sample_scores
+    from cdprid.identification import least_squares_blocks
+
+    n, k, p = 1500, 6, 5
+    Z = rng.normal(size=(n, k, p)) * np.array([1.0, 10.0, 0.1, 3.0, 0.5])
+    e = rng.normal(size=(n, k))
+    for t in range(1, n):  # AR(1) regressors and residuals: correlated scores, a wide window
+        Z[t] += 0.9 * Z[t - 1]
+        e[t] += 0.9 * e[t - 1]
+    y = Z @ rng.normal(size=p) + e
+    A, Y = Z.reshape(-1, p), y.reshape(-1)
+    x_ref = np.linalg.lstsq(A, Y, rcond=None)[0]
+    r = Y - A @ x_ref
+    cov_iid = (r @ r) / (n * k - p) * np.linalg.inv(A.T @ A)
+    cov_hac, bw = hac_covariance(Z, r.reshape(n, k))
+    for chunk in (1, 13, 10**6):
+        res = least_squares_blocks(lambda i0, i1: (Z[i0:i1], y[i0:i1]), n, chunk=chunk)
+        np.testing.assert_allclose(res.x, x_ref, rtol=1e-11)
+        np.testing.assert_allclose(res.residual, r, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(res.cov_iid, cov_iid, rtol=1e-9)
+        np.testing.assert_allclose(res.cov, cov_hac, rtol=1e-9)
+        assert res.hac_bandwidth == pytest.approx(bw, rel=1e-9) and bw > 5
+    # the HAC leverage windows, streamed in chunks of 7 windows, equal one pass over all
+    S = sample_scores(Z, r.reshape(n, k))
+    R = np.linalg.qr(A, mode="r")
+    cov7, _ = hac_covariance_blocks(lambda i0, i1: Z[i0:i1], S, R, chunk=7)
+    np.testing.assert_allclose(cov7, cov_hac, rtol=1e-9)
+    # weighted by row groups: the same two-step estimate as the stacked one
+    groups = np.tile([0, 0, 0, 1, 1, 1], n)
+    ref = least_squares(A, Y, groups=groups, rows_per_sample=k)
+    res = least_squares_blocks(lambda i0, i1: (Z[i0:i1], y[i0:i1]), n, groups=groups, chunk=29)
+    np.testing.assert_allclose(res.x, ref.x, rtol=1e-11)
+    np.testing.assert_allclose(res.cov, ref.cov, rtol=1e-9)
+    np.testing.assert_allclose(res.weights, ref.weights, rtol=1e-12)
+
+
 def test_condition_number_scaled_invariance(rng):
     A = rng.normal(size=(100, 4))
     D = np.diag([1e-3, 1.0, 1e3, 10.0])
@@ -188,6 +226,52 @@ def test_auto_model_and_matched_filter_unbiased_on_rotating_data(rotating_ds, me
     assert j["model"] == "full" and j["warnings"] == list(rep.warnings)
     assert j["inertia_about"] == "P, platform frame"
     assert set(j["parameters"]["m"]) >= {"value", "std", "rel_std_percent", "std_iid"}
+
+
+@pytest.mark.parametrize("method", ["euler-filtfilt",
+                                    pytest.param("kalman", marks=pytest.mark.slow)])
+def test_streamed_identify_equals_the_materialised_regression(rotating_ds, method):
+    """identify evaluates the regressor block by block (bounded memory, issue 17); the oracle
+    holds every array: W tau and the pose-only regressor terms filtered whole, stacked LS."""
+    from cdprid.differentiators import acceleration_filter
+    from cdprid.io.dataset import align
+    from cdprid.motion import estimate_motion
+    from cdprid.regression import build_regression, regressors
+
+    import dataclasses
+
+    ds, _ = rotating_ds
+    noise = np.random.default_rng(7).normal(0.0, 0.5, ds.tension.shape)  # realistic residuals
+    ds = dataclasses.replace(ds, tension=ds.tension + noise)
+    sig = align(ds)
+    motion = estimate_motion(sig, method, {}, angular=True)
+
+    def wf(y):  # linear methods: the amplitude normalisation cancels
+        return acceleration_filter(y, sig.dt, method)
+
+    reg = build_regression(ds.robot, motion, sig.tension, "full", wf)
+    n = len(motion.t)
+    z = jnp.zeros((n, 3))
+    Ag = np.asarray(regressors("full", jnp.asarray(motion.B_R_P), z, z, z, ds.robot.gravity))
+    A = reg.A - Ag + wf(Ag.reshape(n, -1)).reshape(Ag.shape)
+    keep = (motion.t >= motion.t[0] + 1.0) & (motion.t <= motion.t[-1] - 1.0)
+    for weighting in ("none", "groups"):
+        groups = np.tile([0, 0, 0, 1, 1, 1], int(keep.sum())) if weighting == "groups" else None
+        ref = least_squares(A[keep].reshape(-1, 10), reg.y[keep].reshape(-1), groups=groups,
+                            rows_per_sample=6)
+        rep = identify_dataset(ds, differentiator=method, weighting=weighting, chunk=257)
+        res = rep.result
+        assert rep.model == "full" and rep.n_samples == keep.sum()
+        np.testing.assert_allclose(res.x, ref.x, rtol=1e-9, atol=1e-12)
+        for c, c_ref in ((res.cov, ref.cov), (res.cov_iid, ref.cov_iid)):
+            d = np.sqrt(np.diag(c_ref))  # entries relative to their std: ~0 ones stay testable
+            np.testing.assert_allclose(c / np.outer(d, d), c_ref / np.outer(d, d), atol=1e-9)
+            np.testing.assert_allclose(np.diag(c), d**2, rtol=1e-9)
+        assert res.hac_bandwidth == pytest.approx(ref.hac_bandwidth, rel=1e-9)
+        np.testing.assert_allclose([res.sigma_rho, res.cond_scaled],
+                                   [ref.sigma_rho, ref.cond_scaled], rtol=1e-9)
+    np.testing.assert_allclose(rep.regression.W_ID, A[keep].reshape(-1, 10), rtol=1e-12,
+                               atol=1e-12)
 
 
 def test_guards_fire_where_they_should(rotating_ds):

@@ -56,6 +56,7 @@ from jaxtyping import Float
 __all__ = [
     "andrews_bandwidth",
     "hac_covariance",
+    "hac_covariance_blocks",
     "iid_covariance",
     "sample_scores",
     "std_from_cov",
@@ -159,7 +160,29 @@ def _bartlett_meat(S, bandwidth: float):
     return (M.T @ M) / L
 
 
-def _leverage_adjusted_windows(Z, S, bandwidth: float, chunk: int = 2048):
+def _window_chunk(design, c, XtX, k0: int, k1: int, n: int, L: int):
+    """Adjusted summed scores of the Bartlett windows ``k0 <= k < k1`` (ends ``hi = k + 1``).
+
+    Only the samples those windows cover, ``[max(k0 - L + 1, 0), min(k1, n))``, are asked from
+    ``design``; their Gram matrices are summed by a local running sum.
+    """
+    k = np.arange(k0, k1)
+    hi, lo = np.minimum(k + 1, n), np.maximum(k - L + 1, 0)
+    base, top = int(lo[0]), int(hi[-1])
+    Zb = np.asarray(design(base, top), float)
+    Zb = Zb[:, None, :] if Zb.ndim == 2 else Zb
+    G = np.einsum("nkp,nkq->npq", Zb, Zb)
+    p = G.shape[-1]
+    cg = np.concatenate([np.zeros((1, p, p)), np.cumsum(G, axis=0)])
+    m = c[hi] - c[lo]
+    try:
+        return np.linalg.solve(XtX[None] - (cg[hi - base] - cg[lo - base]),
+                               m[..., None])[..., 0] @ XtX.T
+    except np.linalg.LinAlgError:
+        return m
+
+
+def _leverage_adjusted_windows(design, S, XtX, bandwidth: float, chunk: int = 2048):
     """Bartlett meat from jackknife (leave-one-window-out) adjusted window scores.
 
     A fitted residual under-represents the error it estimates: removing the window ``w`` from
@@ -167,22 +190,16 @@ def _leverage_adjusted_windows(Z, S, bandwidth: float, chunk: int = 2048):
     score, ``G_w`` its Gram matrix), so the error's window score is estimated by
     ``Z^T Z (Z^T Z - G_w)^-1 m_w`` (the HC3 / jackknife correction applied to each Bartlett
     window instead of each row). Windows whose complement is singular keep the raw score.
+
+    Streamed: windows are taken ``chunk`` at a time and each chunk asks ``design`` only for the
+    samples it covers (``chunk + L - 1``), so no (n, p, p) array is ever held.
     """
     n, p = S.shape
     L = max(1, int(np.ceil(bandwidth)))
-    G = np.einsum("nkp,nkq->npq", Z, Z)
-    XtX = G.sum(axis=0)
     c = np.concatenate([np.zeros((1, p)), np.cumsum(S, axis=0)])
-    cg = np.concatenate([np.zeros((1, p, p)), np.cumsum(G, axis=0)])
     meat = np.zeros((p, p))
     for k0 in range(0, n + L - 1, chunk):
-        k = np.arange(k0, min(k0 + chunk, n + L - 1))
-        hi, lo = np.minimum(k + 1, n), np.maximum(k - L + 1, 0)
-        m = c[hi] - c[lo]
-        try:
-            adj = np.linalg.solve(XtX[None] - (cg[hi] - cg[lo]), m[..., None])[..., 0] @ XtX.T
-        except np.linalg.LinAlgError:
-            adj = m
+        adj = _window_chunk(design, c, XtX, k0, min(k0 + chunk, n + L - 1), n, L)
         meat += adj.T @ adj
     return meat / L
 
@@ -226,16 +243,51 @@ def hac_covariance(
     Z, e = _grouped(Z, e)
     p = Z.shape[-1]
     S = np.einsum("nkp,nk->np", Z, e)
+    if R is None:
+        R = np.linalg.qr(Z.reshape(-1, p), mode="r")
+    return hac_covariance_blocks(lambda i0, i1: Z[i0:i1], S, R, bandwidth, leverage)
+
+
+def hac_covariance_blocks(
+    design,
+    S: Float[np.ndarray, "n p"],
+    R: Float[np.ndarray, "p p"],
+    bandwidth: float | None = None,
+    leverage: bool | None = None,
+    chunk: int = 2048,
+) -> tuple[Float[np.ndarray, "p p"], float]:
+    """:func:`hac_covariance` in bounded memory: the design is asked for block by block.
+
+    Parameters
+    ----------
+    design : callable
+        ``design(i0, i1)`` returns the (weighted) design rows of samples ``i0:i1`` as an array
+        (i1 - i0, k, p); called only for the leverage adjustment, one window chunk at a time.
+    S : ndarray (n, p)
+        Per-sample scores ``Z_t^T e_t`` (:func:`sample_scores`).
+    R : ndarray (p, p)
+        R factor of the thin QR of the stacked design (``Z^T Z = R^T R``).
+    bandwidth, leverage :
+        As in :func:`hac_covariance`.
+    chunk : int
+        Bartlett windows handled per block (memory ``(chunk + L) p^2`` floats).
+
+    Returns
+    -------
+    cov : ndarray (p, p)
+    bandwidth : float
+    """
+    S = np.asarray(S, float)
+    p = S.shape[-1]
     if leverage is None:
         leverage = bandwidth is None
     if bandwidth is None:
         bandwidth = andrews_bandwidth(S)
-    if R is None:
-        R = np.linalg.qr(Z.reshape(-1, p), mode="r")
-    Rinv = np.linalg.solve(np.asarray(R, float), np.eye(p))
+    R = np.asarray(R, float)
+    Rinv = np.linalg.solve(R, np.eye(p))
     bread = Rinv @ Rinv.T
     if leverage:
-        meat = _leverage_adjusted_windows(Z, S, float(bandwidth))
+        meat = _leverage_adjusted_windows(design, S, R.T @ R, float(bandwidth), int(chunk))
     else:
         meat = _bartlett_meat(S, float(bandwidth))
     cov = bread @ meat @ bread

@@ -14,9 +14,10 @@ import dataclasses
 
 import numpy as np
 
-from .covariance import hac_covariance, iid_covariance, std_from_cov
+from .covariance import hac_covariance_blocks, iid_covariance, std_from_cov
 
-__all__ = ["LSResult", "least_squares", "condition_number", "group_weights"]
+__all__ = ["LSResult", "condition_number", "group_weights", "least_squares",
+           "least_squares_blocks"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,6 +50,8 @@ class LSResult:
         Which covariance ``cov`` is: ``"hac"`` or ``"iid"``.
     hac_bandwidth : float
         Bartlett bandwidth (time samples) of the HAC covariance.
+    column_norms : ndarray (p,) or None
+        Euclidean norms of the (unweighted) columns of W_ID.
     """
 
     names: tuple
@@ -63,6 +66,7 @@ class LSResult:
     cov_iid: np.ndarray | None = None
     covariance: str = "hac"
     hac_bandwidth: float = float("nan")
+    column_norms: np.ndarray | None = None
 
     @property
     def std(self) -> np.ndarray:
@@ -119,12 +123,15 @@ def group_weights(residual, groups) -> np.ndarray:
     return w
 
 
-def _check_rank(A, names, tol: float = 1e-10) -> None:
-    """Raise a clear ValueError when W_ID is (numerically) rank deficient."""
-    norms = np.linalg.norm(A, axis=0)
+def _check_rank(R, names, tol: float = 1e-10) -> None:
+    """Raise a clear ValueError when W_ID = Q R is (numerically) rank deficient.
+
+    The singular values and right singular vectors of W_ID are those of its R factor, and its
+    column norms are R's.
+    """
+    norms = np.linalg.norm(R, axis=0)
     zero = [n for n, v in zip(names, norms, strict=False) if v == 0]
-    As = A / np.where(norms > 0, norms, 1.0)
-    _, s, Vt = np.linalg.svd(As, full_matrices=False)
+    _, s, Vt = np.linalg.svd(R / np.where(norms > 0, norms, 1.0), full_matrices=False)
     if zero or s[-1] < tol * s[0]:
         v = np.abs(Vt[-1])
         culprits = zero or [n for n, c in zip(names, v, strict=False) if c > 0.3 * v.max()]
@@ -132,6 +139,123 @@ def _check_rank(A, names, tol: float = 1e-10) -> None:
             f"the regressor W_ID is rank deficient: {', '.join(culprits)} not identifiable from "
             "this motion (excite it, or use a smaller model)."
         )
+
+
+def _update_r(Rt, M):
+    """R factor of ``[Rt; M]`` (the tall-skinny QR step: W = Q R accumulated block by block)."""
+    return np.linalg.qr(M if Rt is None else np.vstack([Rt, M]), mode="r")
+
+
+def _chunks(n: int, chunk: int):
+    return ((i, min(i + chunk, n)) for i in range(0, n, chunk))
+
+
+def _block_rows(block, i0, i1, p_check=None):
+    Z, y = block(i0, i1)
+    Z = np.asarray(Z, float)
+    y = np.asarray(y, float)
+    if Z.ndim != 3 or y.shape != Z.shape[:2] or (p_check is not None and Z.shape[2] != p_check):
+        raise ValueError(f"block({i0}, {i1}) gave a design {Z.shape} and wrenches {y.shape}; "
+                         "expected (c, k, p) and (c, k).")
+    return Z, y
+
+
+def _factor_blocks(block, n, w, chunk):
+    """R of the weighted ``[Z | y]`` (with ``Q^T y``) and R of the unweighted Z, block by block."""
+    Ra = Ru = None
+    for i0, i1 in _chunks(n, chunk):
+        Z, y = _block_rows(block, i0, i1)
+        k, p = Z.shape[1:]
+        A = Z.reshape(-1, p)
+        Ru = _update_r(Ru, A)
+        if w is not None:
+            ww = w[i0 * k:i1 * k]
+            Ra = _update_r(Ra, np.column_stack([A * ww[:, None], y.reshape(-1) * ww]))
+        else:
+            Ra = _update_r(Ra, np.column_stack([A, y.reshape(-1)]))
+    return Ra, Ru, k, p
+
+
+def least_squares_blocks(block, n: int, names=None, weights=None, groups=None,
+                         covariance: str = "hac", bandwidth: float | None = None,
+                         chunk: int = 16384) -> LSResult:
+    """:func:`least_squares` in bounded memory: the regression is asked for block by block.
+
+    The stacked regressor is never formed: its R factor (with ``Q^T Y``) is accumulated by a
+    tall-skinny QR over blocks of samples, the residuals and HAC scores by a second pass, and the
+    HAC leverage adjustment asks for the design window chunk by window chunk
+    (:func:`cdprid.covariance.hac_covariance_blocks`). The result equals :func:`least_squares`
+    on the stacked arrays to rounding.
+
+    Parameters
+    ----------
+    block : callable
+        ``block(i0, i1) -> (Z, y)``: the design rows (i1 - i0, k, p) and measured wrenches
+        (i1 - i0, k) of time samples ``i0:i1`` (k = 6 rows per sample for wrenches). Called
+        several times per block (deterministic results expected).
+    n : int
+        Number of time samples.
+    names, weights, groups, covariance, bandwidth :
+        As in :func:`least_squares` (``weights`` and ``groups`` per stacked row, length n k).
+    chunk : int
+        Time samples per block.
+
+    Returns
+    -------
+    LSResult
+    """
+    if covariance not in ("hac", "iid"):
+        raise ValueError(f"unknown covariance {covariance!r}; use 'hac' or 'iid'.")
+    n, chunk = int(n), max(1, int(chunk))
+    w = None if weights is None else np.asarray(weights, float).reshape(-1)
+    if w is None and groups is not None:
+        first = least_squares_blocks(block, n, names, covariance="iid", chunk=chunk)
+        w = group_weights(first.residual, groups)
+    Ra, Ru, k, p = _factor_blocks(block, n, w, chunk)
+    N = n * k
+    if N <= p:
+        raise ValueError(f"need more equations than parameters, got {N} rows for {p} parameters.")
+    if names is None:
+        names = tuple(f"x{i}" for i in range(p))
+    R = Ra[:p, :p]
+    _check_rank(R, names)
+    x = np.linalg.solve(R, Ra[:p, p])
+    resid = np.empty((n, k))
+    S = np.empty((n, p))
+    rss = 0.0
+    for i0, i1 in _chunks(n, chunk):
+        Z, y = _block_rows(block, i0, i1, p)
+        e = y - Z @ x
+        resid[i0:i1] = e
+        if w is not None:
+            ww = w[i0 * k:i1 * k].reshape(-1, k)
+            Z, e = Z * ww[..., None], e * ww
+        S[i0:i1] = np.einsum("nkp,nk->np", Z, e)
+        rss += float(np.sum(e * e))
+    sigma2 = rss / (N - p)
+    cov_iid = iid_covariance(R, sigma2)
+    cov, bw = cov_iid, float("nan")
+    if covariance == "hac":
+        def design(i0, i1):
+            Z = _block_rows(block, i0, i1, p)[0]
+            return Z if w is None else Z * w[i0 * k:i1 * k].reshape(-1, k)[..., None]
+
+        cov, bw = hac_covariance_blocks(design, S, R, bandwidth=bandwidth)
+    return LSResult(
+        names=tuple(names),
+        x=x,
+        cov=cov,
+        sigma_rho=float(np.sqrt(sigma2)),
+        cond=condition_number(Ru),
+        cond_scaled=condition_number(Ru, scaled=True),
+        n_rows=N,
+        residual=resid.reshape(-1),
+        weights=w,
+        cov_iid=cov_iid,
+        covariance=covariance,
+        hac_bandwidth=bw,
+        column_norms=np.linalg.norm(Ru, axis=0),
+    )
 
 
 def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None, rows_per_sample: int = 1,
@@ -170,7 +294,8 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None, rows_per_sa
     sigma_rho^2 = ||W (Y - A x)||^2 / (N - p) (eq. 19) and ``cov = sigma_rho^2 (A_w^T A_w)^-1``
     (eq. 20) are computed from the thin QR ``A_w = Q R``: ``cov = sigma_rho^2 R^-1 R^-T``.
     With weights, the HAC sandwich uses the weighted rows and residuals (the weighted LS
-    score ``A^T w^2 e``).
+    score ``A^T w^2 e``). The QR is accumulated block by block
+    (:func:`least_squares_blocks`), so no copy of W_ID is made.
     """
     if covariance not in ("hac", "iid"):
         raise ValueError(f"unknown covariance {covariance!r}; use 'hac' or 'iid'.")
@@ -181,40 +306,10 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None, rows_per_sa
     N, p = A.shape
     if N <= p:
         raise ValueError(f"need more equations than parameters, got {N} rows for {p} parameters.")
-    if names is None:
-        names = tuple(f"x{i}" for i in range(p))
-    if weights is None and groups is not None:
-        first = least_squares(A, y, names, covariance="iid")
-        weights = group_weights(first.residual, groups)
-    w = np.ones(N) if weights is None else np.asarray(weights, float)
-    # unweighted: no (N, p) copy (memory on long recordings, issue 17)
-    Aw = A if weights is None else A * w[:, None]
-    yw = y if weights is None else y * w
-    _check_rank(Aw, names)
-    Q, R = np.linalg.qr(Aw, mode="reduced")
-    x = np.linalg.solve(R, Q.T @ yw)
-    del Q  # (N, p): freed before the HAC sums
-    rw = yw - Aw @ x
-    sigma2 = float(rw @ rw) / (N - p)
-    cov_iid = iid_covariance(R, sigma2)
     k = int(rows_per_sample)
     if k < 1 or N % k:
         raise ValueError(f"rows_per_sample={k} does not divide the {N} rows.")
-    cov, bw = cov_iid, float("nan")
-    if covariance == "hac":
-        cov, bw = hac_covariance(Aw.reshape(N // k, k, p), rw.reshape(N // k, k),
-                                 bandwidth=bandwidth, R=R)
-    return LSResult(
-        names=tuple(names),
-        x=x,
-        cov=cov,
-        sigma_rho=float(np.sqrt(sigma2)),
-        cond=condition_number(A),
-        cond_scaled=condition_number(A, scaled=True),
-        n_rows=N,
-        residual=y - A @ x,
-        weights=None if weights is None else w,
-        cov_iid=cov_iid,
-        covariance=covariance,
-        hac_bandwidth=bw,
-    )
+    A3, y2 = A.reshape(N // k, k, p), y.reshape(N // k, k)
+    return least_squares_blocks(lambda i0, i1: (A3[i0:i1], y2[i0:i1]), N // k, names,
+                                weights=weights, groups=groups, covariance=covariance,
+                                bandwidth=bandwidth, chunk=max(1, 65536 // k))

@@ -20,17 +20,26 @@ from __future__ import annotations
 
 import dataclasses
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from .defaults import TRIM_S
 from .differentiators import METHODS, acceleration_filter
 from .dynamics import PARAMETER_NAMES
-from .identification import LSResult, least_squares
+from .identification import LSResult, least_squares_blocks
 from .io.dataset import AlignedSignals, Dataset, align
 from .motion import Motion, estimate_motion
 from .physical import inertia_about_com, physical_fit, physical_warnings
-from .regression import Regression, build_regression, regressors
+from .regression import (
+    CHUNK,
+    Regression,
+    StreamedRegression,
+    cable_wrench,
+    regressor_blocks,
+    regressors,
+)
+from .rotations import quat_to_matrix
 
 __all__ = [
     "COND_WARN",
@@ -78,8 +87,9 @@ class IdentificationReport:
         Time samples used (each gives 6 equations).
     signals : AlignedSignals
     motion : Motion
-    regression : Regression
-        The samples used (after trimming).
+    regression : Regression or StreamedRegression
+        The samples used (after trimming); the pipeline's regressor is streamed (evaluated
+        block by block, ``.A`` / ``.W_ID`` materialise it on demand).
     notes : tuple of str
     warnings : tuple of str
         One sentence per guard that fired (model mismatch, lag, physics, excitation).
@@ -97,7 +107,7 @@ class IdentificationReport:
     n_samples: int
     signals: AlignedSignals
     motion: Motion
-    regression: Regression
+    regression: Regression | StreamedRegression
     notes: tuple = ()
     warnings: tuple = ()
     inertia_about: str = "P"
@@ -189,7 +199,12 @@ def _choose_model(model: str, sig: AlignedSignals, path) -> tuple[str, float, li
 
 
 def _wrench_filter(robot, differentiator: str, params: dict, dt: float, wrench_filter: str):
-    """The matched filter of ``W tau`` (a callable), its note and warnings."""
+    """The matched filter of ``W tau`` (a callable), its note and warnings.
+
+    The callable filters (n, k) channels; ``scale`` (k,) is each channel's amplitude
+    normalisation (default: the wrench's, mass times 1 for forces and the platform radius for
+    moments).
+    """
     causal = METHODS[differentiator].causal
     if wrench_filter == "none":
         warns = []
@@ -199,18 +214,14 @@ def _wrench_filter(robot, differentiator: str, params: dict, dt: float, wrench_f
                          "(--wrench-filter none): m s_G and the inertia are biased towards zero.")
         return None, None, warns
     gnorm = float(np.linalg.norm(np.asarray(robot.gravity)))
-    radius = max(float(np.max(np.linalg.norm(np.asarray(robot.P_b), axis=1))), 1e-3)
+    rows = np.array([1.0] * 3 + [_radius(robot)] * 3)
 
-    def wf(y, typical=None):
-        """Filter (n, 6) wrenches, or (n, 6, p) regressor columns of typical size ``typical``."""
-        m_seen = max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / max(gnorm, 1e-9), 1e-6)
-        rows = np.array([1.0] * 3 + [radius] * 3)
-        if typical is None:
-            return acceleration_filter(y, dt, differentiator, scale=m_seen * rows, **params)
-        n, _, p = y.shape
-        scale = (rows[:, None] / np.asarray(typical)[None, :]).reshape(-1)
-        return acceleration_filter(y.reshape(n, -1), dt, differentiator, scale=scale,
-                                   **params).reshape(n, 6, p)
+    def wf(y, scale=None):
+        """Filter (n, 6) wrenches, or (n, k) channels of amplitude ``scale`` (k,)."""
+        if scale is None:
+            m_seen = max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / max(gnorm, 1e-9), 1e-6)
+            scale = m_seen * rows
+        return acceleration_filter(y, dt, differentiator, scale=scale, **params)
 
     kind = "causal" if causal else "zero-phase"
     note = (f"matched filtering: W tau passed through the same {kind} filter as the "
@@ -218,27 +229,74 @@ def _wrench_filter(robot, differentiator: str, params: dict, dt: float, wrench_f
     return wf, note, []
 
 
-def _match_pose_terms(reg: Regression, motion: Motion, robot, wf) -> Regression:
-    """Filter the regressor's pose-only part (gravity moment of the rotating m s_G) too.
+def _radius(robot) -> float:
+    return max(float(np.max(np.linalg.norm(np.asarray(robot.P_b), axis=1))), 1e-3)
+
+
+def _pose_term_correction(model: str, motion: Motion, robot, wf, y, chunk: int):
+    """The regressor's pose-only part (gravity moment of the rotating m s_G), filtered too.
 
     ``W tau`` carries ``B_R_P m s_G x g``, which varies with the orientation; once ``W tau`` is
     filtered, the same term in the regressor must be filtered too, or a causal filter's lag
     leaves a residual correlated with the rotation (a bias on the inertia and m s_G).
+
+    Returns ``(mask, corr)``: the (6, p) entries of the regressor that depend on the pose alone
+    (found by evaluating it at three rotations with zero motion; the others are constant and pass
+    the filter unchanged) and, per sample, filtered minus raw values of those entries (n, k).
+    Only those k channels are held, not the (n, 6, p) regressor.
     """
-    z = np.zeros_like(motion.acceleration)
-    A_g = np.asarray(regressors(reg.model, jnp.asarray(motion.B_R_P), jnp.asarray(z),
-                                jnp.asarray(z), jnp.asarray(z), robot.gravity))
-    m_seen = max(float(np.linalg.norm(reg.y[:, :3].mean(axis=0)))
-                 / max(float(np.linalg.norm(np.asarray(robot.gravity))), 1e-9), 1e-6)
-    r = max(float(np.max(np.linalg.norm(np.asarray(robot.P_b), axis=1))), 1e-3)
-    typical = np.array([m_seen] + [m_seen * r] * 3 + [m_seen * r * r] * 6)[: A_g.shape[-1]]
-    A = reg.A - A_g + wf(A_g, typical)
-    return Regression(reg.t, A, reg.y, reg.model)
+    q = np.random.default_rng(0).normal(size=(3, 4))
+    Rs = jnp.asarray(np.asarray(jax.vmap(quat_to_matrix)(q / np.linalg.norm(q, axis=1)[:, None])))
+    z3 = jnp.zeros((3, 3))
+    A3 = np.asarray(regressors(model, Rs, z3, z3, z3, robot.gravity))
+    mask = np.any(A3 != A3[0], axis=0)
+    n = len(motion.t)
+    z = np.zeros((n, 3))
+    block = regressor_blocks(model, motion.B_R_P, z, z, z, robot.gravity, chunk)
+    Ag = np.empty((n, int(mask.sum())))
+    for i0 in range(0, n, chunk):
+        Ag[i0:i0 + chunk] = block(i0, min(i0 + chunk, n))[:, mask]
+    gnorm = max(float(np.linalg.norm(np.asarray(robot.gravity))), 1e-9)
+    m_seen = max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / gnorm, 1e-6)
+    r = _radius(robot)
+    p = A3.shape[-1]
+    typical = np.array([m_seen] + [m_seen * r] * 3 + [m_seen * r * r] * 6)[:p]
+    rows = np.array([1.0] * 3 + [r] * 3)
+    scale = (rows[:, None] / typical[None, :])[mask]
+    return mask, np.asarray(wf(Ag, scale)) - Ag
 
 
-def _excitation_warnings(reg: Regression, res: LSResult) -> list:
-    A = reg.W_ID
-    norms = np.linalg.norm(A, axis=0)
+def _streamed_regression(robot, motion: Motion, tension, model: str, wf, keep,
+                         chunk: int) -> StreamedRegression:
+    """The kept samples' regression, its regressor evaluated block by block (bounded memory).
+
+    Same numbers as :func:`cdprid.regression.build_regression` followed by the matched
+    filtering of the pose-only terms (:func:`_pose_term_correction`), without holding the
+    (n, 6, p) regressor or the (n, 6, m) wrench matrices.
+    """
+    y = cable_wrench(robot, motion.position, motion.B_R_P, tension, chunk)
+    if wf is not None:
+        y = np.asarray(wf(y))
+    mask = corr = None
+    if wf is not None and model == "full":
+        mask, corr = _pose_term_correction(model, motion, robot, wf, y, chunk)
+    idx = np.flatnonzero(keep)
+    sel = slice(idx[0], idx[-1] + 1) if idx[-1] - idx[0] + 1 == len(idx) else idx
+    base = regressor_blocks(model, motion.B_R_P[sel], motion.acceleration[sel],
+                            motion.omega[sel], motion.alpha[sel], robot.gravity, chunk)
+    corr = None if corr is None else corr[sel]
+
+    def block(i0: int, i1: int) -> np.ndarray:
+        A = base(i0, i1)
+        if corr is not None:
+            A[:, mask] += corr[i0:i1]
+        return A
+
+    return StreamedRegression(motion.t[sel], y[sel], model, block)
+
+
+def _excitation_warnings(res: LSResult) -> list:
+    norms = res.column_norms
     small = [n for n, v in zip(res.names, norms, strict=True)
              if v < ZERO_COLUMN_REL * norms.max()]
     warns = []
@@ -265,6 +323,7 @@ def identify_dataset(
     covariance: str = "hac",
     wrench_filter: str | None = None,
     inertia_about: str = "P",
+    chunk: int = CHUNK,
 ) -> IdentificationReport:
     """Identify the platform's dynamic parameters from a dataset.
 
@@ -295,6 +354,10 @@ def identify_dataset(
         the accelerations (:func:`cdprid.differentiators.acceleration_filter`).
     inertia_about : {"P", "G"}
         Reference point of the inertia in the output (platform frame).
+    chunk : int
+        Time samples per block: the regressor is evaluated and reduced block by block
+        (:func:`cdprid.identification.least_squares_blocks`), so memory does not grow with
+        ``n x 6 x p``; the result does not depend on it (to rounding).
 
     Returns
     -------
@@ -324,19 +387,16 @@ def identify_dataset(
     warns += w2
     if note:
         notes.append(note)
-    reg = build_regression(ds.robot, motion, sig.tension, model, wf)
-    if wf is not None and model == "full":
-        reg = _match_pose_terms(reg, motion, ds.robot, wf)
-    keep = (reg.t >= reg.t[0] + trim) & (reg.t <= reg.t[-1] - trim)
+    keep = (motion.t >= motion.t[0] + trim) & (motion.t <= motion.t[-1] - trim)
     if keep.sum() < 10:
         raise ValueError(
             f"{ds.path}: fewer than 10 samples remain after trimming {trim:g} s at each end."
         )
-    reg = reg.select(keep)
-    res = least_squares(reg.W_ID, reg.Y_ID, PARAMETER_NAMES[model],
-                        groups=reg.groups if weighting == "groups" else None,
-                        rows_per_sample=6, covariance=covariance)
-    warns += _excitation_warnings(reg, res)
+    reg = _streamed_regression(ds.robot, motion, sig.tension, model, wf, keep, int(chunk))
+    res = least_squares_blocks(reg.wrench_block, len(reg.t), PARAMETER_NAMES[model],
+                               groups=reg.groups if weighting == "groups" else None,
+                               covariance=covariance, chunk=int(chunk))
+    warns += _excitation_warnings(res)
     w3, n3 = physical_warnings(res.x, model, res.cov)
     warns += w3
     notes += n3

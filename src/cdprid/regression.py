@@ -23,9 +23,13 @@ from .geometry import CableRobot, wrench_matrix
 from .motion import Motion
 
 __all__ = [
-    "Regression", "build_regression", "cable_wrench", "measured_wrench", "regressors",
-    "wrench_matrices",
+    "CHUNK", "Regression", "StreamedRegression", "build_regression", "cable_wrench",
+    "measured_wrench", "regressor_blocks", "regressors", "wrench_matrices",
 ]
+
+CHUNK = 16384
+"""Time samples per block when per-sample arrays are evaluated block by block (bounded memory:
+the jitted functions see one fixed block shape, the last block is padded)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -100,10 +104,108 @@ _measured_wrench_jit = jax.jit(measured_wrench)
 _regressors_jit = jax.jit(regressors, static_argnums=0)
 
 
-def cable_wrench(robot: CableRobot, B_p, B_R_P, tau) -> np.ndarray:
-    """Measured cable wrench ``W(pose) tau`` per sample (n, 6), as numpy (jit-compiled)."""
-    return np.asarray(_measured_wrench_jit(robot, jnp.asarray(B_p), jnp.asarray(B_R_P),
-                                           jnp.asarray(tau)))
+def _blockwise(fn, arrays, out, i0: int, i1: int, chunk: int) -> None:
+    """``out[j] = fn(*arrays)[i0 + j]`` for ``i0 <= i < i1``, evaluated ``chunk`` samples at a
+    time with one fixed block shape (the last block padded by repeating its last sample)."""
+    c = max(1, min(int(chunk), i1 - i0))
+    for a in range(i0, i1, c):
+        b = min(a + c, i1)
+        parts = [np.asarray(x[a:b]) for x in arrays]
+        if b - a < c:
+            parts = [np.concatenate([x, np.repeat(x[-1:], c - (b - a), axis=0)]) for x in parts]
+        out[a - i0:b - i0] = np.asarray(fn(*(jnp.asarray(x) for x in parts)))[: b - a]
+
+
+def cable_wrench(robot: CableRobot, B_p, B_R_P, tau, chunk: int = CHUNK) -> np.ndarray:
+    """Measured cable wrench ``W(pose) tau`` per sample (n, 6), as numpy (jit-compiled).
+
+    Evaluated ``chunk`` samples at a time, so the (n, 6, m) wrench matrices are never all held.
+    """
+    n = len(B_p)
+    out = np.empty((n, 6))
+    _blockwise(lambda p, R, t: _measured_wrench_jit(robot, p, R, t), (B_p, B_R_P, tau), out,
+               0, n, chunk)
+    return out
+
+
+def regressor_blocks(model: str, B_R_P, B_a, B_omega, B_alpha, gravity, chunk: int = CHUNK):
+    """A function ``block(i0, i1)`` that returns the regressors (i1 - i0, 6, p) of samples
+    ``i0:i1`` (:func:`regressors`, jit-compiled for one block shape).
+
+    Parameters
+    ----------
+    model : {"translation", "full"}
+    B_R_P : ndarray (n, 3, 3)
+    B_a, B_omega, B_alpha : ndarray (n, 3)
+    gravity : array (3,)
+    chunk : int
+        Samples per jitted call.
+    """
+    if model not in ("translation", "full"):
+        raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+    p = 4 if model == "translation" else 10
+    arrays = (B_R_P, B_a, B_omega, B_alpha)
+    c = max(1, min(int(chunk), len(B_a)))
+
+    def block(i0: int, i1: int) -> np.ndarray:
+        out = np.empty((i1 - i0, 6, p))
+        _blockwise(lambda R, a, w, al: _regressors_jit(model, R, a, w, al, gravity), arrays,
+                   out, i0, i1, c)
+        return out
+
+    return block
+
+
+@dataclasses.dataclass(frozen=True)
+class StreamedRegression:
+    """:class:`Regression` whose regressor is evaluated block by block, never held whole.
+
+    Attributes
+    ----------
+    t : ndarray (n,)
+    y : ndarray (n, 6)
+        Measured wrench ``W tau`` per sample (after the matched filter, if any).
+    model : str
+    block : callable
+        ``block(i0, i1)`` -> regressors (i1 - i0, 6, p) of samples ``i0:i1``.
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    model: str
+    block: object
+
+    def wrench_block(self, i0: int, i1: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(A, y)`` of samples ``i0:i1``.
+
+        The form :func:`cdprid.identification.least_squares_blocks` asks for.
+        """
+        return self.block(i0, i1), self.y[i0:i1]
+
+    @property
+    def A(self) -> np.ndarray:
+        """All regressors (n, 6, p), materialised on demand."""
+        return self.block(0, len(self.t))
+
+    @property
+    def W_ID(self) -> np.ndarray:
+        """Stacked regressor (6 n, p), materialised on demand."""
+        A = self.A
+        return A.reshape(-1, A.shape[-1])
+
+    @property
+    def Y_ID(self) -> np.ndarray:
+        """Stacked wrenches (6 n,)."""
+        return self.y.reshape(-1)
+
+    @property
+    def groups(self) -> np.ndarray:
+        """Row group per stacked row: 0 force, 1 moment."""
+        return np.tile(np.array([0, 0, 0, 1, 1, 1]), len(self.t))
+
+    def select(self, mask) -> Regression:
+        """The samples where ``mask`` is True (materialised)."""
+        return Regression(self.t[mask], self.A[mask], self.y[mask], self.model)
 
 
 def build_regression(robot: CableRobot, motion: Motion, tension, model: str = "translation",
