@@ -324,6 +324,64 @@ def test_zero_phase_filter_matches_euler_filtfilt():
     assert lags[int(np.argmax(xc))] == 0
 
 
+@pytest.mark.parametrize("order,cutoff,fs", [(1, 4.0, 100.0), (2, 4.0, 100.0), (2, 4.0, 1000.0),
+                                              (3, 0.5, 1000.0), (4, 30.0, 100.0),
+                                              (5, 1.0, 200.0)])
+def test_butterworth_and_filtering_match_scipy_signal(order, cutoff, fs):
+    """The SciPy-free Butterworth design and filters (cdprid.filters) against scipy.signal."""
+    ss = pytest.importorskip("scipy.signal")
+    from cdprid.filters import (
+        butter_lowpass,
+        butter_sos,
+        lfilter,
+        lfilter_zi,
+        sosfilt,
+        sosfilt_zi,
+        sosfiltfilt,
+    )
+
+    b, a = butter_lowpass(order, cutoff, fs)
+    b_ref, a_ref = ss.butter(order, cutoff, btype="low", fs=fs)
+    np.testing.assert_allclose(b, b_ref, rtol=1e-12, atol=1e-300)
+    np.testing.assert_allclose(a, a_ref, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(lfilter_zi(b, a), ss.lfilter_zi(b_ref, a_ref), rtol=1e-11)
+    sos, sos_ref = butter_sos(order, cutoff, fs), ss.butter(order, cutoff, fs=fs, output="sos")
+    assert sos.shape == sos_ref.shape
+    w = np.linspace(0.0, 0.5 * fs, 64, endpoint=False)
+    np.testing.assert_allclose(ss.sosfreqz(sos, w, fs=fs)[1], ss.sosfreqz(sos_ref, w, fs=fs)[1],
+                               rtol=1e-9, atol=1e-12)
+    x = np.cumsum(np.random.default_rng(order).normal(size=(3000, 3)), axis=0)
+    scale = np.abs(x).max()
+    if order <= 2:  # the (b, a) recursion, for the orders where it is well conditioned
+        zi = ss.lfilter_zi(b_ref, a_ref)[:, None] * x[0]
+        np.testing.assert_allclose(lfilter(b, a, x, zi), ss.lfilter(b_ref, a_ref, x, axis=0,
+                                                                    zi=zi)[0], atol=1e-12 * scale)
+    y = sosfilt(sos, x, sosfilt_zi(sos)[:, :, None] * x[0])
+    y_ref = ss.sosfilt(sos_ref, x, axis=0, zi=ss.sosfilt_zi(sos_ref)[:, :, None] * x[0])[0]
+    np.testing.assert_allclose(y, y_ref, atol=1e-11 * scale)
+    for pad in (0, 7, 125, 2999):
+        y_ref = ss.sosfiltfilt(sos_ref, x, axis=0, padtype="odd", padlen=pad)
+        np.testing.assert_allclose(sosfiltfilt(sos, x, pad), y_ref, atol=1e-11 * scale)
+        np.testing.assert_allclose(sosfiltfilt(sos, x[:, 0], pad), y_ref[:, 0],
+                                   atol=1e-11 * scale)
+        if order <= 2:
+            y_ba = ss.filtfilt(b_ref, a_ref, x, axis=0, padtype="odd", padlen=pad)
+            np.testing.assert_allclose(sosfiltfilt(sos, x, pad), y_ba, atol=1e-12 * scale)
+
+
+def test_identify_path_does_not_import_scipy_signal():
+    """Cold start (issue 13): the default differentiator needs no scipy.signal."""
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np; from cdprid.differentiators import differentiate;"
+            "differentiate(np.ones((50, 3)), 0.01, 'euler-filtfilt');"
+            "differentiate(np.ones((50, 3)), 0.01, 'euler-butter-causal');"
+            "print('scipy.signal' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
 def test_value_errors():
     y = np.zeros(50)
     with pytest.raises(ValueError, match="valid names are"):

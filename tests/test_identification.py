@@ -233,12 +233,12 @@ def test_auto_model_and_matched_filter_unbiased_on_rotating_data(rotating_ds, me
 def test_streamed_identify_equals_the_materialised_regression(rotating_ds, method):
     """identify evaluates the regressor block by block (bounded memory, issue 17); the oracle
     holds every array: W tau and the pose-only regressor terms filtered whole, stacked LS."""
+    import dataclasses
+
     from cdprid.differentiators import acceleration_filter
     from cdprid.io.dataset import align
     from cdprid.motion import estimate_motion
     from cdprid.regression import build_regression, regressors
-
-    import dataclasses
 
     ds, _ = rotating_ds
     noise = np.random.default_rng(7).normal(0.0, 0.5, ds.tension.shape)  # realistic residuals

@@ -43,9 +43,9 @@ from dataclasses import dataclass, field
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy import signal as _signal
 
 from . import sihd_high as _sihd_high
+from .filters import butter_sos, sosfilt, sosfilt_zi, sosfiltfilt
 
 __all__ = [
     "acceleration_filter",
@@ -114,7 +114,7 @@ METHODS: dict[str, MethodInfo] = {
             "euler-filtfilt",
             False,
             {"cutoff_hz": 4.0, "order": 2},
-            "Zero-phase Butterworth (scipy filtfilt, order 2 -> effective order 4, "
+            "Zero-phase Butterworth (filtfilt as scipy's, order 2 -> effective order 4, "
             "cutoff 4 Hz), then second-order central differences (np.gradient for "
             "d1, 3-point second difference for d2).",
         ),
@@ -122,7 +122,7 @@ METHODS: dict[str, MethodInfo] = {
             "euler-butter-causal",
             True,
             {"cutoff_hz": 4.0, "order": 2},
-            "Causal Butterworth (scipy lfilter, steady-state initial conditions), "
+            "Causal Butterworth (lfilter as scipy's, steady-state initial conditions), "
             "then backward differences.",
         ),
         MethodInfo(
@@ -609,12 +609,13 @@ def _run_jax_kernel(method, y2, dt, vec):
 
 
 def _butter(order, cutoff_hz, dt):
+    """Second-order sections of the Butterworth low-pass (:func:`cdprid.filters.butter_sos`)."""
     fs = 1.0 / dt
     if not 0.0 < cutoff_hz < 0.5 * fs:
         raise ValueError(
             f"cutoff_hz must lie in (0, Nyquist = {0.5 * fs:g} Hz), got {cutoff_hz!r}."
         )
-    return _signal.butter(int(order), cutoff_hz, btype="low", fs=fs)
+    return butter_sos(int(order), cutoff_hz, fs)
 
 
 def zero_phase_filter(x, dt, cutoff_hz=4.0, order=2):
@@ -651,12 +652,12 @@ def zero_phase_filter(x, dt, cutoff_hz=4.0, order=2):
     distorted over roughly ``1 / cutoff_hz`` seconds.
     """
     x = np.asarray(x, dtype=np.float64)
-    b, a = _butter(order, cutoff_hz, float(dt))
+    sos = _butter(order, cutoff_hz, float(dt))
     # odd (point-symmetric) extension long enough (5 / cutoff seconds) for the
     # start-up transient to die out inside the padding: straight lines pass
     # exactly, end effects stay confined to about 1/cutoff seconds
     padlen = min(x.shape[0] - 1, int(math.ceil(5.0 / (cutoff_hz * float(dt)))))
-    return _signal.filtfilt(b, a, x, axis=0, padtype="odd", padlen=padlen)
+    return sosfiltfilt(sos, x, padlen)
 
 
 def _central(x, dt):
@@ -674,9 +675,8 @@ def _euler_filtfilt(y, dt, cutoff_hz, order):
 
 
 def _euler_butter_causal(y, dt, cutoff_hz, order):
-    b, a = _butter(order, cutoff_hz, dt)
-    zi = _signal.lfilter_zi(b, a)[:, None] * y[0][None, :]
-    xf, _ = _signal.lfilter(b, a, y, axis=0, zi=zi)
+    sos = _butter(order, cutoff_hz, dt)
+    xf = sosfilt(sos, y, sosfilt_zi(sos)[:, :, None] * y[0][None, None, :])
     d1 = np.zeros_like(xf)
     d2 = np.zeros_like(xf)
     d1[1:] = (xf[1:] - xf[:-1]) / dt
@@ -696,8 +696,10 @@ def _savgol(y, dt, window_s, polyorder):
         )
     if w > n:
         raise ValueError(f"savgol window ({w} samples) is longer than the signal ({n} samples).")
+    from scipy.signal import savgol_filter  # lazy: scipy.signal costs ~1 s of start-up
+
     kw = dict(window_length=w, polyorder=polyorder, delta=dt, axis=0, mode="interp")
-    return _signal.savgol_filter(y, deriv=1, **kw), _signal.savgol_filter(y, deriv=2, **kw)
+    return savgol_filter(y, deriv=1, **kw), savgol_filter(y, deriv=2, **kw)
 
 
 # ----------------------------------------------------------------------------
