@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from cdprid import tuning as T
-from cdprid.cli import parse_params, build_parser, main
+from cdprid.cli import build_parser, main, parse_params
 from cdprid.differentiators import METHODS, differentiate
 from cdprid.geometry import robot_from_dict
 from cdprid.io import write_dataset
@@ -78,6 +78,7 @@ def test_gradient_through_scan_matches_finite_differences():
             assert abs(fd - g[i]) <= 1e-4 * abs(fd) + 1e-9 * float(f(th, args)), (m, i, fd, g[i])
 
 
+@pytest.mark.slow
 def test_tuned_cascade_beats_paper_gains_on_heldout_seeds():
     res = T.tune("sihd2-cascade", 5e-4, signal=SHORT, train_seeds=[0, 1],
                  test_seeds=[50, 51, 52], max_steps=15)
@@ -184,3 +185,148 @@ def test_cli_tune_reports_response_and_refuses_to_overwrite(tmp_path, capsys):
     assert main(["tune", "--noise-std", "3e-4", "--method", "euler-filtfilt", "--json", str(out),
                  "--quiet"]) == 2
     assert "--force" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- response bounds
+
+C8 = T.circle_signal(duration=8.0)
+
+
+def _impulse_response_H(method, params, f, dt=0.01, n=4000):
+    """Oracle: scipy.signal.freqz of the simulated impulse response (linear filters only)."""
+    from scipy import signal as sps
+
+    y = np.zeros(n)
+    y[0] = 1.0
+    # the SIHD starts at rest on y[0]: feed the impulse after a zero so the state starts at 0
+    y = np.r_[0.0, y]
+    _, a = T.any_differentiate(y, dt, method, **params)
+    _, h = sps.freqz(a[1:], worN=np.asarray(f), fs=1.0 / dt)
+    return h / -(2 * np.pi * np.asarray(f)) ** 2
+
+
+@pytest.mark.parametrize("method", ["sihd2-cascade", "sihd3", "sihd5"])
+def test_linear_response_matches_freqz_and_sinusoids(method):
+    p = {**T.default_params(method), "alpha": 1.0}
+    f = np.array([0.1, 0.5, 1.0, 3.0, 10.0])  # 0.1 Hz: 2 periods in the fitted half
+    with jax.enable_x64(True):
+        lams = [p[f"lambda{q}"] for q in range(1, 6) if f"lambda{q}" in p]
+        H = np.asarray(T.sihd_linear_response(method, lams, 0.01, f))
+    Hz = _impulse_response_H(method, p, f)
+    np.testing.assert_allclose(H, Hz, rtol=1e-6, atol=1e-9)
+    r = T.acceleration_response(method, p, freqs_hz=f, duration_s=40.0)
+    np.testing.assert_allclose(r.gain, np.abs(Hz), rtol=1e-6)
+    np.testing.assert_allclose(r.phase_deg, np.degrees(np.angle(Hz)), atol=1e-4)
+
+
+def test_noise_gain_is_parseval_of_the_impulse_response():
+    p = {**T.default_params("sihd3"), "alpha": 1.0}
+    y = np.r_[0.0, 1.0, np.zeros(3000)]
+    _, a = T.any_differentiate(y, 0.01, "sihd3", **p)
+    with jax.enable_x64(True):
+        g = float(T._noise_gain("sihd3", [p["lambda1"], p["lambda2"], p["lambda3"]], 0.01))
+    assert np.isclose(g, np.sum(a[1:] ** 2), rtol=1e-6)
+
+
+def test_constrained_tuning_of_resonant_gains_complies_by_an_oracle():
+    """From lightly damped (resonant) sihd3 gains, the constrained BFGS ends within the bounds;
+    the reported dense-grid response equals scipy freqz of the tuned filter's impulse
+    response."""
+    om, ze = 6.0, 0.1
+    lam = np.real(np.poly([-om, -om * ze + 1j * om * np.sqrt(1 - ze**2),
+                           -om * ze - 1j * om * np.sqrt(1 - ze**2)]))[1:]
+    start = {f"lambda{q + 1}": float(lam[q]) for q in range(3)} | {"alpha": 1.0, "mu": 1.0}
+    b = T.ResponseBounds(0.4)
+    r0 = T.acceleration_response("sihd3", start, bounds=b)
+    assert not r0.ok and r0.max_gain > 2
+    res = T.tune("sihd3", 5e-4, signal=C8, train_seeds=[0], test_seeds=[9], max_steps=40,
+                 bounds=b, init=start)
+    assert res.params["alpha"] == 1.0
+    r = res.response
+    Hz = _impulse_response_H("sihd3", res.params, r.freqs_hz)
+    np.testing.assert_allclose(r.gain, np.abs(Hz), rtol=1e-5, atol=1e-6)
+    below = r.freqs_hz <= 0.4
+    assert r.ok and res.warnings == [], r.violations
+    assert np.max(np.abs(np.abs(Hz[below]) - 1)) <= b.gain_tol
+    assert np.max(np.abs(np.degrees(np.angle(Hz[below])))) <= b.phase_max_deg
+    assert np.max(np.abs(Hz[~below])) <= b.gain_max_above
+    j = res.as_json()
+    assert j["within_bounds"] is True and j["bandwidth_hz"] == 0.4
+    assert j["max_gain"] == pytest.approx(np.max(np.abs(Hz)), rel=1e-5)
+
+
+@pytest.mark.slow
+def test_constraint_makes_a_resonant_tuning_comply():
+    """Unconstrained, sihd5 tuned on one circle resonates; constrained, it complies."""
+    b = T.ResponseBounds(0.5)
+    free = T.tune("sihd5", 5e-4, signal=C8, train_seeds=[0, 1], test_seeds=[9], max_steps=40,
+                  bounds=b, constrain=False)
+    assert not free.response.ok and free.response.max_gain > 1.3
+    assert free.warnings and "not within" in free.warnings[0]
+    con = T.tune("sihd3", 5e-4, signal=C8, train_seeds=[0, 1], test_seeds=[9], max_steps=40,
+                 bounds=b, init=free.params)
+    assert con.response.ok and con.as_json()["within_bounds"] is True
+
+
+def test_infeasible_bounds_are_reported_not_claimed(tmp_path, capsys):
+    b = T.ResponseBounds(3.0, gain_tol=0.01, phase_max_deg=0.5)
+    res = T.tune_baseline("euler-butter-causal", 5e-4, signal=C8, train_seeds=[0],
+                          test_seeds=[9], n_grid=5, refine=2, bounds=b)
+    j = res.as_json()
+    assert j["within_bounds"] is False and j["frequency_response"]["within_bounds"] is False
+    assert len(j["warnings"]) == 1 and "phase" in j["warnings"][0]
+    assert j["max_phase_below_bandwidth_deg"] > 0.5
+    out = tmp_path / "t.json"
+    assert main(["tune", "--noise-std", "5e-4", "--method", "euler-butter-causal",
+                 "--train-signal", "circle", "--duration", "8", "--seeds", "1",
+                 "--bandwidth", "3", "--phase-max", "0.5", "--json", str(out), "--quiet"]) == 0
+    d = json.loads(out.read_text())
+    assert d["within_bounds"] is False and d["stated_bandwidth_hz"] == 3.0
+    assert d["bandwidth_source"] == "--bandwidth" and d["response_bounds"]["phase_max_deg"] == 0.5
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("warning:")]
+    assert len(err) == 1 and "not within the acceleration-response bounds" in err[0]
+
+
+def test_levant_response_is_a_describing_response():
+    r = T.acceleration_response("levant", {"L": 20.0}, freqs_hz=[0.2, 0.5], bounds=None)
+    j = r.as_json()
+    assert r.linear is False and "describing" in j["response_kind"]
+    assert r.accel_amplitude == T.NONLINEAR_ACCEL_AMPLITUDE
+
+
+def test_content_bandwidth_and_families():
+    for f in (0.2, 0.5):
+        bw = T.content_bandwidth([T.circle_signal(freq_hz=f, duration=30.0)])
+        assert f <= bw <= f + 0.15
+    tr, ho = T.trajectory_family("train", duration=10.0), T.trajectory_family("heldout",
+                                                                               duration=10.0)
+    assert not {s.name for s in tr} & {s.name for s in ho}
+    assert len(ho) == len(T.HELDOUT_FAMILY) + 2
+    for s in tr[:2] + ho[-2:-1]:  # accelerations are the positions' second derivative
+        fd = (s.position[2:] - 2 * s.position[1:-1] + s.position[:-2]) / s.dt**2
+        assert np.max(np.abs(fd - s.acceleration[1:-1])) < 1e-3 * np.abs(s.acceleration).max()
+    freqs = sorted(r[0] for r in T.TRAIN_FAMILY)
+    assert freqs[0] <= 0.1 and freqs[-1] >= 0.8
+
+
+def test_cli_dataset_trains_on_its_own_signal_by_default(tmp_path, noisy_ds):
+    rc, out = _cli_tune(tmp_path, "--dataset", str(noisy_ds), "--method", "euler-butter-causal")
+    assert rc == 0
+    d = json.loads(out.read_text())
+    assert d["signal"] == "dataset (smoothed)"
+    assert d["bandwidth_source"].startswith("99 %") and 0.1 <= d["bandwidth_hz"] <= 1.0
+    assert {"within_bounds", "max_gain", "peak_frequency_hz", "phase_at_stated_bandwidth_deg",
+            "max_gain_error_below_bandwidth", "heldout", "heldout_rmse"} <= set(d)
+
+
+@pytest.mark.parametrize("argv", [
+    ["--noise-std", "5e-4", "--bandwidth", "0.01"],
+    ["--noise-std", "5e-4", "--bandwidth", "80"],
+    ["--noise-std", "5e-4", "--gain-tol", "0.7"],
+    ["--noise-std", "5e-4", "--phase-max", "120"],
+    ["--noise-std", "5e-4", "--gain-max-above", "0.9"],
+])
+def test_cli_bad_bound_options_exit_2(argv, capsys):
+    assert main(["tune", *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("cdprid: error:")
