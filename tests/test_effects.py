@@ -40,3 +40,20 @@ def test_docs_effects_md_is_generated_from_the_table():
         assert f"| `{name}` |" in text and f"### ``{name}" in text
     doc = Path(__file__).resolve().parents[1] / "docs" / "effects.md"
     assert doc.read_text() == text, "regenerate docs/effects.md with vocabulary_markdown()"
+
+
+def test_cable_elasticity_is_in_the_vocabulary_and_stretches_the_encoder_reading():
+    from cdprid.effects import encoder_lengths
+
+    assert VOCABULARY["cable_elasticity"] == {"cable": "cable", "EA_N": "float"}
+    e = parse_effect("cable_elasticity", ["cable=2", "EA_N=2e5"])
+    assert e.params == {"cable": 2, "EA_N": 2e5}
+    for bad in (0, -1):
+        with pytest.raises(ValueError, match="EA_N"):
+            Effect("cable_elasticity", {"cable": 1, "EA_N": bad})
+    L = np.array([[2.0, 3.0], [2.5, 1.5]])
+    tau = np.array([[20.0, 40.0], [10.0, 30.0]])
+    out = encoder_lengths([e], L, tau)
+    assert np.allclose(out[:, 0], L[:, 0], rtol=0, atol=0)
+    # Hooke: the stretched length L is the unstrained one times (1 + tau / EA)
+    assert np.allclose(out[:, 1] * (1 + tau[:, 1] / 2e5), L[:, 1], rtol=1e-15)

@@ -375,3 +375,28 @@ def test_cli_trajectory_file(tmp_path, robot, traj):
     )
     ds = read_dataset(tmp_path / "d")
     np.testing.assert_allclose(ds.position, np.asarray(traj.evaluate(ds.pose_t).p), atol=1e-9)
+
+
+def test_cable_elasticity_writes_the_encoder_stream(tmp_path, robot, traj, clean):
+    """lengths.csv: l = L / (1 + tau / EA) on the elastic cable, L on the others; no force."""
+    e = Effect("cable_elasticity", {"cable": 3, "EA_N": 5e4})
+    res = run(robot, traj, [e])
+    np.testing.assert_array_equal(res.tension, clean.tension)  # no force changes
+    assert clean.lengths is None
+    mt = res.motion_tension
+    R = np.asarray(jax.vmap(quat_to_matrix)(mt.q))
+    B = np.asarray(mt.p)[:, None, :] + np.einsum("nij,mj->nmi", R, np.asarray(robot.P_b))
+    L = np.linalg.norm(np.asarray(robot.B_A)[None] - B, axis=2)  # no pulleys: straight
+    want = L.copy()
+    want[:, 2] = L[:, 2] / (1 + res.tension_true[:, 2] / 5e4)
+    np.testing.assert_allclose(res.lengths, want, rtol=0, atol=1e-12)
+    out = write_simulation(res, tmp_path / "ds")
+    ds = read_dataset(out)
+    cols, vals = ds.extra["lengths"]
+    assert cols == ["t"] + [f"l_{i}" for i in range(1, 9)]
+    np.testing.assert_allclose(vals[:, 1:], res.lengths, atol=1e-9)
+    np.testing.assert_allclose(vals[:, 0], res.tension_t)
+    # on request without the effect; encoder noise as stated
+    noisy = run(robot, traj, lengths=True, noise=SensorNoise(0.0, 0.0, 0.0, length_m=1e-4))
+    d = noisy.lengths - L
+    assert abs(d.std() - 1e-4) < 5e-6 and abs(d.mean()) < 5e-6

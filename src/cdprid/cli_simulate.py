@@ -5,7 +5,8 @@ Usage::
     cdprid simulate --out DIR [--trajectory FILE | --preset NAME] [--robot ROBOT.toml]
                     [--effect NAME --param key=value ...] [--seed N] [--noise-pos M]
                     [--noise-tension N] [--noise-rot RAD] [--rate-pose HZ]
-                    [--rate-tension HZ] [--duration S] [--force]
+                    [--rate-tension HZ] [--duration S] [--lengths] [--noise-length M]
+                    [--force]
 
 ``--effect`` may be repeated; the ``--param`` options after an ``--effect`` belong to it,
 e.g. ``--effect tension_gain --param cable=3 --param gain=1.05``; vectors as
@@ -65,7 +66,7 @@ def run(args) -> int:
     if not args.force:
         clash = [
             f
-            for f in ("robot.toml", "pose.csv", "tensions.csv", "meta.toml")
+            for f in ("robot.toml", "pose.csv", "tensions.csv", "meta.toml", "lengths.csv")
             if (Path(out) / f).exists()
         ]
         if clash:
@@ -100,7 +101,8 @@ def run(args) -> int:
     else:
         traj = preset(args.preset or "paper-orbits", robot, duration=args.duration)
     noise = SensorNoise(
-        position_m=args.noise_pos, orientation_rad=args.noise_rot, tension_N=args.noise_tension
+        position_m=args.noise_pos, orientation_rad=args.noise_rot, tension_N=args.noise_tension,
+        length_m=args.noise_length,
     )
     print(
         f"simulating '{traj.name}' ({traj.t_end - traj.t_start:g} s) on {robot.name} "
@@ -115,6 +117,7 @@ def run(args) -> int:
         rate_pose=args.rate_pose,
         rate_tension=args.rate_tension,
         seed=args.seed,
+        lengths=args.lengths,
     )
     path = write_simulation(res, out, overwrite=args.force)
     names = ", ".join(e.name for e in res.effects) or "none"
@@ -123,6 +126,7 @@ def run(args) -> int:
         f"wrote {path}: {res.pose_t.size} pose samples ({rot}), {res.tension_t.size} tension "
         f"samples, tensions {res.tension.min():.1f} to {res.tension.max():.1f} N"
         + (f" ({res.n_qp} samples by QP)" if res.n_qp else "")
+        + (", winch encoder lengths" if res.lengths is not None else "")
         + f", effects: {names} [{time.perf_counter() - start:.1f} s]"
     )
     return 0
@@ -181,6 +185,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument(
         "--noise-rot", type=V.nonneg_float, default=0.0,
         help="orientation noise std, rad (default 0)"
+    )
+    p.add_argument(
+        "--lengths", action="store_true",
+        help="also write lengths.csv (t,l_1..l_m: winch encoder lengths, m); always written "
+        "with --effect cable_elasticity"
+    )
+    p.add_argument(
+        "--noise-length", type=V.nonneg_float, default=5e-5,
+        help="winch encoder (lengths.csv) noise std, m (default 5e-5)"
     )
     p.add_argument("--rate-pose", type=V.float_in(1.0, 1e5), default=100.0,
                    help="pose rate, Hz (default 100)")

@@ -49,6 +49,16 @@ from 1). How each effect is modelled by :func:`cdprid.simulate.simulate`:
     cell reads ``tau - coulomb_N sign(dl/dt) - viscous_Ns_per_m dl/dt`` before gain,
     offset and noise: hauling the cable in, the winch side needs more than the platform
     side gets. Both coefficients are >= 0.
+``cable_elasticity {cable, EA_N}``
+    Cable ``cable`` stretches under its tension (Hooke's law, EA_N its axial stiffness E A
+    in N): the winch encoder, which measures the unstrained length paid out, reads
+    ``l = L / (1 + tau / EA_N)`` where L is the geometric (stretched) length between the
+    cable's leave point and its attachment B_i and tau its tension; the other cables read
+    ``l = L``. It changes no force: it shows only in the optional ``lengths.csv`` stream
+    (``t, l_1..l_m``, m, at the tension times; a cdprid extension of spec 1.1, see
+    ``docs/lengths.md``), which the simulator writes with this effect (or with
+    ``--lengths``) plus encoder noise ``--noise-length``. The diagnosis fits it per cable
+    (with an encoder zero offset) only when a dataset has ``lengths.csv``.
 ``rotational_dynamics {amplitude_rad}``
     The platform also performs small rotations (:func:`cdprid.trajectories.small_rotation`,
     that peak angle about each axis), so the rotational inertia and angular terms act;
@@ -74,6 +84,7 @@ __all__ = [
     "true_gravity",
     "tilt_matrix",
     "load_cell_friction",
+    "encoder_lengths",
     "vocabulary_markdown",
     "effect_parameters_table",
 ]
@@ -92,6 +103,7 @@ VOCABULARY: dict[str, dict[str, str]] = {
     "frame_tilt": {"tilt_rad": "vec2"},
     "rotational_dynamics": {"amplitude_rad": "float"},
     "pulley_friction": {"cable": "cable", "coulomb_N": "float", "viscous_Ns_per_m": "float"},
+    "cable_elasticity": {"cable": "cable", "EA_N": "float"},
 }
 
 
@@ -181,10 +193,11 @@ class Effect:
                 f"(e.g. --param {missing[0]}=...); valid parameters: {valid}."
             )
         clean = {k: _convert(self.name, k, spec[k], v) for k, v in self.params.items()}
-        if self.name == "tension_gain" and clean["gain"] <= 0:
-            raise ValueError(
-                f"effect 'tension_gain' parameter 'gain' must be > 0, got {clean['gain']}."
-            )
+        for key in ("gain", "EA_N"):
+            if key in clean and clean[key] <= 0:
+                raise ValueError(
+                    f"effect '{self.name}' parameter '{key}' must be > 0, got {clean[key]}."
+                )
         for key in (
             "delay_s",
             "coefficient_Ns_per_m",
@@ -286,6 +299,28 @@ def load_cell_friction(effects, W, v, omega) -> np.ndarray:
             i = e.params["cable"] - 1
             out[:, i] -= e.params["coulomb_N"] * np.sign(ldot[:, i])
             out[:, i] -= e.params["viscous_Ns_per_m"] * ldot[:, i]
+    return out
+
+
+def encoder_lengths(effects, L, tension) -> np.ndarray:
+    """What the winch encoders read, ``(n, m)``: ``L / (1 + tau / EA_N)`` on elastic cables.
+
+    Parameters
+    ----------
+    effects : sequence of Effect
+    L : (n, m) geometric cable lengths (leave point to attachment), m
+    tension : (n, m) cable tensions, N
+
+    Returns
+    -------
+    ndarray (n, m)
+        The unstrained lengths (``L`` where a cable has no ``cable_elasticity``).
+    """
+    out = np.array(L, float)
+    for e in effects:
+        if e.name == "cable_elasticity":
+            i = e.params["cable"] - 1
+            out[:, i] = out[:, i] / (1.0 + np.asarray(tension)[:, i] / e.params["EA_N"])
     return out
 
 

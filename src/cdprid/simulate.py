@@ -33,12 +33,13 @@ import numpy as np
 from .dynamics import InertialParameters, platform_wrench
 from .effects import (
     effect_parameters_table,
+    encoder_lengths,
     load_cell_friction,
     true_gravity,
     true_robot,
     validate_effects,
 )
-from .geometry import CableRobot, cable_vectors, wrench_matrix
+from .geometry import CableRobot, cable_lengths, cable_vectors, wrench_matrix
 from .rotations import quat_multiply, quat_to_matrix, rotvec_to_quat
 from .tensions import DEFAULT_PRETENSION, distribute_tensions
 from .trajectories import (
@@ -64,6 +65,8 @@ class SensorNoise:
         Orientation noise std, rad (a small random rotation, platform frame).
     tension_N : float
         Tension noise std, N (default 0.5 N).
+    length_m : float
+        Winch encoder noise std of the optional ``lengths.csv`` stream, m (default 0.05 mm).
     position_quantum_m, orientation_quantum, tension_quantum_N : float
         Quantisation steps (quaternion components for the orientation, renormalised).
     """
@@ -74,6 +77,7 @@ class SensorNoise:
     position_quantum_m: float = 0.0
     orientation_quantum: float = 0.0
     tension_quantum_N: float = 0.0
+    length_m: float = 5e-5
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -84,7 +88,7 @@ class SensorNoise:
     @classmethod
     def off(cls) -> SensorNoise:
         """No noise, no quantisation."""
-        return cls(0.0, 0.0, 0.0)
+        return cls(0.0, 0.0, 0.0, length_m=0.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -125,6 +129,9 @@ class SimResult:
     description : str
     settings : dict
         Rates, pretension and trajectory name (written to meta.toml ``[simulation]``).
+    lengths : (k, m) or None
+        Winch encoder stream at ``tension_t`` (:func:`cdprid.effects.encoder_lengths`, with
+        noise), written as ``lengths.csv``; None when not simulated.
     """
 
     robot: CableRobot
@@ -148,6 +155,7 @@ class SimResult:
     has_rotation: bool
     description: str
     settings: dict
+    lengths: np.ndarray | None = None
 
 
 def _time_base(t0: float, t1: float, rate: float) -> np.ndarray:
@@ -302,6 +310,20 @@ def _measure(motion, tau_true, W, mt, effects, noise, seed, has_rotation, m):
     return position, quaternion, _quantise(tension, noise.tension_quantum_N)
 
 
+def _encoders(robot_true, mt, tau_true, effects, noise, seed):
+    """Winch encoder readings at the tension times (true motion there), with noise.
+
+    The geometric length is :func:`cdprid.geometry.cable_lengths` (from the exit point,
+    the arc on a pulley rim included, to the attachment).
+    """
+    k = tau_true.shape[0]
+    R = jax.vmap(quat_to_matrix)(jnp.asarray(np.asarray(mt.q)[:k]))
+    L = np.asarray(jax.vmap(lambda p, Rk: cable_lengths(robot_true, p, Rk))(
+        jnp.asarray(np.asarray(mt.p)[:k]), R))
+    rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(4)[3])
+    return encoder_lengths(effects, L, tau_true) + noise.length_m * rng.standard_normal(L.shape)
+
+
 def simulate(
     robot: CableRobot,
     trajectory,
@@ -315,6 +337,7 @@ def simulate(
     tension_min: float | None = None,
     tension_max: float | None = None,
     check_workspace_box: bool = True,
+    lengths: bool = False,
 ) -> SimResult:
     """Simulate measured pose and tension streams of a robot following a trajectory.
 
@@ -340,6 +363,9 @@ def simulate(
         Tension bounds, N (default robot.toml's limits, else 0 and inf).
     check_workspace_box : bool
         Raise if the trajectory leaves robot.toml's workspace box.
+    lengths : bool
+        Also simulate the winch encoders (``lengths.csv``); always on with
+        ``cable_elasticity``.
 
     Returns
     -------
@@ -400,6 +426,9 @@ def simulate(
         motion, tau_true, W, mt, effects, noise, seed, has_rotation, robot.n_cables
     )
 
+    enc = None
+    if lengths or "cable_elasticity" in by_name:
+        enc = _encoders(robot_true, mt, tau_true, effects, noise, seed)
     description, settings = _describe(
         robot, trajectory, effects, noise, seed, rate_pose, rate_tension, tau_ref, tmin, tmax,
         n_qp, t1 - t0
@@ -409,7 +438,7 @@ def simulate(
         gravity_true=g_true, pose_t=pose_t, position=position, quaternion=quaternion,
         tension_t=tension_t, tension=tension, tension_true=tau_true, motion=motion,
         motion_tension=mt, wrench_required=wp, W_true=W, n_qp=n_qp, seed=int(seed),
-        has_rotation=has_rotation, description=description, settings=settings,
+        has_rotation=has_rotation, description=description, settings=settings, lengths=enc,
     )
 
 
@@ -422,7 +451,8 @@ def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Pat
     effects and ``[truth.effect_parameters]`` — see
     :func:`cdprid.effects.effect_parameters_table` — and ``[simulation]`` settings), and
     truth_motion.csv (``t,x,y,z,vx,vy,vz,ax,ay,az`` plus ``qw..alz`` when rotating: the
-    noise-free motion at the pose times).
+    noise-free motion at the pose times), and lengths.csv (``t,l_1..l_m``) when the winch
+    encoders were simulated.
 
     Parameters
     ----------
@@ -463,6 +493,10 @@ def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Pat
     if r.has_rotation:
         cols += list(ROTATION_COLUMNS)
         vals += [np.asarray(m.q), np.asarray(m.omega), np.asarray(m.alpha)]
+    extra = {"truth_motion": (cols, np.hstack(vals))}
+    if r.lengths is not None:
+        extra["lengths"] = (["t"] + [f"l_{i + 1}" for i in range(r.lengths.shape[1])],
+                            np.column_stack([r.tension_t, r.lengths]))
     return write_dataset(
         out_dir,
         r.robot,
@@ -472,6 +506,6 @@ def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Pat
         r.tension,
         quaternion=r.quaternion,
         meta=meta,
-        extra={"truth_motion": (cols, np.hstack(vals))},
+        extra=extra,
         overwrite=overwrite,
     )

@@ -26,6 +26,7 @@ from ..io.dataset import Dataset
 from .base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from .budget import MAX_SAMPLES, joined_time, subset
 from .candidates import candidate_list
+from .lengths import lengths_stream, with_elasticity
 from .model import meas_and_jac
 from .problem import Problem, force_heldout_rms, prepare
 from .result import DiagnosisResult
@@ -157,8 +158,8 @@ def diagnose(
         if progress is not None:
             progress(f"[{time.perf_counter() - t0:6.1f} s] {msg}")
 
+    lengths, notes = lengths_stream(ds)
     sub = subset(ds, max_samples, margin_s=max(trim, 0.1))
-    notes = []
     if sub is not None:
         notes.append(sub.note)
         say(sub.note)
@@ -202,17 +203,18 @@ def diagnose(
     for u in unexplained:
         say(f"unexplained: {u['where']}, {u['size']:.3g} N, like {u['correlates_with']}, "
             f"p = {u['p_value']:.2e}")
+    findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
     settings = {"train_until": train_until, "taut_threshold_N": taut_N,
                 "n_candidates": len(candidates), "alpha": alpha}
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, settings)
-    info["unexplained_rule"] = rule
+    info["unexplained_rule"], info["lengths"] = rule, el_info
     info["wall_time_s"] = time.perf_counter() - t0
     if sub is not None:
         info["subset"] = sub.as_json()
     arrays = {"t": prob.t, "residual_base": base.residual, "residual_extended": resid,
               "velocity": prob.v, "acceleration": prob.a, "tension": prob.tension,
               "position": prob.position, "train": prob.train, "use": prob.use}
-    say(f"done in {info['wall_time_s']:.1f} s: {len(s.findings)} finding(s)")
-    return DiagnosisResult(base.parameters, base.residual_rms, base_ho, list(s.findings),
+    say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
+    return DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
                            ext_params, ext_ho, ranking, info, arrays, unexplained=unexplained,
                            notes=notes)
