@@ -82,7 +82,8 @@ def test_robust_margins_against_linprog(rng):
     acc = rng.normal(size=(n, 3)) * 3.0
     A = np.asarray(regressors("full", jnp.asarray(R), jnp.asarray(acc), jnp.zeros((n, 3)),
                               jnp.zeros((n, 3)), r.gravity))
-    corners = corner_parameters(4.3, [0, 0, -0.02], np.diag([0.03, 0.03, 0.04]), 0.2, 0.02, 0.3)
+    corners = corner_parameters(4.3, [0, 0, -0.02], np.diag([0.03, 0.03, 0.04]), 0.2, 0.02,
+                                0.3)[::7]  # 147 x 6 pairs: within the LP budget, all solved
     got, _ = robust_tension_margins(W, A, corners, 5.0, 80.0)
     m = 8
     for k in range(0, len(corners), 5):
@@ -96,6 +97,43 @@ def test_robust_margins_against_linprog(rng):
             # a proven lower bound, equal to the LP where the LP was solved (here: everywhere)
             assert got[k, i] <= ref + 1e-6
             assert got[k, i] == pytest.approx(ref, abs=1e-6)
+
+
+def _in_hull(x, C):
+    from scipy.optimize import linprog
+
+    k = C.shape[0]
+    res = linprog(np.zeros(k), A_eq=np.vstack([C.T, np.ones(k)]), b_eq=np.r_[x, 1.0],
+                  bounds=[(0, None)] * k, method="highs")
+    return res.status == 0
+
+
+def test_corners_hold_every_platform_of_the_box(rng):
+    # random platforms of the physical box (mass, centre of mass per axis, principal moments),
+    # their x = [m, m s_G, I_P] by InertialParameters, must lie in the convex hull of the
+    # certificate's points (the tensions are linear in x); the plain 2^7 vertices of the
+    # physical box do not hold them (the m s s^T term of I_P is quadratic in s)
+    import itertools
+
+    from cdprid.dynamics import InertialParameters
+
+    mass, com = 4.3, np.array([0.01, -0.02, -0.03])
+    I = np.array([[0.03, 0.002, 0.0], [0.002, 0.035, 0.001], [0.0, 0.001, 0.04]])
+    mu, cu, iu = 0.2, 0.02, 0.3
+    C = corner_parameters(mass, com, I, mu, cu, iu)
+    lam, V = np.linalg.eigh(I)
+
+    def x_of(u):
+        I_G = V @ np.diag(lam * (1 + iu * u[4:])) @ V.T
+        return np.asarray(InertialParameters(mass * (1 + mu * u[0]), com + cu * u[1:4], I_G)
+                          .vector("full"))
+
+    pts = [x_of(np.zeros(7))] + [x_of(rng.uniform(-1, 1, 7)) for _ in range(12)]
+    assert all(_in_hull(x, C) for x in pts)
+    plain = np.array([x_of(np.array(v, float)) for v in itertools.product((-1, 1), repeat=7)])
+    assert not all(_in_hull(x, plain) for x in pts)
+    # without rotation: mass and centre-of-mass corners only
+    assert len(corner_parameters(mass, com, I, mu, cu, iu, rotates=False)) == 16
 
 
 def test_home_moves_start_and_end_at_rest_with_continuous_jerk():

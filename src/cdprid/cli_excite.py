@@ -22,18 +22,22 @@ from .report.excitation import plot_trajectory
 __all__ = ["add_parser", "run", "plot_trajectory"]
 
 
-def _initial_params(text, family, robot, flag="--initial"):
+def _initial_params(text, prob, flag="--initial"):
+    """``--initial`` JSON over the default initial design (the gentle first run)."""
     if not text:
         return None
     from .cli import load_json_object
     from .errors import UserError
+    from .excitation import initial_design
 
+    family = prob.family
     init = load_json_object(text, flag, "a JSON object of the family's parameters")
-    base = family.initial_params(robot)
+    base = dict(family.initial_params(prob.robot))
     unknown = sorted(set(init) - set(base))
     if unknown:
         raise UserError(f"{flag}: unknown parameter {unknown[0]!r} for the {family.name!r} "
                         f"family (known: {', '.join(base)}).")
+    base = dict(initial_design(prob)[0])
     base.update({k: np.asarray(v, float) for k, v in init.items()})
     return base
 
@@ -114,7 +118,7 @@ def run(args) -> int:
         raise UserError(f"--starts must be at least 1, got {args.starts}.")
     prob = ex.make_problem(robot, args.family, args.objective, model=args.model,
                            duration=args.duration, prior=args.prior, home=args.home)
-    init = _initial_params(args.initial, prob.family, robot)
+    init = _initial_params(args.initial, prob)
     _print_limits(prob)
     res = ex.optimise_excitation(prob, n_starts=args.starts, seed=args.seed, initial_params=init,
                                  progress=True)

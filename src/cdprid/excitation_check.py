@@ -31,7 +31,7 @@ from .tensions import feasibility_margin
 from .trajectories import TrajectoryState
 
 __all__ = ["SafetyCertificate", "SafetySeries", "certify_trajectory", "kinematic_peaks",
-           "robust_tension_margins", "safety_series"]
+           "limit_ratios", "robust_tension_margins", "safety_series"]
 
 _TOL = 1e-9
 _LP_BUDGET = 1024
@@ -77,6 +77,35 @@ def kinematic_peaks(states: TrajectoryState) -> dict:
             "tilt_rad": float(np.max(_tilt(states.q))),
             "angular_velocity_rad_s": n(states.omega),
             "angular_acceleration_rad_s2": n(states.alpha)}
+
+
+def limit_ratios(robot, states: TrajectoryState, lim: SafetyLimits) -> dict:
+    """Peak over limit (dimensionless) of every kinematic limit and of the cable speed.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    states : TrajectoryState
+        Motion samples (n of each field).
+    lim : SafetyLimits
+
+    Returns
+    -------
+    dict
+        ``{"acceleration": ..., "jerk": ..., "tilt": ..., "angular_velocity": ...,
+        "angular_acceleration": ..., "cable_speed": ...}``; 1.0 means at the limit.
+    """
+    kin = kinematic_peaks(states)
+    _, W, _ = _pose_arrays(robot, *(jnp.asarray(x) for x in (states.p, states.q, states.a,
+                                                             states.omega, states.alpha)))
+    tw = np.hstack([np.asarray(states.v), np.asarray(states.omega)])
+    speed = float(np.max(np.abs(np.einsum("nim,ni->nm", np.asarray(W), tw))))
+    return {"acceleration": kin["acceleration_m_s2"] / lim.acceleration_max,
+            "jerk": kin["jerk_m_s3"] / lim.jerk_max, "tilt": kin["tilt_rad"] / lim.tilt_max,
+            "angular_velocity": kin["angular_velocity_rad_s"] / lim.angular_velocity_max,
+            "angular_acceleration": kin["angular_acceleration_rad_s2"]
+            / lim.angular_acceleration_max,
+            "cable_speed": speed / lim.cable_speed_max}
 
 
 def _closed_form_margins(W, w, tmin, tmax):

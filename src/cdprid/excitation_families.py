@@ -152,6 +152,10 @@ class OrbitFamily(eqx.Module):
             "phase": np.zeros(K),
         }
 
+    def scale_amplitude(self, params: dict, k: float) -> dict:
+        """The same design with every radius multiplied by k (peaks scale about linearly)."""
+        return dict(params, radius=np.maximum(np.asarray(params["radius"], float) * k, 0.021))
+
     def trajectory(self, z) -> Trajectory:
         """The :class:`cdprid.trajectories.Trajectory` of coordinates z (differentiable)."""
         P = self.to_params(z)
@@ -328,6 +332,11 @@ class FourierFamily(eqx.Module):
         R_sin[min(1, H - 1), 2] = rotation
         return {"centre": _box_centre(self.box_lo, self.box_hi), "P_cos": P_cos, "P_sin": P_sin,
                 "R_cos": R_cos, "R_sin": R_sin}
+
+    def scale_amplitude(self, params: dict, k: float) -> dict:
+        """The same design with every position and rotation coefficient multiplied by k."""
+        return dict(params, **{key: np.asarray(params[key], float) * k
+                               for key in ("P_cos", "P_sin", "R_cos", "R_sin")})
 
     def trajectory(self, z) -> FourierTrajectory:
         P = self.to_params(z)

@@ -11,9 +11,12 @@ moments of ``inertia`` +- ``inertia_uncertainty`` relative), or the estimate +- 
 earlier ``cdprid identify --json`` (``--prior``). The wrench the cables must produce is
 ``w = A(motion) x`` (:func:`cdprid.dynamics.regressor_full`), linear in the 10 parameters
 ``x = [m, m s_G, I_P]``; the feasible wrenches of a sample form a convex polytope, so a
-sample that is feasible at every vertex of a box in x is feasible in the whole box. The
-certificate checks every corner of the uncertainty box (2^7 physical corners, or 2^p corners
-of the prior's box); the optimiser uses the interval hull of the corners in x.
+sample that is feasible at every point of a finite set in x is feasible in its convex hull.
+The certificate checks every point of a set whose hull holds every platform of the box
+(:func:`corner_parameters`: 1024 points for the physical box with rotations, as ``m s_G`` and
+the ``m s s^T`` term of the inertia about P are not linear in the physical quantities; 16
+without rotation; the 2^p corners of the prior's box, which is a box in x); the optimiser uses
+the interval hull of those points in x.
 """
 
 from __future__ import annotations
@@ -160,20 +163,38 @@ class UncertaintyBox:
 
 def corner_parameters(mass: float, com, inertia, mass_unc: float, com_unc: float,
                       inertia_unc: float, rotates: bool = True) -> np.ndarray:
-    """Corner vectors (k, 10) of the physical box: mass, com per axis, principal moments.
+    """Vectors (k, 10) ``x = [m, m s_G, I_P]`` whose convex hull holds every platform of the
+    physical box: mass, centre of mass per axis, principal moments of the inertia.
 
-    Without rotation (``rotates=False``) the inertia does not enter the wrench and only
-    its nominal value is used (16 corners instead of 128).
+    ``x`` is not linear in the physical quantities: ``m s_G`` is bilinear and the inertia about
+    P, ``I_P = I_G + m (|s|^2 1 - s s^T)``, holds the squares ``d_j^2`` of the centre-of-mass
+    offsets ``d = s - s_nominal``. Replacing each ``d_j^2`` by an independent ``e_j`` in
+    ``[0, com_unc^2]`` makes ``x`` multilinear in (m, d, e, principal moments): the image of
+    that (larger) box is inside the convex hull of the images of its vertices, returned here
+    (2^10 = 1024 vertices; the tensions are linear in x, so a sample feasible at every vertex
+    is feasible for every platform of the physical box). Without rotation (``rotates=False``)
+    the inertia does not enter the wrench: 16 corners (mass and centre of mass), inertia at
+    its nominal principal moments.
     """
     I = np.asarray(inertia, float)
     lam, V = np.linalg.eigh(0.5 * (I + I.T))
-    out = []
+    s0 = np.asarray(com, float)
+    c = float(com_unc)
+    relax = rotates and c > 0.0
     iu = (-inertia_unc, inertia_unc) if rotates else (0.0,)
-    for sm, sx, sy, sz, *si in itertools.product((-1, 1), (-1, 1), (-1, 1), (-1, 1), iu, iu, iu):
+    ev = (0.0, c * c) if relax else (None,)
+    out = []
+    for sm, *rest in itertools.product((-1, 1), (-1, 1), (-1, 1), (-1, 1), ev, ev, ev, iu, iu, iu):
         m = mass * (1.0 + sm * mass_unc)
-        s = np.asarray(com, float) + com_unc * np.array([sx, sy, sz])
-        I_G = V @ np.diag(lam * (1.0 + np.array(si))) @ V.T
-        out.append(np.asarray(InertialParameters(m, s, I_G).vector("full")))
+        d = c * np.asarray(rest[:3], float)
+        e = d * d if not relax else np.asarray(rest[3:6], float)
+        D = np.outer(d, d)
+        D[np.diag_indices(3)] = e
+        SS = np.outer(s0, s0) + np.outer(s0, d) + np.outer(d, s0) + D
+        I_P = V @ np.diag(lam * (1.0 + np.asarray(rest[6:]))) @ V.T \
+            + m * (np.trace(SS) * np.eye(3) - SS)
+        out.append(np.r_[m, m * (s0 + d), I_P[0, 0], I_P[0, 1], I_P[0, 2], I_P[1, 1],
+                         I_P[1, 2], I_P[2, 2]])
     return np.unique(np.round(np.array(out), 15), axis=0)
 
 

@@ -12,7 +12,8 @@ from .dynamics import InertialParameters
 from .geometry import CableRobot, robot_from_dict
 
 __all__ = [
-    "CRAFT_LIKE", "EIGHT_REDUNDANT", "SIX_SUSPENDED", "SMALL_EIGHT", "craft_like_robot",
+    "CRAFT_LIKE", "EIGHT_REDUNDANT", "FOUR_POINT", "SIX_SUSPENDED", "SIX_TIGHT", "SMALL_EIGHT",
+    "craft_like_robot",
     "craft_like_truth",
 ]
 
@@ -127,3 +128,39 @@ def craft_like_truth() -> InertialParameters:
     """
     p = CRAFT_LIKE["platform"]
     return InertialParameters(p["mass"], p["com"], p["inertia"])
+
+FOUR_POINT: dict = {  # suspended point-mass robot: 4 cables meeting at P, com at P
+    "name": "four-point",
+    "limits": {"tension_min": 2.0, "tension_max": 60.0, "cable_speed_max": 0.8,
+               "workspace_min": [-0.35, -0.3, 0.5], "workspace_max": [0.35, 0.3, 0.9],
+               "acceleration_max": 1.2, "jerk_max": 6.0, "cable_clearance": 0.01},
+    "cable": [{"exit": [x, y, 1.8], "anchor": [0.0, 0.0, 0.0]}
+              for x, y in ((1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0))],
+    "platform": {"mass": 3.0, "com": [0.0, 0.0, 0.0], "inertia": [[1.0, 0.0, 0.0],
+                                                                  [0.0, 1.0, 0.0],
+                                                                  [0.0, 0.0, 1.0]],
+                 "mass_uncertainty": 0.2, "com_uncertainty": 0.0},
+}
+"""A 4-cable suspended point-mass robot (all cables meet at P, the centre of mass is at P and
+known: with 4 cables no moment can be balanced), tight limits, mass +- 20 %: translation only."""
+
+_EX6 = [[1.1 * math.cos(math.radians(a)), 1.1 * math.sin(math.radians(a)), 2.0]
+        for a in (-15, 15, 105, 135, 225, 255)]
+_AN6 = [[0.2 * math.cos(math.radians(a)), 0.2 * math.sin(math.radians(a)), 0.06]
+        for a in (-45, 45, 75, 165, 195, 285)]
+SIX_TIGHT: dict = {
+    "name": "six-tight",
+    "limits": {"tension_min": 1.0, "tension_max": 120.0, "cable_speed_max": 1.0,
+               "workspace_min": [-0.4, -0.35, 0.5], "workspace_max": [0.4, 0.35, 0.95],
+               "acceleration_max": 1.5, "jerk_max": 10.0, "tilt_max": 0.2,
+               "angular_velocity_max": 0.8, "angular_acceleration_max": 3.0,
+               "cable_clearance": 0.01},
+    "cable": [{"exit": _EX6[k], "anchor": _AN6[k]} for k in range(6)],
+    "platform": {"mass": 6.0, "com": [0.0, 0.0, -0.03],
+                 "inertia": [[0.03, 0.0, 0.0], [0.0, 0.03, 0.0], [0.0, 0.0, 0.04]],
+                 "mass_uncertainty": 0.2, "com_uncertainty": 0.01, "inertia_uncertainty": 0.3,
+                 "body_min": [-0.12, -0.12, -0.1], "body_max": [0.12, 0.12, 0.04]},
+}
+"""A 6-cable suspended robot (no redundancy) with the issue's small workspace (0.8 x 0.7 x
+0.45 m), 1 m/s cable speed, tight spec 1.1 limits and an uncertain 6 kg platform with a body
+box: an excitation test robot with 6 cables."""
