@@ -41,15 +41,23 @@ from cdprid import excitation as ex  # noqa: E402
 from cdprid.excitation_check import safety_series  # noqa: E402
 from cdprid.geometry import robot_from_dict  # noqa: E402
 from cdprid.report.excitation import plot_safety_series  # noqa: E402
-from cdprid.robots import CRAFT_LIKE, SMALL_EIGHT  # noqa: E402
+from cdprid.robots import CRAFT_LIKE, FOUR_POINT, SIX_TIGHT, SMALL_EIGHT  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
 SMALL8 = SMALL_EIGHT  # the sample robot of cdprid.robots (also used by the tests)
+SPEED: list = []  # (case, goal s, optimiser s incl. JIT, starts, whole call s)
+SUMMARY: list = []  # one row per case
 
 
 def hand_made_orbits(prob):
-    """Certified hand-made orbits: (cond, report, description) sorted by cond."""
+    """Certified hand-made orbits: (cond, report, description) sorted by cond.
+
+    A grid of horizontal and vertical orbits about the workspace centre (radius 50, 75, 100 %
+    of the room), each at the highest frequency whose steady acceleration and jerk are within
+    92 % of the limits, then scaled down (:func:`cdprid.excitation.fit_to_limits`) until every
+    peak of the whole trajectory (ramps and home moves included) is within 92 % of its limit.
+    """
     fam = prob.family
     lim = prob.limits
     base = fam.initial_params(prob.robot)
@@ -59,15 +67,16 @@ def hand_made_orbits(prob):
     for plane, (az, tilt), rmax in (("horizontal", (0.0, 0.0), min(half[0], half[1])),
                                     ("vertical xz", (0.0, np.pi / 2), min(half[0], half[2]))):
         for frac in (0.5, 0.75, 1.0):
-            r = frac * rmax
-            # highest frequency with r w^2 <= 0.85 a_max and r w^3 <= 0.85 j_max
-            w = min(np.sqrt(0.85 * lim.acceleration_max / r), np.cbrt(0.85 * lim.jerk_max / r))
+            r = min(frac * rmax, fam.radius_max)
+            w = min(np.sqrt(0.92 * lim.acceleration_max / r), np.cbrt(0.92 * lim.jerk_max / r))
             f = min(w / (2 * np.pi), fam.freq_max * 0.999)
             p = dict(base, radius=np.array([r]), frequency=np.array([f]),
                      azimuth=np.array([az]), tilt=np.array([tilt]))
+            p, k = ex.fit_to_limits(prob, p, prob.fractions.kinematic)
             rep = ex.evaluate_design(prob, fam.from_params(p))
             if rep.certified:
-                out.append((rep.cond, rep, f"{plane}, r = {r:.3f} m, f = {f:.3f} Hz"))
+                out.append((rep.cond, rep, f"{plane}, r = {float(p['radius'][0]):.3f} m, "
+                            f"f = {f:.3f} Hz"))
     return sorted(out, key=lambda x: x[0])
 
 
@@ -107,20 +116,26 @@ def run_case(robot, family, args, out, L):
     res = ex.optimise_excitation(prob, n_starts=args.starts, seed=args.seed, progress=True)
     t_call = time.perf_counter() - t0
     ini, opt = res.initial, res.optimised
-    designs = [("paper-like orbit (initial)", ini, "")]
+    paper = ex.evaluate_design(prob, prob.family.from_params(prob.family.initial_params(robot)))
+    designs = [("gentle first run (initial)", ini, res.initial_rule.split(":")[0]),
+               ("paper's orbit, unscaled", paper, "" if paper.certified else
+                "NOT certified: " + "; ".join(paper.certificate.failed))]
     if family == "orbit":
         hm = hand_made_orbits(prob)
         if hm:
             designs.append(("best hand-made orbit", hm[0][1], hm[0][2]))
+        else:
+            designs.append(("best hand-made orbit", None, "none of the grid is certified"))
     designs.append(("optimised", opt, res.note))
+    designs = [d for d in designs if d[1] is not None]
     worst = worst_parameter(prob, designs[-2][1])
     names = list(prob.names)
     j = names.index(worst)
     tr = res.trajectory
     t = np.arange(int(np.floor(tr.t_end * 100.0 + 1e-9)) + 1) / 100.0
     fig = out / f"excitation_{robot.name}_{family}.png"
-    plot_safety_series(safety_series(robot, tr.evaluate(t), prob.limits, prob.box), prob.limits,
-                       fig, title=f"{robot.name}, {family}: optimised design")
+    ser = safety_series(robot, tr.evaluate(t), prob.limits, prob.box)
+    plot_safety_series(ser, prob.limits, fig, title=f"{robot.name}, {family}: optimised design")
     L.append(f"## {robot.name}, family `{family}` (model `{prob.model}`)\n")
     L.append(f"Limits: {prob.limits.as_json()}; uncertainty {prob.box.source} "
              f"({prob.box.description['n_corners']} corners); defaults used: "
@@ -133,7 +148,7 @@ def run_case(robot, family, args, out, L):
     L.append("|---|---|---|---|---|---|---|---|---|---|")
     rows = {}
     for name, r, note in designs:
-        rms = (mc_pipeline(prob, r, args.mc, args.seed) if args.mc > 0
+        rms = (mc_pipeline(prob, r, args.mc, args.seed) if args.mc > 0 and "unscaled" not in name
                else np.full(len(names), np.nan))
         rows[name] = (r, rms)
         pk = r.certificate.peaks
@@ -144,8 +159,27 @@ def run_case(robot, family, args, out, L):
     ref, ref_rms = rows[ref_name]
     L.append(f"\nRatios {ref_name} / optimised: cond **{ref.cond / opt.cond:.2f}x**, predicted std "
              f"of `{worst}` **{ref.sigma[worst] / opt.sigma[worst]:.2f}x**, Monte-Carlo RMS error "
-             f"**{ref_rms[j] / rows['optimised'][1][j]:.2f}x**. Initial / optimised cond: "
-             f"{ini.cond / opt.cond:.2f}x.\n")
+             f"**{ref_rms[j] / rows['optimised'][1][j]:.2f}x**. Initial (gentle) / optimised: "
+             f"cond **{ini.cond / opt.cond:.2f}x**, predicted std of `{worst}` "
+             f"**{ini.sigma[worst] / opt.sigma[worst]:.2f}x**.\n")
+    cert = opt.certificate
+    SUMMARY.append(
+        f"| {robot.name} | {robot.n_cables} | {family} ({prob.model}) | {ini.cond:.2f} -> "
+        f"{opt.cond:.2f} | **{ini.cond / opt.cond:.2f}x** | `{worst}` {ini.sigma[worst]:.3g} -> "
+        f"{opt.sigma[worst]:.3g} | {len(cert.failed)} | "
+        f"{int(np.sum(np.any(ser.margin < 0, axis=0)))} ({cert.n_corners}) | "
+        f"{cert.robust_margin_N:.2f} |")
+    if prob.model == "translation":
+        g = float(np.linalg.norm(np.asarray(robot.gravity)))
+        a = prob.limits.acceleration_max
+        floor92 = np.sqrt(1 + g * g / (0.92 * a) ** 2)
+        L.append(f"Physical floor for the translation model: any rest-to-rest trajectory with "
+                 f"|a| <= {a:g} m/s^2 has cond(W_ID) >= sqrt(1 + g^2 / a_max^2) = "
+                 f"**{np.sqrt(1 + g * g / (a * a)):.2f}** ({floor92:.2f}"
+                 f" at the optimiser's 92 % of the limit): the optimised design is "
+                 f"{opt.cond / np.sqrt(1 + g * g / (a * a)):.2f}x this floor.\n")
+    SPEED.append((f"{robot.name} {family}", 30.0 if family != "fourier" else 90.0,
+                  res.optimiser_time_s, res.starts, t_call))
     L.append(f"Optimiser time (BFGS, {args.starts} starts, including JIT): "
              f"**{res.optimiser_time_s:.1f} s**; whole call with the exact certificates: "
              f"{t_call:.1f} s. Per start: " + "; ".join(
@@ -160,9 +194,12 @@ def main(argv=None) -> int:
     ap.add_argument("--starts", type=int, default=4)
     ap.add_argument("--mc", type=int, default=8, help="full-pipeline Monte-Carlo runs per design")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--cases", default="small-8:orbit,craft-like:orbit,craft-like:fourier")
+    ap.add_argument("--cases", default="four-point:orbit,six-tight:orbit,small-8:orbit,"
+                    "craft-like:orbit,six-tight:fourier,small-8:fourier,craft-like:fourier")
     args = ap.parse_args(argv)
-    robots = {"small-8": robot_from_dict(SMALL8, "small-8"),
+    robots = {"four-point": robot_from_dict(FOUR_POINT, "four-point"),
+              "six-tight": robot_from_dict(SIX_TIGHT, "six-tight"),
+              "small-8": robot_from_dict(SMALL8, "small-8"),
               "craft-like": robot_from_dict(CRAFT_LIKE, "craft-like")}
     out = ROOT / "results"
     out.mkdir(exist_ok=True)
@@ -187,6 +224,27 @@ def write(out, L, body, cmd, commit, load0):
     """Write results/excitation.md with the cases done so far."""
     load1 = os.getloadavg()
     L = list(L)
+    L.append("## Summary\n")
+    L.append("Initial design = the gentle first run (`cdprid.excitation.initial_design`: the "
+             "paper's orbit, 0.4 m at 0.25 Hz about the workspace centre, radius fitted to the "
+             "workspace, amplitude scaled so that every peak is at most 50 % of its limit). "
+             "Worst parameter = largest predicted std relative to its scale (sigma_rho = 1 N). "
+             "Checks: every limit on a 500 Hz grid, clearances and tensions at every point of "
+             "the uncertainty hull on the 100 Hz grid of the CSV (exact; LP).\n")
+    L.append("| robot | cables | family (model) | cond initial -> optimised | ratio | worst "
+             "parameter: predicted std initial -> optimised | violated limits | infeasible "
+             "samples at any corner (corners) | robust margin (N) |")
+    L.append("|---|---|---|---|---|---|---|---|---|")
+    L += SUMMARY
+    L.append("\n## Speed (optimiser, including JIT; fresh process, no persistent cache)\n")
+    L.append("| case | goal (s) | optimiser incl. JIT (s) | first start incl. compile (s) | "
+             "other starts (s each) | whole call with certificates (s) |")
+    L.append("|---|---|---|---|---|---|")
+    for case, goal, t_opt, starts, t_call in SPEED:
+        rest = [st["time_s"] for st in starts[1:]]
+        L.append(f"| {case} | {goal:g} | **{t_opt:.1f}** | {starts[0]['time_s']:.1f} | "
+                 + (f"{np.mean(rest):.1f}" if rest else "-") + f" | {t_call:.1f} |")
+    L.append("")
     L.append(f"Generated by `{cmd.strip()}` at commit `{commit}` on {platform.node() or 'host'} "
              f"({os.cpu_count()} cores, Python {platform.python_version()}, jax "
              f"{jax.__version__}). The machine was SHARED with other jobs while this ran (load "

@@ -16,7 +16,6 @@ from cdprid.geometry import robot_from_dict, wrench_matrix
 from cdprid.robots import CRAFT_LIKE
 
 
-
 @pytest.fixture(scope="module")
 def craft():
     return robot_from_dict(CRAFT_LIKE, source="craft")
@@ -34,7 +33,8 @@ def test_cond_matches_numpy_svd(rng):
         assert float(ex.information_cond(jnp.asarray(A))) == pytest.approx(s[0] / s[-1], rel=1e-9)
         As = A / np.linalg.norm(A, axis=0)
         ss = np.linalg.svd(As, compute_uv=False)
-        assert float(ex.information_cond(jnp.asarray(A), scaled=True)) == pytest.approx(ss[0] / ss[-1], rel=1e-9)
+        cs = float(ex.information_cond(jnp.asarray(A), scaled=True))
+        assert cs == pytest.approx(ss[0] / ss[-1], rel=1e-9)
         # the smooth surrogate bounds log cond from above by at most log(p)/32
         soft = float(ex.soft_log_cond(jnp.asarray(A.T @ A)))
         exact = np.log(s[0] / s[-1])
@@ -57,7 +57,7 @@ def test_predicted_sigma_and_dopt_vs_numpy(rng):
     assert float(ex.d_optimality(jnp.asarray(A))) == pytest.approx(ref, rel=1e-10)
 
 
-@pytest.mark.parametrize("family", ["orbit", "fourier"])
+@pytest.mark.parametrize("family", [pytest.param("orbit", marks=pytest.mark.slow), "fourier"])
 def test_objective_gradient_vs_finite_differences(craft, family):
     prob = ex.make_problem(craft, family, duration=12.0)
     t = jnp.asarray(prob.grid(10.0))
@@ -101,15 +101,19 @@ def test_fourier_states_are_consistent(craft):
     t = jnp.linspace(3.0, 9.0, 7)
     h = 1e-5
     s, sp, sm = (traj.evaluate(x) for x in (t, t + h, t - h))
-    np.testing.assert_allclose(np.asarray(s.v), (np.asarray(sp.p) - np.asarray(sm.p)) / (2 * h), atol=1e-7)
-    np.testing.assert_allclose(np.asarray(s.a), (np.asarray(sp.v) - np.asarray(sm.v)) / (2 * h), atol=1e-6)
-    np.testing.assert_allclose(np.asarray(s.alpha), (np.asarray(sp.omega) - np.asarray(sm.omega)) / (2 * h), atol=1e-6)
+    np.testing.assert_allclose(np.asarray(s.v),
+                               (np.asarray(sp.p) - np.asarray(sm.p)) / (2 * h), atol=1e-7)
+    np.testing.assert_allclose(np.asarray(s.a),
+                               (np.asarray(sp.v) - np.asarray(sm.v)) / (2 * h), atol=1e-6)
+    np.testing.assert_allclose(np.asarray(s.alpha),
+                               (np.asarray(sp.omega) - np.asarray(sm.omega)) / (2 * h), atol=1e-6)
     # omega from the quaternion: dq/dt = 0.5 [0, omega] * q (base frame)
     from cdprid.rotations import quat_multiply
 
     qd = (np.asarray(sp.q) - np.asarray(sm.q)) / (2 * h)
     for k in range(len(t)):
-        ref = 2.0 * np.asarray(quat_multiply(jnp.asarray(qd[k]), jnp.asarray(s.q[k]) * jnp.array([1, -1, -1, -1.0])))
+        ref = 2.0 * np.asarray(quat_multiply(jnp.asarray(qd[k]),
+                                             jnp.asarray(s.q[k]) * jnp.array([1, -1, -1, -1.0])))
         np.testing.assert_allclose(np.asarray(s.omega[k]), ref[1:], atol=1e-7)
 
 
@@ -119,7 +123,8 @@ def test_certificate_agrees_with_linprog(craft):
     rng = np.random.default_rng(7)
     tmin, tmax = 1.0, 150.0
     n = 12
-    P = np.column_stack([rng.uniform(-1.2, 1.2, n), rng.uniform(-1.0, 1.0, n), rng.uniform(0.5, 2.2, n)])
+    P = np.column_stack([rng.uniform(-1.2, 1.2, n), rng.uniform(-1.0, 1.0, n),
+                         rng.uniform(0.5, 2.2, n)])
     W = np.stack([np.asarray(wrench_matrix(craft, jnp.asarray(p), jnp.eye(3))) for p in P])
     # required wrenches: weight plus random accelerations (some infeasible: large ones)
     acc = rng.normal(size=(n, 3)) * np.linspace(0.5, 25.0, n)[:, None]
@@ -140,7 +145,8 @@ def test_certificate_agrees_with_linprog(craft):
         assert got[k] == pytest.approx(r.x[-1], abs=1e-6)
     assert np.any(got > 0) and np.any(got < 0)
     # the smooth margin used inside the optimiser is conservative
-    smooth = np.array([float(ex.tension_margin_smooth(jnp.asarray(W[k]), jnp.asarray(w[k]), tmin, tmax))
+    smooth = np.array([float(ex.tension_margin_smooth(jnp.asarray(W[k]), jnp.asarray(w[k]),
+                                                      tmin, tmax))
                        for k in range(n)])
     assert np.all(smooth <= got + 1e-9)
 
@@ -169,7 +175,7 @@ def test_cli_broken_robot_exit_2(tmp_path, capsys):
 def excite_run(tmp_path_factory, craft_robot_toml):
     out = tmp_path_factory.mktemp("excite")
     rc = _main(["excite", str(craft_robot_toml), "--family", "orbit", "--duration", "12",
-                "--starts", "2", "--out", str(out / "run"), "--json", str(out / "r.json"),
+                "--starts", "1", "--out", str(out / "run"), "--json", str(out / "r.json"),
                 "--no-dataset"])
     assert rc == 0
     return out
@@ -193,9 +199,13 @@ def test_cli_optimised_is_certified_and_better(excite_run):
     assert rep["limits"]["acceleration_max"] == pytest.approx(2.0)
     assert rep["optimised"]["failed_checks"] == []
     assert rep["optimised"]["peaks"]["acceleration_m_s2"] <= 2.0
-    # with a 2 m/s^2 acceleration limit the gain is bounded (cond ~ g / horizontal rms
-    # acceleration for the translation model): better, not 3x as without the limit
-    assert rep["optimised"]["cond"] < rep["initial"]["cond"] / 1.2
+    # the initial design is the gentle first run (every peak <= 50 % of its limit); the
+    # optimised one uses the acceleration budget: cond falls at least 2x (acceptance of
+    # issue 16), and stays above the translation model's floor sqrt(1 + g^2 / a_max^2)
+    assert rep["initial"]["cond"] / rep["optimised"]["cond"] >= 2.0
+    assert rep["optimised"]["cond"] >= np.sqrt(1 + 9.81**2 / 2.0**2)
+    assert "gentle first run" in rep["initial_design"]
+    assert rep["initial"]["peaks"]["acceleration_m_s2"] <= 0.5 * 2.0 + 1e-6
 
 
 def test_cli_trajectory_respects_limits(excite_run, craft_robot_toml):
@@ -228,7 +238,7 @@ def test_cli_trajectory_respects_limits(excite_run, craft_robot_toml):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("family, duration", [("orbits", None), ("fourier", 12.0)])
+@pytest.mark.parametrize("family, duration", [("orbits", None)])  # fourier: test_excitation_safety
 def test_richer_families_optimise_and_certify(craft, family, duration):
     # the K-orbit sequence (4 parameters) and the Fourier family (full model with rotations)
     # go through the same optimiser: the answer is certified by the LP on the 100 Hz grid

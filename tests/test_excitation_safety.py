@@ -16,7 +16,7 @@ from cdprid import excitation as ex
 from cdprid.excitation_check import robust_tension_margins
 from cdprid.excitation_safety import corner_parameters, uncertainty_from_prior
 from cdprid.geometry import robot_from_dict
-from cdprid.robots import SMALL_EIGHT
+from cdprid.robots import SIX_TIGHT, SMALL_EIGHT
 
 # ----------------------------------------------------------------------------- robots
 
@@ -64,7 +64,8 @@ def test_cable_body_distance_cases():
     # cable 2: the line x=0.15, z from 1.0 to 1.0 - pass at x = 0.15, z ~ 0.5..: closest point
     # of the body is on the face x = 0.1: brute force
     s = np.linspace(0.0, 1.0, 20001)[:, None]
-    pts = np.array([0.15, 1.0, 1.0]) + s * (np.array([0.15, -1.0, 1.0]) - np.array([0.15, 1.0, 1.0]))
+    a0, a1 = np.array([0.15, 1.0, 1.0]), np.array([0.15, -1.0, 1.0])
+    pts = a0 + s * (a1 - a0)
     brute = np.min(np.linalg.norm(pts - np.clip(pts, -0.1, 0.1), axis=1))
     assert got[2] == pytest.approx(brute, abs=1e-6)
 
@@ -76,7 +77,8 @@ def test_robust_margins_against_linprog(rng):
 
     r = robot_from_dict(EIGHT)
     n = 6
-    p = np.column_stack([rng.uniform(-0.3, 0.3, n), rng.uniform(-0.3, 0.3, n), rng.uniform(0.7, 1.0, n)])
+    p = np.column_stack([rng.uniform(-0.3, 0.3, n), rng.uniform(-0.3, 0.3, n),
+                         rng.uniform(0.7, 1.0, n)])
     R = np.broadcast_to(np.eye(3), (n, 3, 3))
     W = np.asarray(wrench_matrices(r, jnp.asarray(p), jnp.asarray(R)))
     acc = rng.normal(size=(n, 3)) * 3.0
@@ -136,6 +138,33 @@ def test_corners_hold_every_platform_of_the_box(rng):
     assert len(corner_parameters(mass, com, I, mu, cu, iu, rotates=False)) == 16
 
 
+def test_initial_design_is_gentle():
+    # the default initial design keeps every peak of the whole trajectory within half of its
+    # limit, re-checked here with numpy on a 500 Hz grid (acceleration, jerk by differences of
+    # the acceleration, cable speeds by differences of the cable lengths); the unscaled
+    # paper orbit does not (so the scaling is needed and tested)
+    r = robot_from_dict(EIGHT)
+    prob = ex.make_problem(r, "orbit", duration=8.0)
+    lim = EIGHT["limits"]
+
+    def worst(params):
+        traj = prob.homed(jnp.asarray(prob.family.from_params(params)))
+        t = np.arange(int(traj.t_end * 500) + 1) / 500.0
+        s = traj.evaluate(t)
+        p, a = np.asarray(s.p), np.asarray(s.a)
+        A = np.array([c["exit"] for c in EIGHT["cable"]])
+        b = np.array([c["anchor"] for c in EIGHT["cable"]])
+        L = np.linalg.norm(A[None] - (p[:, None] + b[None]), axis=2)
+        return max(np.linalg.norm(a, axis=1).max() / lim["acceleration_max"],
+                   np.linalg.norm(np.gradient(a, t, axis=0), axis=1).max() / lim["jerk_max"],
+                   np.abs(np.gradient(L, t, axis=0)).max() / lim["cable_speed_max"])
+
+    params, rule = ex.initial_design(prob)
+    assert worst(params) <= 0.5 * 1.01
+    assert worst(prob.family.initial_params(r)) > 0.55
+    assert "50 %" in rule and float(params["radius"][0]) < 0.245
+
+
 def test_home_moves_start_and_end_at_rest_with_continuous_jerk():
     r = robot_from_dict(EIGHT)
     prob = ex.make_problem(r, "orbit", duration=8.0, home="0.2,-0.1,0.7")
@@ -148,7 +177,8 @@ def test_home_moves_start_and_end_at_rest_with_continuous_jerk():
         np.testing.assert_allclose(np.asarray(x)[[0, -1]], 0.0, atol=1e-12)
     # derivatives consistent (finite differences), jerk continuous at the joins
     dt = t[1] - t[0]
-    np.testing.assert_allclose(np.gradient(np.asarray(s.a), dt, axis=0)[2:-2], np.asarray(s.j)[2:-2],
+    np.testing.assert_allclose(np.gradient(np.asarray(s.a), dt, axis=0)[2:-2],
+                               np.asarray(s.j)[2:-2],
                                atol=1e-2 * max(1.0, float(np.abs(s.j).max())))
     for tj in (traj.t_move, traj.t_end - traj.t_move):
         a, b = traj.evaluate(np.array([tj - 1e-7, tj + 1e-7])).j
@@ -175,7 +205,8 @@ def test_refuses_without_platform_and_states_defaults(tmp_path, capsys):
 def test_prior_box(tmp_path):
     r = robot_from_dict(EIGHT)
     prior = {"parameters": {"m": {"value": 4.4, "std": 0.01}, "mxG": {"value": 0.0, "std": 0.002},
-                            "myG": {"value": 0.01, "std": 0.002}, "mzG": {"value": -0.09, "std": 0.004}}}
+                            "myG": {"value": 0.01, "std": 0.002}, "mzG": {"value": -0.09,
+                                                                          "std": 0.004}}}
     path = tmp_path / "id.json"
     path.write_text(json.dumps(prior))
     box = uncertainty_from_prior(path, r, rotates=False)
@@ -247,7 +278,8 @@ def _recheck(robot_dict, csv_path, corners_stride=1, sample_stride=10):
     g = np.array([0.0, 0.0, -9.81])
     I = np.asarray(pl["inertia"], float)
     lam, V = np.linalg.eigh(I)
-    mu, cu, iu = pl.get("mass_uncertainty", 0.0), pl.get("com_uncertainty", 0.0), pl.get("inertia_uncertainty", 0.0)
+    mu, cu, iu = (pl.get(k, 0.0) for k in ("mass_uncertainty", "com_uncertainty",
+                                            "inertia_uncertainty"))
     import itertools
 
     corners = list(itertools.product((-1, 1), repeat=7))
@@ -282,7 +314,8 @@ def _recheck(robot_dict, csv_path, corners_stride=1, sample_stride=10):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("robot, family", [(FOUR, "orbit"), (EIGHT, "orbit"), (EIGHT, "fourier")])
+@pytest.mark.parametrize("robot, family", [(FOUR, "orbit"), (EIGHT, "orbit"),
+                                           (SIX_TIGHT, "fourier")])
 def test_designs_pass_an_independent_recheck(tmp_path, robot, family):
     import tomllib  # noqa: F401
 
@@ -291,13 +324,15 @@ def test_designs_pass_an_independent_recheck(tmp_path, robot, family):
     text = _toml(robot)
     (tmp_path / "robot.toml").write_text(text)
     rc = cli.main(["excite", str(tmp_path / "robot.toml"), "--family", family, "--duration",
-                   "12", "--starts", "2", "--out", str(tmp_path / "o"), "--json",
+                   "12", "--starts", "1", "--out", str(tmp_path / "o"), "--json",
                    str(tmp_path / "r.json"), "--no-dataset"])
     assert rc == 0
     rep = json.loads((tmp_path / "r.json").read_text())
     assert rep["optimised"]["certified"] and rep["optimised"]["failed_checks"] == []
-    assert rep["optimised"]["cond"] < rep["initial"]["cond"]
-    bad = _recheck(robot, tmp_path / "o" / "trajectory.csv")
+    # acceptance of issue 16: cond falls at least 2x from the initial (gentle) design
+    assert rep["initial"]["cond"] / rep["optimised"]["cond"] >= 2.0
+    bad = _recheck(robot, tmp_path / "o" / "trajectory.csv",
+                   corners_stride=4 if family == "fourier" else 1)
     assert bad == {}
 
 
