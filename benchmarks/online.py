@@ -16,9 +16,12 @@ compensation) against the truth and against the batch pipeline, and the tracking
 +2.5 kg payload step with forgetting. Writes ``results/online.md``,
 ``results/online_convergence.png`` and ``results/online_tracking.png``.
 
+and, on the three robots of ``benchmarks/coverage.py``, the final online estimate against the
+batch estimate on the same data (``--only vs-batch`` runs that part alone).
+
 Run from the repository root (light: one core, ~1-2 min of CPU)::
 
-    .venv/bin/python benchmarks/online.py [--repeat 2000]
+    .venv/bin/python benchmarks/online.py [--repeat 2000] [--only vs-batch] [--seeds 4]
 """
 
 from __future__ import annotations
@@ -122,10 +125,97 @@ def latency(robot, sig, model, repeat):
     return loop, stepped, (best[0], best[1], median_wall)
 
 
+def _coverage_cases():
+    """The three robots of ``benchmarks/coverage.py`` (loaded from that file, not copied)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("cdprid_bench_coverage",
+                                                  ROOT / "benchmarks" / "coverage.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.cases()
+
+
+VS_BATCH_HEADING = "## Online vs batch on the coverage robots"
+
+
+def online_vs_batch(seeds: int) -> list[str]:
+    """Final online estimate vs the batch estimate on the same data, three robots.
+
+    Data as ``benchmarks/coverage.py`` (``rich`` orbits 26 s, 3 deg rotations, 0.3 mm / 0.5 N):
+    batch = ``identify_dataset`` defaults (model auto -> full, euler-filtfilt + matched filter,
+    HAC std); online = ``online_identify`` (SIHD cascade, matched wrench filter, lambda = 1) with
+    the same model, its HAC std (``OnlineResult.hac_cov_final``).
+    """
+    import tempfile
+
+    from cdprid.dynamics import PARAMETER_NAMES
+    from cdprid.io import read_dataset
+    from cdprid.pipeline import identify_dataset
+    from cdprid.simulate import SensorNoise, write_simulation
+
+    lines = [VS_BATCH_HEADING, "",
+             f"Command: `PYTHONPATH=src python benchmarks/online.py --only vs-batch --seeds "
+             f"{seeds}` at commit `{_commit()}`. Data as in `benchmarks/coverage.py` (`rich` "
+             "orbits 26 s, 3 deg rotations, 0.3 mm / 0.5 N noise, seeds 1000...). Batch: "
+             "`identify` defaults (model auto -> full, euler-filtfilt + matched filter, HAC std). "
+             "Online: `online_identify` with the same model (SIHD cascade, matched wrench "
+             "filter, lambda = 1), final estimate, HAC std. d = (online - batch) / std_online; "
+             "goal |d| <= 2 once the excitation is sufficient (the excitation flag is on for the "
+             "share of used samples given). z = (estimate - truth) / std for each.", "",
+             "| robot | parameter | max abs d | RMS d | RMS z online | RMS z batch | "
+             "max abs z online |", "|---|---|---:|---:|---:|---:|---:|"]
+    with tempfile.TemporaryDirectory() as wd:
+        for label, robot, truth, tau_ref in _coverage_cases():
+            traj = preset("rich", robot, duration=26.0, rotation_amplitude=0.05)
+            d, zo, zb, exc = [], [], [], []
+            for seed in range(seeds):
+                sim = simulate(robot, traj, truth,
+                               noise=SensorNoise(position_m=3e-4, tension_N=0.5),
+                               seed=1000 + seed, tau_ref=tau_ref)
+                ds = read_dataset(write_simulation(sim, Path(wd) / f"s{seed}", overwrite=True))
+                rep = identify_dataset(ds)
+                on = online_identify(_signals(sim), robot, model=rep.model)
+                s_on = np.sqrt(np.diag(on.hac_cov_final()[0]))
+                xt = np.asarray(truth.vector(rep.model))
+                d.append((on.x_final - rep.result.x) / s_on)
+                zo.append((on.x_final - xt) / s_on)
+                zb.append((rep.result.x - xt) / rep.result.std)
+                exc.append(float(on.excitation_ok[on.used].mean()))
+                print(f"{label} seed {seed}: max |d| {np.abs(d[-1]).max():.2f}", flush=True)
+            d, zo, zb = np.array(d), np.array(zo), np.array(zb)
+            for i, n in enumerate(PARAMETER_NAMES[rep.model]):
+                lines.append(f"| {label} | {n} | {np.abs(d[:, i]).max():.2f} | "
+                             f"{np.sqrt(np.mean(d[:, i] ** 2)):.2f} | "
+                             f"{np.sqrt(np.mean(zo[:, i] ** 2)):.2f} | "
+                             f"{np.sqrt(np.mean(zb[:, i] ** 2)):.2f} | "
+                             f"{np.abs(zo[:, i]).max():.2f} |")
+            lines.append(f"| {label} | excitation flag on | {100 * np.mean(exc):.0f} % of the "
+                         "used samples | | | | |")
+    return lines
+
+
+def _merge_section(path: Path, heading: str, section: list[str]) -> None:
+    """Replace (or append) one '## ' section of a Markdown file, keeping the others."""
+    text = path.read_text() if path.exists() else "# Online identification\n"
+    parts = text.split("\n## ")
+    kept = [parts[0]] + ["## " + q for q in parts[1:] if not ("## " + q).startswith(heading)]
+    path.write_text("\n".join(x.rstrip("\n") + "\n" for x in kept) + "\n"
+                    + "\n".join(section) + "\n")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=2000, help="samples of the Python-loop timing")
+    ap.add_argument("--only", choices=["vs-batch"], default=None,
+                    help="run only the online-vs-batch comparison (updates its section)")
+    ap.add_argument("--seeds", type=int, default=4, help="seeds per robot of the comparison")
     args = ap.parse_args(argv)
+    if args.only == "vs-batch":
+        sec = online_vs_batch(args.seeds)
+        _merge_section(RESULTS / "online.md", VS_BATCH_HEADING, sec)
+        print("\n".join(sec))
+        return 0
     RESULTS.mkdir(exist_ok=True)
     robot = craft_like_robot()
     truth = craft_like_truth()
@@ -257,6 +347,7 @@ def main(argv=None) -> int:
         st = f"{settle:.2f} s" if settle < 26.0 - 0.01 else "never"
         lines.append(f"| {lam:g} | {mem} | {st} | {mf:.4g} |")
     lines += ["", f"![tracking]({track_png.name})", ""]
+    lines += online_vs_batch(args.seeds)
     (RESULTS / "online.md").write_text("\n".join(lines))
     print("\n".join(lines))
     return 0

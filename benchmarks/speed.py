@@ -79,7 +79,44 @@ def _startup(d: Path) -> list[str]:
              "bounds; CPU = user + system time of the process, less sensitive to the load).",
              "", "| command | wall [s] | CPU [s] | goal |", "|---|---:|---:|---|"]
     lines += [f"| {n} | {w:.2f} | {c:.2f} | {g} |" for n, (w, c), g in rows]
+    imp = _importtime(env)
+    for n, v in imp:
+        print(f"import time of {n:10s} {v:6.2f} s", flush=True)
+    lines += ["", "Import time on identify's path (`python -X importtime -c \"import cdprid.cli, "
+              "cdprid.pipeline, cdprid.io.dataset\"`, cumulative time of each top-level package "
+              "the first time it is imported, least of 3; scipy 0 means it is not imported):", "",
+              "| package | import time [s] |", "|---|---:|"]
+    lines += [f"| {n} | {v:.2f} |" for n, v in imp]
     return lines
+
+
+def _importtime(env: dict) -> list[tuple[str, float]]:
+    """Cumulative import time (s) of jax, scipy and cdprid on identify's import path.
+
+    From ``python -X importtime`` of the modules ``cdprid identify`` imports (the CLI, the
+    pipeline, the dataset reader); a package's entries count unless nested in one of its own
+    (jax imported inside cdprid counts for jax and inside cdprid's time too).
+    """
+    code = "import cdprid.cli, cdprid.pipeline, cdprid.io.dataset"
+    best = None
+    for _ in range(3):
+        p = subprocess.run([sys.executable, "-X", "importtime", "-c", code], cwd=ROOT,
+                           capture_output=True, text=True, env=env, check=True)
+        tot = {"jax": 0.0, "scipy": 0.0, "cdprid": 0.0}
+        rows = [ln.split("|") for ln in p.stderr.splitlines()
+                if ln.startswith("import time:") and "|" in ln]
+        stack: list[tuple[int, str]] = []  # ancestors, walking parents-first (reverse order)
+        for _, cum, name in reversed(rows):
+            depth = len(name) - len(name.lstrip())
+            top = name.strip().split(".")[0]
+            while stack and stack[-1][0] >= depth:
+                stack.pop()
+            # count a package's entry unless it is nested inside an entry of the same package
+            if top in tot and all(t != top for _, t in stack):
+                tot[top] += int(cum) / 1e6
+            stack.append((depth, top))
+        best = tot if best is None else {k: min(v, tot[k]) for k, v in best.items()}
+    return list(best.items())
 
 
 def _merge(path: Path, heading: str, section: str) -> None:

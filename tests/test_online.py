@@ -302,6 +302,31 @@ def test_cli_identify_online(ds_path, tmp_path, monkeypatch, capsys):
     assert on2["csv"] != on["csv"] and csv.read_text() == before
 
 
+def test_online_json_has_the_batch_guards_when_auto_picks_the_model(robot, tmp_path, capsys,
+                                                                    monkeypatch):
+    """--model auto on rotating data: the online JSON names the model, rotation, inertia point
+    and the same guard sentences as batch identify (excitation, physics), filled the same way."""
+    from cdprid import pipeline
+
+    # cond_scaled is ~2 here: a threshold of 1 makes the excitation guard fire in both paths
+    monkeypatch.setattr(pipeline, "COND_WARN", 1.0)
+    sim = simulate(robot, preset("paper-orbits", robot, duration=11.0, rotation_amplitude=0.05),
+                   seed=4)
+    path = write_simulation(sim, tmp_path / "rot")
+    b, o = tmp_path / "b.json", tmp_path / "o.json"
+    assert main(["identify", str(path), "--json", str(b)]) == 0
+    assert main(["identify", str(path), "--online", "--json", str(o),
+                 "--out-csv", str(tmp_path / "o.csv")]) == 0
+    capsys.readouterr()
+    jb, jo = json.loads(b.read_text()), json.loads(o.read_text())
+    assert jb["model"] == jo["model"] == "full"
+    assert jo["rotation_deg"] == pytest.approx(jb["rotation_deg"]) and jo["rotation_deg"] > 1.0
+    assert jo["inertia_about"] == jb["inertia_about"] == "P, platform frame"
+    assert jo["wrench_filter"] == "matched"
+    for j in (jb, jo):
+        assert [w.split(":")[0] for w in j["warnings"]].count("too little excitation") == 1
+
+
 def test_run_online_cli_forgetting_and_out_csv(ds_path, tmp_path, capsys):
     ds = read_dataset(ds_path)
     args = argparse.Namespace(model="translation", differentiator="sihd2-cascade", t_start=2.0,

@@ -135,10 +135,15 @@ def run_online_cli(ds, args, params) -> int:
     plot_online(res, png_path, truth=truth)
 
     from .physical import physical_warnings
+    from .pipeline import excitation_warnings
 
     w3, n3 = physical_warnings(res.x_final, res.model, res.hac_cov_final()[0])
     warns += w3
     notes += n3
+    A_used = np.asarray(res.A)[np.asarray(res.used, bool)]
+    if len(A_used):
+        warns += excitation_warnings(res.names, np.linalg.norm(
+            A_used.reshape(-1, A_used.shape[-1]), axis=0), res.cond_scaled)
     print(format_online_table(res))
     for n in (*sig.notes, *notes):
         print(f"note: {n}")
@@ -150,7 +155,10 @@ def run_online_cli(ds, args, params) -> int:
     if json_path:
         data = res.as_json()
         data.update({"differentiator": _SIHD, "differentiator_params": dict(params or {}),
+                     "wrench_filter": res.wrench_filter, "rotation_deg": rot,
                      "notes": [*sig.notes, *notes], "warnings": warns})
+        if res.model == "full":
+            data["inertia_about"] = "P, platform frame"
         data["online"] = {
             "forgetting": forgetting,
             "csv": str(csv_path),

@@ -48,6 +48,7 @@ __all__ = [
     "MODELS",
     "ROTATION_WARN_DEG",
     "WRENCH_FILTERS",
+    "excitation_warnings",
     "format_table",
     "identify_dataset",
     "physical_report",
@@ -295,16 +296,31 @@ def _streamed_regression(robot, motion: Motion, tension, model: str, wf, keep,
     return StreamedRegression(motion.t[sel], y[sel], model, block)
 
 
-def _excitation_warnings(res: LSResult) -> list:
-    norms = res.column_norms
-    small = [n for n, v in zip(res.names, norms, strict=True)
-             if v < ZERO_COLUMN_REL * norms.max()]
+def excitation_warnings(names, column_norms, cond_scaled: float) -> list:
+    """The "too little excitation" guard: near-zero regressor columns or a large condition number.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Parameter names.
+    column_norms : array (p,)
+        Norms of the columns of W_ID.
+    cond_scaled : float
+        Condition number of W_ID with unit-norm columns.
+
+    Returns
+    -------
+    list of str
+        At most one sentence (the batch and the online identification share it).
+    """
+    norms = np.asarray(column_norms, float)
+    small = [n for n, v in zip(names, norms, strict=True) if v < ZERO_COLUMN_REL * norms.max()]
     warns = []
     if small:
         warns.append(f"too little excitation: the regressor columns of {', '.join(small)} are "
                      "near zero, so these parameters are not identified by this motion.")
-    elif res.cond_scaled > COND_WARN:
-        warns.append(f"too little excitation: cond(W_ID) scaled = {res.cond_scaled:.3g} > "
+    elif cond_scaled > COND_WARN:
+        warns.append(f"too little excitation: cond(W_ID) scaled = {cond_scaled:.3g} > "
                      f"{COND_WARN:g}, the estimates are poorly separated (check their std or "
                      "excite more: cdprid excite).")
     return warns
@@ -396,7 +412,7 @@ def identify_dataset(
     res = least_squares_blocks(reg.wrench_block, len(reg.t), PARAMETER_NAMES[model],
                                groups=reg.groups if weighting == "groups" else None,
                                covariance=covariance, chunk=int(chunk))
-    warns += _excitation_warnings(res)
+    warns += excitation_warnings(res.names, res.column_norms, res.cond_scaled)
     w3, n3 = physical_warnings(res.x, model, res.cov)
     warns += w3
     notes += n3

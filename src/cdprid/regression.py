@@ -110,10 +110,10 @@ def _blockwise(fn, arrays, out, i0: int, i1: int, chunk: int) -> None:
     c = max(1, min(int(chunk), i1 - i0))
     for a in range(i0, i1, c):
         b = min(a + c, i1)
-        parts = [np.asarray(x[a:b]) for x in arrays]
+        parts = [np.asarray(x[a:b], float) for x in arrays]
         if b - a < c:
             parts = [np.concatenate([x, np.repeat(x[-1:], c - (b - a), axis=0)]) for x in parts]
-        out[a - i0:b - i0] = np.asarray(fn(*(jnp.asarray(x) for x in parts)))[: b - a]
+        out[a - i0:b - i0] = np.asarray(fn(*parts))[: b - a]  # numpy in: no eager ops
 
 
 def cable_wrench(robot: CableRobot, B_p, B_R_P, tau, chunk: int = CHUNK) -> np.ndarray:
