@@ -57,3 +57,41 @@ def test_cable_elasticity_is_in_the_vocabulary_and_stretches_the_encoder_reading
     assert np.allclose(out[:, 0], L[:, 0], rtol=0, atol=0)
     # Hooke: the stretched length L is the unstrained one times (1 + tau / EA)
     assert np.allclose(out[:, 1] * (1 + tau[:, 1] / 2e5), L[:, 1], rtol=1e-15)
+
+
+def test_diagnosis_candidates_and_layout_name_no_effect():
+    """Issue 13: the candidates and theta layout read cdprid.effects.DIAGNOSIS only."""
+    import ast
+    from pathlib import Path
+
+    from cdprid.effects import DIAGNOSIS
+
+    blocks = {b for f in DIAGNOSIS.values() for b, _ in f.blocks}  # theta blocks ("pulley")
+    names = (set(VOCABULARY) | set(DIAGNOSIS)) - blocks
+    root = Path(__file__).resolve().parents[1] / "src" / "cdprid" / "diagnosis"
+    for mod in ("candidates.py", "model.py"):
+        tree = ast.parse((root / mod).read_text())
+        found = {n.value for n in ast.walk(tree)
+                 if isinstance(n, ast.Constant) and isinstance(n.value, str)} & names
+        assert not found, f"diagnosis/{mod} names effects {sorted(found)}"
+
+
+def test_diagnosis_forms_are_complete_and_laid_out_once():
+    from cdprid.diagnosis.candidates import CANDIDATE_EFFECTS, candidate_list
+    from cdprid.diagnosis.model import ThetaLayout
+    from cdprid.effects import DIAGNOSIS
+
+    # every vocabulary effect but none and cable_elasticity (lengths stream) is a candidate
+    assert set(CANDIDATE_EFFECTS) == set(VOCABULARY) - {"none", "cable_elasticity"}
+    for m in (4, 6, 8):
+        lay = ThetaLayout(m)
+        cands = candidate_list(m, True, None)
+        used = sorted(i for c in cands for i in lay.candidate_indices(c.effect, c.cable))
+        # each theta index belongs to exactly one candidate (the no-pulley variant excluded)
+        flip = lay.candidate_indices("pulley_flipped")
+        assert used + flip == list(range(lay.size)) or sorted(used + flip) == list(
+            range(lay.size))
+        assert len(set(used)) == len(used)
+        for name, f in DIAGNOSIS.items():
+            for key in f.keys:
+                assert key in VOCABULARY[f.vocabulary or name], (name, key)

@@ -87,6 +87,8 @@ __all__ = [
     "encoder_lengths",
     "vocabulary_markdown",
     "effect_parameters_table",
+    "DIAGNOSIS",
+    "DiagnosisForm",
 ]
 
 #: effect name -> {parameter name: kind}; kinds: 'float', 'cable', 'vec3', 'vec2'
@@ -390,4 +392,160 @@ def vocabulary_markdown() -> str:
         text = block if block.startswith("``") else "``" + block
         head, _, rest = text.partition("\n")
         lines += [f"### {head.strip()}", "", " ".join(x.strip() for x in rest.split("\n")), ""]
+    lines += ["## How the diagnosis represents them", "",
+              "From `cdprid.effects.DIAGNOSIS` (the one table the diagnosis's candidates and "
+              "theta layout read). `cable_elasticity` is tested on the winch-encoder stream "
+              "`lengths.csv` (docs/lengths.md), not through theta.", "",
+              "| candidate | theta blocks | per cable | tested when | reported as |",
+              "|---|---|---|---|---|"]
+    for name, f in DIAGNOSIS.items():
+        blocks = ", ".join(f"`{b}` ({n})" for b, n in f.blocks) or "- (rotational terms)"
+        lines.append(f"| `{name}` | {blocks} | {'yes' if f.per_cable else 'no'} | {f.when} | "
+                     f"`{f.vocabulary or name}` |")
+    lines += ["", "Adding an effect: its entry in `VOCABULARY` and the model text in the "
+              "docstring of `src/cdprid/effects.py`, its simulation in that module, and its "
+              "`DiagnosisForm` in `DIAGNOSIS` (blocks, candidates, JSON form, intervals, bounds, "
+              "what separates it from others). An effect acting through a new theta block "
+              "also needs that block's physics in `cdprid.diagnosis.model.cable_contribution` "
+              "or `model_side` (not yet pluggable).", ""]
     return "\n".join(lines).rstrip() + "\n"
+
+
+# ----------------------------------------------------------------------------- diagnosis forms
+
+
+@dataclasses.dataclass(frozen=True)
+class DiagnosisForm:
+    """How the diagnosis represents one effect (its candidates, theta blocks, JSON form).
+
+    The diagnosis reads only this table (:mod:`cdprid.diagnosis.candidates` and the theta
+    layout of :mod:`cdprid.diagnosis.model` contain no effect name): adding an effect that
+    acts through existing theta blocks touches this module only.
+
+    Attributes
+    ----------
+    blocks : tuple of (block, size)
+        Theta blocks of :func:`cdprid.diagnosis.model.cable_contribution` /
+        :func:`~cdprid.diagnosis.model.model_side` the effect uses, ``size`` numbers per
+        cable when ``per_cable`` else in all. The theta vector is laid out in the order of
+        :data:`DIAGNOSIS` and of each effect's blocks.
+    per_cable : bool
+        One candidate per cable (parameters carry ``cable``).
+    group : int
+        Candidates are listed by group, then in the table's order.
+    when : str
+        ``"always"``, ``"no_pulley"`` (robot.toml gives no pulley) or ``"rotation"``
+        (the pose stream rotates).
+    keys : tuple of str
+        JSON parameter names of the block values, in order (a key of ``size`` 3 or 2 takes
+        that many values as one list).
+    params : callable, optional
+        ``(values, extra) -> dict`` instead of ``keys`` (e.g. a gain is ``1 + theta``).
+    interval : callable, optional
+        ``(lo, hi, extra) -> dict`` instead of ``keys``.
+    vocabulary : str, optional
+        The vocabulary name the finding reports (default: the table key).
+    alias : str, optional
+        Its label in ``aliases`` (default ``effect`` or ``effect:cable=i``).
+    displacement : bool
+        Shrink poorly determined directions of its 3-vector (weakly observable components).
+    bounds : dict
+        Plausibility bound of a refitted parameter's magnitude (degenerate linearisation).
+    nonneg : tuple of str
+        Parameters that must be >= 0 after a refit.
+    ranges : dict
+        Parameters that must lie in an open interval after a refit.
+    separated_by : dict
+        Other effect -> what trajectory or measurement would tell the two apart.
+    """
+
+    blocks: tuple = ()
+    per_cable: bool = False
+    group: int = 2
+    when: str = "always"
+    keys: tuple = ()
+    params: object = None
+    interval: object = None
+    vocabulary: str | None = None
+    alias: str | None = None
+    displacement: bool = False
+    bounds: dict = dataclasses.field(default_factory=dict)
+    nonneg: tuple = ()
+    ranges: dict = dataclasses.field(default_factory=dict)
+    separated_by: dict = dataclasses.field(default_factory=dict)
+
+
+def _pulley_params(flip: bool):
+    def params(v, extra):
+        axis = np.asarray(extra.get("pulley_axis", [0.0, 0.0, -1.0]), float)
+        axis = -axis if flip else axis
+        return {"radius_m": float(v[0]), "pulley_axis": (axis + 0.0).tolist()}
+    return params
+
+
+def _rotation_interval(lo, hi, extra):
+    z = 1.959963984540054
+    a, s = extra["rotation_amplitude"], extra.get("rotation_amplitude_std", 0.0)
+    return {"amplitude_rad": [a - z * s, a + z * s]}
+
+
+_GAIN_VS_GEOMETRY = ("the same poses at two pretension levels (a gain scales with the tension, "
+                     "a direction error with the pose)")
+
+#: the diagnosis's form of every effect it tests, in theta-layout order (``pulley_flipped``
+#: is the diagnosis's second arrival direction of ``pulley``; ``cable_elasticity`` is tested
+#: on the lengths stream by :mod:`cdprid.diagnosis.lengths`, not through theta)
+DIAGNOSIS: dict[str, DiagnosisForm] = {
+    "time_delay": DiagnosisForm(
+        blocks=(("delay", 1),), group=0, keys=("delay_s",), bounds={"delay_s": 0.5},
+        separated_by={"viscous_drag": "faster motion with the same velocities (a delay "
+                      "follows the tension rate, drag the velocity)"}),
+    "tension_offset": DiagnosisForm(
+        blocks=(("offset", 1),), per_cable=True, group=1, keys=("offset_N",),
+        bounds={"offset_N": 1e3},
+        separated_by={"tension_gain": "a trajectory with a wider range of tension on that "
+                      "cable (a gain scales with the tension, an offset does not)"}),
+    "tension_gain": DiagnosisForm(
+        blocks=(("gain", 1),), per_cable=True, group=1,
+        params=lambda v, extra: {"gain": float(1.0 + v[0])},
+        interval=lambda lo, hi, extra: {"gain": [float(1 + lo[0]), float(1 + hi[0])]},
+        ranges={"gain": (0.5, 2.0)},
+        separated_by={"exit_point_error": _GAIN_VS_GEOMETRY,
+                      "anchor_point_error": _GAIN_VS_GEOMETRY}),
+    "exit_point_error": DiagnosisForm(
+        blocks=(("exit", 3),), per_cable=True, group=1, keys=("displacement_m",),
+        displacement=True, bounds={"displacement_m": 0.25},
+        separated_by={"anchor_point_error": "rotations of the platform (an attachment error "
+                      "turns with it, an exit error does not)"}),
+    "anchor_point_error": DiagnosisForm(
+        blocks=(("anchor", 3),), per_cable=True, group=1, keys=("displacement_m",),
+        displacement=True, bounds={"displacement_m": 0.25}),
+    "viscous_drag": DiagnosisForm(
+        blocks=(("drag", 1),), keys=("coefficient_Ns_per_m",),
+        bounds={"coefficient_Ns_per_m": 1e3}, nonneg=("coefficient_Ns_per_m",),
+        separated_by={"pulley_friction": "motion at several speeds (Coulomb friction does not "
+                      "grow with the speed)"}),
+    "pulley": DiagnosisForm(
+        blocks=(("pulley", 1),), keys=("radius_m",), params=_pulley_params(False),
+        bounds={"radius_m": 0.25}, nonneg=("radius_m",),
+        separated_by={"pulley_flipped": "poses close to the exit points and far below them "
+                      "(the wrap differs by arrival)"}),
+    "cable_mass": DiagnosisForm(
+        blocks=(("rho", 1),), keys=("linear_density_kg_per_m",),
+        bounds={"linear_density_kg_per_m": 5.0}, nonneg=("linear_density_kg_per_m",)),
+    "frame_tilt": DiagnosisForm(
+        blocks=(("tilt", 2),), keys=("tilt_rad",), bounds={"tilt_rad": 0.05}),
+    "rotational_dynamics": DiagnosisForm(
+        group=4, when="rotation",
+        params=lambda v, extra: {"amplitude_rad": float(extra["rotation_amplitude"])},
+        interval=_rotation_interval),
+    "pulley_friction": DiagnosisForm(
+        blocks=(("coulomb", 1), ("pvisc", 1)), per_cable=True, group=1,
+        keys=("coulomb_N", "viscous_Ns_per_m"),
+        bounds={"coulomb_N": 100.0, "viscous_Ns_per_m": 1e3},
+        nonneg=("coulomb_N", "viscous_Ns_per_m")),
+    "pulley_flipped": DiagnosisForm(
+        blocks=(("pulley_flip", 1),), group=3, when="no_pulley", keys=("radius_m",),
+        params=_pulley_params(True), vocabulary="pulley", alias="pulley:arriving_opposite",
+        bounds={"radius_m": 0.25}, nonneg=("radius_m",)),
+}

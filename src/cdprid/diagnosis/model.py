@@ -17,68 +17,55 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..dynamics import regressor_full, regressor_translation
+from ..effects import DIAGNOSIS
 from ..geometry import CableRobot, cable_vectors, pulley_leave_point, wrench_matrix
 
 
 class ThetaLayout:
-    """Index layout of the unified effect-parameter vector theta for m cables."""
+    """Index layout of the unified effect-parameter vector theta for m cables.
+
+    The blocks and their order come from :data:`cdprid.effects.DIAGNOSIS` (each effect's
+    ``blocks``, per cable or global); this module names no effect.
+    """
 
     def __init__(self, m: int):
         self.m = m
         sl = {}
+        #: block name -> (per cable, size per unit)
+        self.block_shapes = {}
         i = 0
-        for name, size in (("delay", 1), ("offset", m), ("gain", m), ("exit", 3 * m),
-                           ("anchor", 3 * m), ("drag", 1), ("pulley", 1), ("rho", 1), ("tilt", 2),
-                           ("coulomb", m), ("pvisc", m), ("pulley_flip", 1)):
-            sl[name] = slice(i, i + size)
-            i += size
+        for form in DIAGNOSIS.values():
+            for name, size in form.blocks:
+                n = size * m if form.per_cable else size
+                sl[name] = slice(i, i + n)
+                self.block_shapes[name] = (form.per_cable, size)
+                i += n
         self.slices = sl
         self.size = i
 
     def unpack(self, theta):
-        s = self.slices
-        m = self.m
-        return {
-            "delay": theta[s["delay"]][0],
-            "offset": theta[s["offset"]],
-            "gain": theta[s["gain"]],
-            "exit": theta[s["exit"]].reshape(m, 3),
-            "anchor": theta[s["anchor"]].reshape(m, 3),
-            "drag": theta[s["drag"]][0],
-            "pulley": theta[s["pulley"]][0],
-            "rho": theta[s["rho"]][0],
-            "tilt": theta[s["tilt"]],
-            "coulomb": theta[s["coulomb"]],
-            "pvisc": theta[s["pvisc"]],
-            "pulley_flip": theta[s["pulley_flip"]][0],
-        }
+        """Theta as named blocks: per-cable blocks ``(m,)`` or ``(m, size)``, global scalars
+        (size 1) or vectors."""
+        out = {}
+        for name, s in self.slices.items():
+            per_cable, size = self.block_shapes[name]
+            v = theta[s]
+            if per_cable:
+                out[name] = v if size == 1 else v.reshape(self.m, size)
+            else:
+                out[name] = v[0] if size == 1 else v
+        return out
 
     def candidate_indices(self, effect: str, cable: int | None = None) -> list[int]:
-        """Indices of theta that an effect (and cable, 1-based) uses."""
-        s = self.slices
-        if effect == "time_delay":
-            return [s["delay"].start]
-        if effect == "tension_offset":
-            return [s["offset"].start + cable - 1]
-        if effect == "tension_gain":
-            return [s["gain"].start + cable - 1]
-        if effect == "exit_point_error":
-            return list(range(s["exit"].start + 3 * (cable - 1), s["exit"].start + 3 * cable))
-        if effect == "anchor_point_error":
-            return list(range(s["anchor"].start + 3 * (cable - 1), s["anchor"].start + 3 * cable))
-        if effect == "viscous_drag":
-            return [s["drag"].start]
-        if effect == "pulley":
-            return [s["pulley"].start]
-        if effect == "pulley_flipped":
-            return [s["pulley_flip"].start]
-        if effect == "cable_mass":
-            return [s["rho"].start]
-        if effect == "frame_tilt":
-            return list(range(s["tilt"].start, s["tilt"].stop))
-        if effect == "pulley_friction":
-            return [s["coulomb"].start + cable - 1, s["pvisc"].start + cable - 1]
-        raise KeyError(effect)
+        """Indices of theta that an effect (and cable, 1-based) uses, in block order."""
+        form = DIAGNOSIS[effect]
+        out: list[int] = []
+        for name, size in form.blocks:
+            start = self.slices[name].start
+            if form.per_cable:
+                start += size * (cable - 1)
+            out += list(range(start, start + size))
+        return out
 
 
 class DiagData(eqx.Module):
