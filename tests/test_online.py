@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from cdprid.cli import main
+from cdprid.cli_online import run_online_cli
 from cdprid.differentiators import differentiate
 from cdprid.dynamics import InertialParameters, regressor_full, regressor_translation
+from cdprid.errors import UserError
 from cdprid.geometry import wrench_matrix
 from cdprid.identification import least_squares
 from cdprid.io import align, read_dataset
-from cdprid.cli_online import run_online_cli
-from cdprid.errors import UserError
 from cdprid.motion import estimate_motion
 from cdprid.online import (
     OnlineSample,

@@ -1,3 +1,4 @@
+# ruff: noqa: F722  (jaxtyping shape strings)
 """Butterworth low-pass filters without SciPy: design, causal and zero-phase filtering.
 
 Two implementations of one filter:
@@ -24,12 +25,14 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Float
 
 __all__ = ["ZeroPhaseFilter", "butter_lowpass", "butter_sos", "lfilter", "lfilter_zi",
            "make_zero_phase_filter", "sosfilt", "sosfilt_zi", "sosfiltfilt"]
 
 
-def butter_lowpass(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray, np.ndarray]:
+def butter_lowpass(order: int, cutoff_hz: float, fs: float
+                   ) -> tuple[Float[np.ndarray, " o"], Float[np.ndarray, " o"]]:
     """Digital Butterworth low-pass ``(b, a)``, as ``scipy.signal.butter(order, cutoff_hz,
     btype="low", fs=fs)``.
 
@@ -66,7 +69,8 @@ def butter_lowpass(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray,
     return b, a
 
 
-def lfilter_zi(b, a) -> np.ndarray:
+def lfilter_zi(b: Float[np.ndarray, " o"], a: Float[np.ndarray, " o"]
+               ) -> Float[np.ndarray, " r"]:
     """Steady-state initial state of :func:`lfilter` for a unit step (``scipy.signal.lfilter_zi``).
 
     Parameters
@@ -112,7 +116,9 @@ def _block_operators(b: tuple, a: tuple, L: int):
     return T, O, powers[L], Ctrl
 
 
-def lfilter(b, a, x, zi=None) -> np.ndarray:
+def lfilter(b: Float[np.ndarray, " o"], a: Float[np.ndarray, " o"],
+            x: Float[np.ndarray, "n ..."], zi: Float[np.ndarray, "r ..."] | None = None
+            ) -> Float[np.ndarray, "n ..."]:
     """Causal IIR filter along axis 0 (``scipy.signal.lfilter(b, a, x, axis=0, zi=zi)[0]``).
 
     Parameters
@@ -153,7 +159,7 @@ def lfilter(b, a, x, zi=None) -> np.ndarray:
     return Y.reshape(nb * L, k)[:n].reshape(x.shape)
 
 
-def butter_sos(order: int, cutoff_hz: float, fs: float) -> np.ndarray:
+def butter_sos(order: int, cutoff_hz: float, fs: float) -> Float[np.ndarray, "s 6"]:
     """The Butterworth low-pass of :func:`butter_lowpass` as second-order sections.
 
     Each conjugate pole pair of the bilinear-transformed design is one section
@@ -182,7 +188,7 @@ def butter_sos(order: int, cutoff_hz: float, fs: float) -> np.ndarray:
     return sos
 
 
-def sosfilt_zi(sos) -> np.ndarray:
+def sosfilt_zi(sos: Float[np.ndarray, "s 6"]) -> Float[np.ndarray, "s 2"]:
     """Steady-state initial states of :func:`sosfilt` for a unit step (``scipy.signal.sosfilt_zi``).
 
     Returns
@@ -198,7 +204,8 @@ def sosfilt_zi(sos) -> np.ndarray:
     return zi
 
 
-def sosfilt(sos, x, zi=None) -> np.ndarray:
+def sosfilt(sos: Float[np.ndarray, "s 6"], x: Float[np.ndarray, "n ..."],
+            zi: Float[np.ndarray, "s 2 ..."] | None = None) -> Float[np.ndarray, "n ..."]:
     """Cascade of second-order sections along axis 0 (``scipy.signal.sosfilt(sos, x, axis=0,
     zi=zi)[0]``), each by :func:`lfilter`.
 
@@ -218,7 +225,8 @@ def sosfilt(sos, x, zi=None) -> np.ndarray:
     return y
 
 
-def sosfiltfilt(sos, x, padlen: int) -> np.ndarray:
+def sosfiltfilt(sos: Float[np.ndarray, "s 6"], x: Float[np.ndarray, "n ..."], padlen: int
+                ) -> Float[np.ndarray, "n ..."]:
     """Zero-phase forward-backward filter along axis 0, SciPy's odd padding and steady-state
     initial conditions (``scipy.signal.sosfiltfilt(sos, x, axis=0, padtype="odd",
     padlen=padlen)``, which equals ``scipy.signal.filtfilt`` with the ``(b, a)`` form of the

@@ -78,6 +78,9 @@ from .rotations import angular_rates_from_quat, quat_to_matrix
 
 __all__ = [
     "WRENCH_FILTERS",
+    "CascadeState",
+    "DelayState",
+    "MatchedFilterState",
     "OnlineConfig",
     "OnlineState",
     "OnlineSample",
@@ -151,6 +154,36 @@ class OnlineConfig(eqx.Module):
         return len(PARAMETER_NAMES[self.model])
 
 
+class CascadeState(NamedTuple):
+    """State of two SIHD-2 in cascade: each stage's ``(z1, z2)`` (:func:`sihd2_step`'s state)."""
+
+    stage1: tuple
+    stage2: tuple
+
+
+class MatchedFilterState(NamedTuple):
+    """State of the matched wrench filter (``wrench_filter="matched"``), (6,) arrays.
+
+    ``integral1``/``integral2`` are the running trapezoidal integrals fed to the two SIHD
+    stages, ``stage1``/``stage2`` their ``(z1, z2)`` states, ``y_prev``/``f1_prev`` the previous
+    inputs of the integrals, ``scale`` the per-channel amplitude normalisation.
+    """
+
+    integral1: jnp.ndarray
+    stage1: tuple
+    integral2: jnp.ndarray
+    stage2: tuple
+    y_prev: jnp.ndarray
+    f1_prev: jnp.ndarray
+    scale: jnp.ndarray
+
+
+class DelayState(NamedTuple):
+    """State of the delayed wrench (``wrench_filter="delay"``): the (D, 6) ring buffer."""
+
+    buffer: jnp.ndarray
+
+
 class OnlineState(eqx.Module):
     """Carry of :func:`online_step`: the configuration and every recursive state.
 
@@ -159,13 +192,13 @@ class OnlineState(eqx.Module):
     config : OnlineConfig
     k : array () int
         Samples consumed so far.
-    sihd_p, sihd_q : tuple
-        SIHD cascade states ``((z1, z2), (z1, z2))`` of the 3 position / 4 quaternion channels.
+    sihd_p, sihd_q : CascadeState
+        SIHD cascade states of the 3 position / 4 quaternion channels.
     q_prev : array (4,)
         Previous quaternion (sign continuity).
-    wf : tuple
-        Wrench-filter state: ``(I1, (z1, z2), I2, (z1, z2), y_prev, f1_prev, scale)`` (6,) each
-        for ``"matched"``; the (D, 6) ring buffer for ``"delay"``; ``()`` for ``"none"``.
+    wf : MatchedFilterState, DelayState or tuple
+        Wrench-filter state: :class:`MatchedFilterState` for ``"matched"``,
+        :class:`DelayState` for ``"delay"``, ``()`` for ``"none"``.
     S : array (p+1, p+1)
         Upper-triangular square-root information factor of ``[W_ID | Y_ID]``.
     n_rows : array ()
@@ -178,10 +211,10 @@ class OnlineState(eqx.Module):
 
     config: OnlineConfig
     k: jnp.ndarray
-    sihd_p: tuple
-    sihd_q: tuple
+    sihd_p: CascadeState
+    sihd_q: CascadeState
     q_prev: jnp.ndarray
-    wf: tuple
+    wf: MatchedFilterState | DelayState | tuple
     S: jnp.ndarray
     n_rows: jnp.ndarray
     M: jnp.ndarray
@@ -542,16 +575,16 @@ def online_init(
     )
     z3, z4, z6 = (jnp.zeros(n, f64) for n in (3, 4, 6))
     if wrench_filter == "matched":
-        wf = (z6, (z6, z6), z6, (z6, z6), z6, z6, jnp.ones(6, f64))
+        wf = MatchedFilterState(z6, (z6, z6), z6, (z6, z6), z6, z6, jnp.ones(6, f64))
     elif wrench_filter == "delay":
-        wf = (jnp.zeros((delay, 6), f64),)
+        wf = DelayState(jnp.zeros((delay, 6), f64))
     else:
         wf = ()
     return OnlineState(
         config=cfg,
         k=jnp.zeros((), jnp.int64 if jax.config.read("jax_enable_x64") else jnp.int32),
-        sihd_p=((z3, z3), (z3, z3)),
-        sihd_q=((z4, z4), (z4, z4)),
+        sihd_p=CascadeState((z3, z3), (z3, z3)),
+        sihd_q=CascadeState((z4, z4), (z4, z4)),
         q_prev=jnp.asarray([1.0, 0.0, 0.0, 0.0], f64),
         wf=wf,
         S=_rls_init(x0, cfg.prior_weight),
@@ -563,7 +596,7 @@ def online_init(
 
 def _cascade(state, y, first, gains, h):
     """Two SIHD-2 in cascade (as ``differentiate(method="sihd2-cascade")``), any channel shape."""
-    (s1, s2) = state
+    s1, s2 = state.stage1, state.stage2
     g1 = (gains[0], gains[1], gains[4], gains[5])
     g2 = (gains[2], gains[3], gains[4], gains[5])
     # first sample: stage 1 starts at (y0, 0) and stage 2 at (0, 0), as the batch scan
@@ -571,12 +604,13 @@ def _cascade(state, y, first, gains, h):
     s2 = jax.tree_util.tree_map(lambda z: jnp.where(first, 0.0, z), s2)
     s1, v = sihd2_step(s1, y, g1, h)
     s2, a = sihd2_step(s2, v, g2, h)
-    return (s1, s2), v, a
+    return CascadeState(s1, s2), v, a
 
 
 def _matched_filter(wf, y, first, gains, h, cfg):
     """The SIHD cascade applied to the running integrals of the (scaled) wrench."""
-    I1, st1, I2, st2, y_prev, f1_prev, scale = wf
+    I1, st1, I2, st2 = wf.integral1, wf.stage1, wf.integral2, wf.stage2
+    y_prev, f1_prev, scale = wf.y_prev, wf.f1_prev, wf.scale
     g1 = (gains[0], gains[1], gains[4], gains[5])
     g2 = (gains[2], gains[3], gains[4], gains[5])
     gnorm = jnp.linalg.norm(cfg.robot.gravity)
@@ -595,7 +629,7 @@ def _matched_filter(wf, y, first, gains, h, cfg):
     I2 = I2 + 0.5 * h * (f1 + f1_prev)
     st2 = (jnp.where(first, I2, st2[0]), jnp.where(first, f1, st2[1]))
     st2, f2 = sihd2_step(st2, I2, g2, h)
-    return (I1, st1, I2, st2, u, f1, scale), f2 * scale
+    return MatchedFilterState(I1, st1, I2, st2, u, f1, scale), f2 * scale
 
 
 def _online_step(state: OnlineState, sample: OnlineSample):
@@ -625,10 +659,10 @@ def _online_step(state: OnlineState, sample: OnlineSample):
     if cfg.wrench_filter == "matched":
         wf, y = _matched_filter(state.wf, y, first, gains, h, cfg)
     elif cfg.wrench_filter == "delay":
-        (buf,) = state.wf
+        buf = state.wf.buffer
         buf = jnp.where(first, jnp.broadcast_to(y, buf.shape), buf)
         y, buf = buf[0], jnp.concatenate([buf[1:], y[None]], axis=0)
-        wf = (buf,)
+        wf = DelayState(buf)
     else:
         wf = state.wf
 

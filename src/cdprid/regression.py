@@ -1,3 +1,4 @@
+# ruff: noqa: F722  (jaxtyping shape strings)
 """The stacked regression ``Y_ID = W_ID x + rho`` (eq. 11) from motion and tensions.
 
 Per sample: ``W`` (eq. 2) at the measured pose, ``y = W tau`` (the measured cable wrench),
@@ -17,6 +18,7 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Float
 
 from .dynamics import regressor
 from .geometry import CableRobot, wrench_matrix
@@ -116,7 +118,9 @@ def _blockwise(fn, arrays, out, i0: int, i1: int, chunk: int) -> None:
         out[a - i0:b - i0] = np.asarray(fn(*parts))[: b - a]  # numpy in: no eager ops
 
 
-def cable_wrench(robot: CableRobot, B_p, B_R_P, tau, chunk: int = CHUNK) -> np.ndarray:
+def cable_wrench(robot: CableRobot, B_p: Float[np.ndarray, "n 3"],
+                 B_R_P: Float[np.ndarray, "n 3 3"], tau: Float[np.ndarray, "n m"],
+                 chunk: int = CHUNK) -> Float[np.ndarray, "n 6"]:
     """Measured cable wrench ``W(pose) tau`` per sample (n, 6), as numpy (jit-compiled).
 
     Evaluated ``chunk`` samples at a time, so the (n, 6, m) wrench matrices are never all held.
@@ -128,7 +132,9 @@ def cable_wrench(robot: CableRobot, B_p, B_R_P, tau, chunk: int = CHUNK) -> np.n
     return out
 
 
-def regressor_blocks(model: str, B_R_P, B_a, B_omega, B_alpha, gravity, chunk: int = CHUNK):
+def regressor_blocks(model: str, B_R_P: Float[np.ndarray, "n 3 3"], B_a: Float[np.ndarray, "n 3"],
+                     B_omega: Float[np.ndarray, "n 3"], B_alpha: Float[np.ndarray, "n 3"],
+                     gravity, chunk: int = CHUNK):
     """A function ``block(i0, i1)`` that returns the regressors (i1 - i0, 6, p) of samples
     ``i0:i1`` (:func:`regressors`, jit-compiled for one block shape).
 
