@@ -89,6 +89,7 @@ __all__ = [
     "effect_parameters_table",
     "DIAGNOSIS",
     "DiagnosisForm",
+    "tilt_gravity",
 ]
 
 #: effect name -> {parameter name: kind}; kinds: 'float', 'cable', 'vec3', 'vec2'
@@ -405,9 +406,9 @@ def vocabulary_markdown() -> str:
     lines += ["", "Adding an effect: its entry in `VOCABULARY` and the model text in the "
               "docstring of `src/cdprid/effects.py`, its simulation in that module, and its "
               "`DiagnosisForm` in `DIAGNOSIS` (blocks, candidates, JSON form, intervals, bounds, "
-              "what separates it from others). An effect acting through a new theta block "
-              "also needs that block's physics in `cdprid.diagnosis.model.cable_contribution` "
-              "or `model_side` (not yet pluggable).", ""]
+              "what separates it from others) with its physics in the forward model as hooks "
+              "(`tension`, `geometry`, `leave`, `gravity`, `load`, `model`); "
+              "`cdprid.diagnosis.model` applies them in the table's order and names no effect.", ""]
     return "\n".join(lines).rstrip() + "\n"
 
 
@@ -457,6 +458,16 @@ class DiagnosisForm:
         Parameters that must lie in an open interval after a refit.
     separated_by : dict
         Other effect -> what trajectory or measurement would tell the two apart.
+    tension, geometry, leave, gravity, load, model : callable, optional
+        The effect's physics in the diagnosis's forward model, JAX, applied in the order of
+        :data:`DIAGNOSIS` at each stage of :func:`cdprid.diagnosis.model.cable_contribution`
+        (one cable, its blocks ``q`` by name, ``c`` the context: the blocks at the
+        linearisation point ``c["at"]``, ``taud``, ``ldot``, ``R``, ``p``, ``k``, ``ref``,
+        ``bb``): ``tension(tau, q, c)`` the tension behind the load-cell reading;
+        ``geometry(geo, q)`` the exit point ``A``, attachment ``b`` (platform frame) and
+        pulley radius ``r``; ``leave(T, geo, q, c)`` the leave point; ``gravity(g, q)``;
+        ``load(f, Ln, g, q)`` a force on the platform at the attachment. ``model(y, d, q)``
+        adds to the model side (:func:`~cdprid.diagnosis.model.model_side`).
     """
 
     blocks: tuple = ()
@@ -473,6 +484,45 @@ class DiagnosisForm:
     nonneg: tuple = ()
     ranges: dict = dataclasses.field(default_factory=dict)
     separated_by: dict = dataclasses.field(default_factory=dict)
+    tension: object = None
+    geometry: object = None
+    leave: object = None
+    gravity: object = None
+    load: object = None
+    model: object = None
+
+
+def tilt_gravity(g, tilt):
+    """Gravity in the pose frame for a frame tilt ``[rx, ry]`` (JAX; see ``frame_tilt``)."""
+    import jax.numpy as jnp
+
+    rx, ry = tilt[0], tilt[1]
+    cx, sx, cy, sy = jnp.cos(rx), jnp.sin(rx), jnp.cos(ry), jnp.sin(ry)
+    Rx = jnp.array([[1.0, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    Ry = jnp.array([[cy, 0, sy], [0, 1.0, 0], [-sy, 0, cy]])
+    return (Ry @ Rx).T @ g  # g_pose = R_tilt^T g, R_tilt = Ry(ry) Rx(rx)
+
+
+def _flipped_leave(T, geo, q, c):
+    """A swivel pulley of radius ``pulley_flip`` whose cable arrives opposite to the axis,
+    added as a displacement of the leave point (exact when either radius is 0)."""
+    from .geometry import pulley_leave_point
+
+    T_flip, _, _ = pulley_leave_point(geo["A"], c["bb"], c["p"], q["pulley_flip"], -c["k"],
+                                      c["ref"])
+    return T + (T_flip - geo["A"])
+
+
+def _drag_model(y, d, q):
+    import jax.numpy as jnp
+
+    return y + jnp.concatenate([d.v * q["drag"], jnp.zeros_like(d.v)], axis=1)
+
+
+def _friction_tension(tau, q, c):
+    import jax.numpy as jnp
+
+    return tau + q["coulomb"] * jnp.sign(c["ldot"]) + q["pvisc"] * c["ldot"]
 
 
 def _pulley_params(flip: bool):
@@ -498,15 +548,19 @@ _GAIN_VS_GEOMETRY = ("the same poses at two pretension levels (a gain scales wit
 DIAGNOSIS: dict[str, DiagnosisForm] = {
     "time_delay": DiagnosisForm(
         blocks=(("delay", 1),), group=0, keys=("delay_s",), bounds={"delay_s": 0.5},
+        # first-order expansion about the linearisation point: exact in value and slope
+        tension=lambda tau, q, c: tau + (q["delay"] - c["at"]["delay"]) * c["taud"],
         separated_by={"viscous_drag": "faster motion with the same velocities (a delay "
                       "follows the tension rate, drag the velocity)"}),
     "tension_offset": DiagnosisForm(
         blocks=(("offset", 1),), per_cable=True, group=1, keys=("offset_N",),
+        tension=lambda tau, q, c: tau - q["offset"],
         bounds={"offset_N": 1e3},
         separated_by={"tension_gain": "a trajectory with a wider range of tension on that "
                       "cable (a gain scales with the tension, an offset does not)"}),
     "tension_gain": DiagnosisForm(
         blocks=(("gain", 1),), per_cable=True, group=1,
+        tension=lambda tau, q, c: tau / (1.0 + q["gain"]),
         params=lambda v, extra: {"gain": float(1.0 + v[0])},
         interval=lambda lo, hi, extra: {"gain": [float(1 + lo[0]), float(1 + hi[0])]},
         ranges={"gain": (0.5, 2.0)},
@@ -514,38 +568,44 @@ DIAGNOSIS: dict[str, DiagnosisForm] = {
                       "anchor_point_error": _GAIN_VS_GEOMETRY}),
     "exit_point_error": DiagnosisForm(
         blocks=(("exit", 3),), per_cable=True, group=1, keys=("displacement_m",),
+        geometry=lambda geo, q: {**geo, "A": geo["A"] + q["exit"]},
         displacement=True, bounds={"displacement_m": 0.25},
         separated_by={"anchor_point_error": "rotations of the platform (an attachment error "
                       "turns with it, an exit error does not)"}),
     "anchor_point_error": DiagnosisForm(
         blocks=(("anchor", 3),), per_cable=True, group=1, keys=("displacement_m",),
+        geometry=lambda geo, q: {**geo, "b": geo["b"] + q["anchor"]},
         displacement=True, bounds={"displacement_m": 0.25}),
     "viscous_drag": DiagnosisForm(
-        blocks=(("drag", 1),), keys=("coefficient_Ns_per_m",),
+        blocks=(("drag", 1),), keys=("coefficient_Ns_per_m",), model=_drag_model,
         bounds={"coefficient_Ns_per_m": 1e3}, nonneg=("coefficient_Ns_per_m",),
         separated_by={"pulley_friction": "motion at several speeds (Coulomb friction does not "
                       "grow with the speed)"}),
     "pulley": DiagnosisForm(
         blocks=(("pulley", 1),), keys=("radius_m",), params=_pulley_params(False),
+        geometry=lambda geo, q: {**geo, "r": geo["r"] + q["pulley"]},
         bounds={"radius_m": 0.25}, nonneg=("radius_m",),
         separated_by={"pulley_flipped": "poses close to the exit points and far below them "
                       "(the wrap differs by arrival)"}),
     "cable_mass": DiagnosisForm(
         blocks=(("rho", 1),), keys=("linear_density_kg_per_m",),
+        load=lambda f, Ln, g, q: f + 0.5 * q["rho"] * Ln * g,
         bounds={"linear_density_kg_per_m": 5.0}, nonneg=("linear_density_kg_per_m",)),
     "frame_tilt": DiagnosisForm(
-        blocks=(("tilt", 2),), keys=("tilt_rad",), bounds={"tilt_rad": 0.05}),
+        blocks=(("tilt", 2),), keys=("tilt_rad",), bounds={"tilt_rad": 0.05},
+        gravity=lambda g, q: tilt_gravity(g, q["tilt"])),
     "rotational_dynamics": DiagnosisForm(
         group=4, when="rotation",
         params=lambda v, extra: {"amplitude_rad": float(extra["rotation_amplitude"])},
         interval=_rotation_interval),
     "pulley_friction": DiagnosisForm(
         blocks=(("coulomb", 1), ("pvisc", 1)), per_cable=True, group=1,
-        keys=("coulomb_N", "viscous_Ns_per_m"),
+        keys=("coulomb_N", "viscous_Ns_per_m"), tension=_friction_tension,
         bounds={"coulomb_N": 100.0, "viscous_Ns_per_m": 1e3},
         nonneg=("coulomb_N", "viscous_Ns_per_m")),
     "pulley_flipped": DiagnosisForm(
         blocks=(("pulley_flip", 1),), group=3, when="no_pulley", keys=("radius_m",),
         params=_pulley_params(True), vocabulary="pulley", alias="pulley:arriving_opposite",
+        leave=_flipped_leave,
         bounds={"radius_m": 0.25}, nonneg=("radius_m",)),
 }

@@ -1,10 +1,11 @@
 """Stage 0 of the diagnosis: one forward model for every effect.
 
-:func:`measured_side` and :func:`model_side` take the whole effect-parameter vector theta
-(delay, per-cable offsets, gains, exit and anchor displacements and load-cell friction,
-drag, pulley radius in both arrival directions, cable density, frame tilt) and give the
-unfiltered sides of the residual ``r(x, theta)`` in JAX; theta = 0 is the base model.
-:func:`meas_and_jac` gives the measured side and its Jacobian cable by cable.
+The effects' physics are hooks declared with each effect in :data:`cdprid.effects.DIAGNOSIS`
+(this module names no effect): :func:`cable_contribution` applies them cable by cable and
+:func:`model_side` on the model side; theta is laid out by :class:`ThetaLayout` from the same
+table, and theta = 0 is the base model. :func:`meas_and_jac` gives the measured side and its
+Jacobian cable by cable; :func:`measured_side` is an independent whole-robot implementation
+of the same effects that the tests compare it with.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..dynamics import regressor_full, regressor_translation
-from ..effects import DIAGNOSIS
+from ..effects import DIAGNOSIS, tilt_gravity
 from ..geometry import CableRobot, cable_vectors, pulley_leave_point, wrench_matrix
 
 
@@ -99,15 +100,6 @@ def tension_at(d: DiagData, s):
             + (f3 - f2) * m2)
 
 
-def tilt_gravity(g, tilt):
-    """Gravity in the pose frame for a frame tilt ``[rx, ry]`` (see :mod:`cdprid.effects`)."""
-    rx, ry = tilt[0], tilt[1]
-    cx, sx, cy, sy = jnp.cos(rx), jnp.sin(rx), jnp.cos(ry), jnp.sin(ry)
-    Rx = jnp.array([[1.0, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    Ry = jnp.array([[cy, 0, sy], [0, 1.0, 0], [-sy, 0, cy]])
-    return (Ry @ Rx).T @ g  # g_pose = R_tilt^T g, R_tilt = Ry(ry) Rx(rx)
-
-
 def shifted_robot(robot: CableRobot, th):
     """The robot with theta's exit and anchor displacements and pulley radius applied."""
     return eqx.tree_at(
@@ -118,7 +110,11 @@ def shifted_robot(robot: CableRobot, th):
 
 
 def measured_side(d: DiagData, th):
-    """Unfiltered cable-side wrench (n, 6): W_true tau_true + cable-weight load."""
+    """Unfiltered cable-side wrench (n, 6): W_true tau_true + cable-weight load.
+
+    An independent whole-robot implementation of the effects (no flipped pulley), the
+    oracle the tests compare :func:`meas_and_jac` (built from the hooks) with.
+    """
     tau = tension_at(d, d.t + th["delay"])
     tau = (tau - th["offset"]) / (1.0 + th["gain"])
     tau = tau + th["coulomb"] * jnp.sign(d.ldot) + th["pvisc"] * d.ldot
@@ -138,16 +134,31 @@ def measured_side(d: DiagData, th):
     return jax.vmap(one)(d.p, d.R, tau)
 
 
-def model_side(d: DiagData, th, x, rotational: bool):
-    """Model wrench (n, 6): regressor(x) with tilted gravity, plus drag c v on the force rows."""
-    g = tilt_gravity(d.robot.gravity, th["tilt"])
+def model_gravity(g0, th):
+    """Gravity of the model at theta: the effects' ``gravity`` hooks in table order."""
+    g = g0
+    for form in DIAGNOSIS.values():
+        if form.gravity is not None:
+            g = form.gravity(g, th)
+    return g
+
+
+def regressors(d: DiagData, g, rotational: bool):
+    """Per-sample regressors (n, 6, p) of the translation or full model with gravity g."""
     if rotational:
-        A = jax.vmap(lambda R, a, w, al: regressor_full(R, a, w, al, g))(d.R, d.a, d.om, d.al)
-    else:
-        A = jax.vmap(lambda R, a: regressor_translation(R, a, g))(d.R, d.a)
+        return jax.vmap(lambda R, a, w, al: regressor_full(R, a, w, al, g))(d.R, d.a, d.om, d.al)
+    return jax.vmap(lambda R, a: regressor_translation(R, a, g))(d.R, d.a)
+
+
+def model_side(d: DiagData, th, x, rotational: bool):
+    """Model wrench (n, 6): regressor(x) with the effects' gravity, plus their ``model``
+    hooks (e.g. a drag force on the force rows)."""
+    A = regressors(d, model_gravity(d.robot.gravity, th), rotational)
     y = jnp.einsum("nij,j->ni", A, x)
-    drag = jnp.concatenate([d.v * th["drag"], jnp.zeros_like(d.v)], axis=1)
-    return y + drag
+    for form in DIAGNOSIS.values():
+        if form.model is not None:
+            y = form.model(y, d, th)
+    return y
 
 
 def tension_rate_at(d: DiagData, s):
@@ -155,54 +166,85 @@ def tension_rate_at(d: DiagData, s):
     return jax.jacfwd(lambda h: tension_at(d, s + h))(0.0)
 
 
+#: the per-cable local parameter vector: every theta block, in layout order, (block, size)
+LOCAL_BLOCKS = tuple((name, size) for form in DIAGNOSIS.values() for name, size in form.blocks)
+
+
+def local_blocks(local) -> dict:
+    """The local vector of one cable as named blocks (scalars for size 1)."""
+    out, i = {}, 0
+    for name, size in LOCAL_BLOCKS:
+        out[name] = local[i] if size == 1 else local[i:i + size]
+        i += size
+    return out
+
+
 def cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c, ldot_c):
     """Wrench (6,) of one cable on the platform, with its own effect parameters.
 
-    ``local = [dA (3), db (3), offset, gain, delay, pulley, rho, tilt (2), coulomb, viscous,
-    pulley_flip]`` (coulomb, viscous: load-cell friction of ``pulley_friction`` with the cable
-    rate ``ldot_c``; pulley_flip: the radius of a swivel pulley whose cable arrives opposite to
-    the axis ``k``, added as a displacement of the leave point: exact when either radius is 0);
-    the delay enters
-    through the first-order expansion of the tension about the current delay ``local_c[8]``,
-    exact in value and first derivative at the linearisation point.
+    ``local``: every theta block for this cable (:data:`LOCAL_BLOCKS`; per-cable blocks hold
+    this cable's values, global blocks the common ones); ``local_c`` the same at the
+    linearisation point. The effects act through the hooks of
+    :data:`cdprid.effects.DIAGNOSIS`, in table order: ``tension`` on the reading ``tau_c``
+    (its rate ``taud_c``, the cable rate ``ldot_c``), ``geometry`` on the exit point, the
+    attachment and the pulley radius, ``leave`` on the leave point, ``gravity`` and ``load``
+    (a force at the attachment).
     """
-    dA, db = local[0:3], local[3:6]
-    off, gain, delay, pul, rho = local[6], local[7], local[8], local[9], local[10]
-    tau = tau_c + (delay - local_c[8]) * taud_c
-    tau = (tau - off) / (1.0 + gain) + local[13] * jnp.sign(ldot_c) + local[14] * ldot_c
-    bb = R @ (b + db)
-    T, _, _ = pulley_leave_point(A + dA, bb, p, r + pul, k, ref)
-    T_flip, _, _ = pulley_leave_point(A + dA, bb, p, local[15], -k, ref)
-    T = T + (T_flip - (A + dA))
+    q = local_blocks(local)
+    c = {"at": local_blocks(local_c), "taud": taud_c, "ldot": ldot_c, "R": R, "p": p, "k": k,
+         "ref": ref}
+    forms = DIAGNOSIS.values()
+    tau = tau_c
+    for form in forms:
+        if form.tension is not None:
+            tau = form.tension(tau, q, c)
+    geo = {"A": A, "b": b, "r": r}
+    for form in forms:
+        if form.geometry is not None:
+            geo = form.geometry(geo, q)
+    bb = R @ geo["b"]
+    c["bb"] = bb
+    T, _, _ = pulley_leave_point(geo["A"], bb, p, geo["r"], k, ref)
+    for form in forms:
+        if form.leave is not None:
+            T = form.leave(T, geo, q, c)
     L = T - (p + bb)
     Ln = jnp.linalg.norm(L)
     u = L / Ln
-    g = tilt_gravity(g0, local[11:13])
-    load = 0.5 * rho * Ln * g
+    g = g0
+    for form in forms:
+        if form.gravity is not None:
+            g = form.gravity(g, q)
+    load = jnp.zeros(3)
+    for form in forms:
+        if form.load is not None:
+            load = form.load(load, Ln, g, q)
     return jnp.concatenate([u * tau + load, jnp.cross(bb, u * tau + load)])
 
 
-def cable_locals(d: DiagData, th):
-    """Per-cable local parameter vectors (m, 16) at theta."""
+def cable_locals(d: DiagData, th, layout: ThetaLayout):
+    """Per-cable local parameter vectors ``(m, len)`` at theta (:data:`LOCAL_BLOCKS`)."""
     m = d.robot.n_cables
-    glob = jnp.stack([th["delay"], th["pulley"], th["rho"]])
-    return jnp.concatenate([
-        th["exit"], th["anchor"], th["offset"][:, None], th["gain"][:, None],
-        jnp.broadcast_to(glob, (m, 3))[:, :1], jnp.broadcast_to(glob, (m, 3))[:, 1:],
-        jnp.broadcast_to(th["tilt"], (m, 2)), th["coulomb"][:, None], th["pvisc"][:, None],
-        jnp.broadcast_to(th["pulley_flip"], (m, 1))],
-        axis=1)
+    cols = []
+    for name, size in LOCAL_BLOCKS:
+        per_cable, _ = layout.block_shapes[name]
+        v = th[name]
+        cols.append(v.reshape(m, size) if per_cable else jnp.broadcast_to(
+            jnp.reshape(v, (size,)), (m, size)))
+    return jnp.concatenate(cols, axis=1)
 
 
 @functools.partial(jax.jit, static_argnums=(2,))
 def meas_and_jac(d, theta, layout):
     """Unfiltered measured side (n, 6) and its Jacobian (n, 6, ntheta) at theta.
 
-    Computed cable by cable (13 local parameters each) instead of through all theta at once.
+    Computed cable by cable (:data:`LOCAL_BLOCKS` local parameters each, through
+    :func:`cable_contribution`) instead of through all theta at once; the ``delay`` block
+    also sets where the tension stream is interpolated.
     """
     th = layout.unpack(theta)
     m = layout.m
-    loc = cable_locals(d, th)  # (m, 16)
+    loc = cable_locals(d, th, layout)
     tau_c = tension_at(d, d.t + th["delay"])  # (n, m)
     taud_c = tension_rate_at(d, d.t + th["delay"])
     rob = d.robot
@@ -215,24 +257,21 @@ def meas_and_jac(d, theta, layout):
 
         w, J = jax.vmap(per_cable)(loc, rob.B_A, rob.P_b, rob.pulley_radius, rob.pulley_axis,
                                    rob.pulley_reference, tc, tdc, ld)
-        return w.sum(0), J  # (6,), (m, 6, 16)
+        return w.sum(0), J  # (6,), (m, 6, len)
 
     y, Jl = jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot)
     n = y.shape[0]
-    s = layout.slices
     J = jnp.zeros((n, 6, layout.size))
-    Jl = jnp.moveaxis(Jl, 1, 3)  # (n, 6, 16, m)
-    J = J.at[:, :, s["exit"]].set(jnp.moveaxis(Jl[:, :, 0:3, :], 3, 2).reshape(n, 6, 3 * m))
-    J = J.at[:, :, s["anchor"]].set(jnp.moveaxis(Jl[:, :, 3:6, :], 3, 2).reshape(n, 6, 3 * m))
-    J = J.at[:, :, s["offset"]].set(Jl[:, :, 6, :])
-    J = J.at[:, :, s["gain"]].set(Jl[:, :, 7, :])
-    J = J.at[:, :, s["delay"]].set(Jl[:, :, 8, :].sum(-1, keepdims=True))
-    J = J.at[:, :, s["pulley"]].set(Jl[:, :, 9, :].sum(-1, keepdims=True))
-    J = J.at[:, :, s["rho"]].set(Jl[:, :, 10, :].sum(-1, keepdims=True))
-    J = J.at[:, :, s["tilt"]].set(Jl[:, :, 11:13, :].sum(-1))
-    J = J.at[:, :, s["coulomb"]].set(Jl[:, :, 13, :])
-    J = J.at[:, :, s["pvisc"]].set(Jl[:, :, 14, :])
-    J = J.at[:, :, s["pulley_flip"]].set(Jl[:, :, 15, :].sum(-1, keepdims=True))
+    Jl = jnp.moveaxis(Jl, 1, 3)  # (n, 6, len, m)
+    o = 0
+    for name, size in LOCAL_BLOCKS:
+        blk = Jl[:, :, o:o + size, :]
+        if layout.block_shapes[name][0]:  # per cable: cable-major, components inside
+            J = J.at[:, :, layout.slices[name]].set(
+                jnp.moveaxis(blk, 3, 2).reshape(n, 6, size * m))
+        else:  # global: the sum over the cables
+            J = J.at[:, :, layout.slices[name]].set(blk.sum(-1))
+        o += size
     return y, J
 
 
@@ -251,10 +290,7 @@ def model_jac_jit(d, theta, x, layout, rotational):
 @functools.partial(jax.jit, static_argnums=(2, 3))
 def regs_jit(d, theta, layout, rotational):
     """Jitted regressors (translation or full model) with theta's tilted gravity."""
-    g = tilt_gravity(d.robot.gravity, layout.unpack(theta)["tilt"])
-    if rotational:
-        return jax.vmap(lambda R, a, w, al: regressor_full(R, a, w, al, g))(d.R, d.a, d.om, d.al)
-    return jax.vmap(lambda R, a: regressor_translation(R, a, g))(d.R, d.a)
+    return regressors(d, model_gravity(d.robot.gravity, layout.unpack(theta)), rotational)
 
 
 def rotvec_from_quat(q):
