@@ -104,7 +104,8 @@ def _cli_tune(tmp_path, *extra):
 
 
 def test_cli_noise_std_roundtrip_through_differentiate_and_identify(tmp_path, noisy_ds, capsys):
-    rc, out = _cli_tune(tmp_path, "--noise-std", "5e-4", "--method", "sihd3", "--max-steps", "3")
+    rc, out = _cli_tune(tmp_path, "--noise-std", "5e-4", "--method", "sihd3", "--max-steps", "3",
+                        "--train-signal", "circle")
     assert rc == 0
     res = json.loads(out.read_text())
     assert {"method", "params", "noise_std", "train_rmse", "test_rmse", "paper_rmse"} <= set(res)

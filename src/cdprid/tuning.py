@@ -17,12 +17,35 @@ Parametrisation (unconstrained vector ``theta``):
   ``lambda_q mu^q`` (also in the projector threshold ``lambda_q (mu h)^q``): it is
   redundant with the gains.
 
-Objectives: ``"accel"`` causal 3-D acceleration RMSE over ``t >= t0``
-(default 2 s), ``"params"`` relative error of the 4-parameter least squares
-(m, m s_G) on simulated tensions, or ``"mix"``.  The baselines
-(``euler-filtfilt``, ``euler-butter-causal``, ``savgol``, ``kalman``, ``rts``,
-``levant``) are tuned on the same realisations by a log-grid search refined
-by golden section (:func:`tune_baseline`).
+Objectives: ``"accel"`` the mean over the training signals of the log mean-square causal
+3-D acceleration error over ``t >= t0`` (default 2 s), ``"params"`` relative error of the
+4-parameter least squares (m, m s_G) on simulated tensions, or ``"mix"``.  The baselines
+(``euler-filtfilt``, ``euler-butter-causal``, ``savgol``, ``kalman``, ``rts``, ``levant``)
+are tuned on the same signals by a log-grid search refined by golden section
+(:func:`tune_baseline`).
+
+Training signals: by default the family of ramped orbits :data:`TRAIN_FAMILY` (0.1-0.8 Hz,
+radii 0.05-0.3 m, horizontal/vertical/tilted planes, a long-ramp member; built with
+:mod:`cdprid.trajectories`), or one signal (:func:`circle_signal`, :func:`dataset_signal`).
+:data:`HELDOUT_FAMILY` (plus a two-orbit sequence and a Lissajous) is never used for tuning.
+
+Acceleration-response bounds (:class:`ResponseBounds`): up to a stated bandwidth B (default
+:func:`content_bandwidth`, 99 % of the training accelerations' energy) ``|gain - 1| <=
+gain_tol`` (0.05) and ``|phase| <= phase_max_deg`` (30), ``gain <= 1.1``; above B ``gain <=
+gain_max_above`` (1.05: no resonance).  They are enforced inside the optimisation by a smooth
+squared-hinge penalty (:func:`response_penalty`) on a frequency grid: for the SIHD family the
+gains are tuned with alpha = 1, a linear observer whose response is computed exactly
+(:func:`sihd_linear_response`) and whose noise variance is exact (Parseval), so that the
+response does not depend on the amplitude; for the baselines the response is simulated
+(:func:`simulated_penalty`; Levant's is its describing response).  Every tuned result is then
+verified on a dense grid of sinusoids (:func:`acceleration_response`, :func:`dense_freqs`);
+``within_bounds`` is that verification, never the penalty.
+
+A causal estimate without lag at low frequency (sihd4, sihd5, the Kalman filters: estimators
+exact on cubics or quartics) has zero group delay, and by Bode's gain-phase relation a
+minimum-phase filter with zero group delay and a roll-off must have a gain above 1 somewhere:
+under the default no-resonance bound these structures can comply only with a very wide
+bandwidth (much noise); sihd3, sihd2-cascade and euler-butter-causal comply with some lag.
 
 The noise level can be estimated from a dataset (:func:`noise_from_dataset`,
 which uses :func:`cdprid.diagnose.estimate_noise`), and the training signal
@@ -82,6 +105,7 @@ __all__ = [
     "GAIN_MAX_BELOW",
     "GAIN_MAX_ABOVE",
     "PENALTY_WEIGHT",
+    "CONTINUATION",
 ]
 
 SIHD_METHODS = ("sihd2-cascade", "sihd3", "sihd4", "sihd5")
@@ -691,6 +715,7 @@ def _accel_loss(method, sigs, noise_std, seeds, zeta_min, bounds, constrain, dt)
     pf = penalty_freqs(dt, bounds.bandwidth_hz)
 
     def f(th, args):
+        """``args``: multiplier of :data:`PENALTY_WEIGHT` (continuation stages)."""
         lams, alpha = _theta_to_gains(method, th, zeta_min, fa)
         nv = 3 * noise_std**2 * _noise_gain(method, lams, dt) if constrain else 0.0
         logs = []
@@ -701,7 +726,7 @@ def _accel_loss(method, sigs, noise_std, seeds, zeta_min, bounds, constrain, dt)
         L = jnp.mean(jnp.concatenate(logs))
         if constrain:
             H = sihd_linear_response(method, lams, dt, pf)
-            L = L + PENALTY_WEIGHT * response_penalty(H, pf, bounds)
+            L = L + args * PENALTY_WEIGHT * response_penalty(H, pf, bounds)
         return L
 
     return f
@@ -730,7 +755,7 @@ def _param_loss(method, signal, noise_std, seeds, objective, weight, zeta_min, b
             se = jnp.sum(((A - acc) ** 2) * maskj[:, None]) / (jnp.sum(maskj) * len(seeds))
             L = jnp.log((1 - weight) * se / a_ms + weight * pe)
         if constrain:
-            L = L + PENALTY_WEIGHT * response_penalty(
+            L = L + args * PENALTY_WEIGHT * response_penalty(
                 sihd_linear_response(method, lams, h, pf), pf, bounds)
         return L
 
@@ -770,7 +795,8 @@ def tune(
         ``params``: scaled LS parameter error (:class:`ParamProblem`, first signal);
         ``mix``: ``(1-weight) accel_mse / a_rms^2 + weight params`` (first signal).
     max_steps : int
-        BFGS iterations.
+        BFGS iterations (unconstrained); constrained, 6 solves of ``max_steps // 2``: the
+        full penalty from the start (2) and continuation stages (:data:`CONTINUATION`, 4).
     init : dict, optional
         Start here instead of the best of a few standard starts.
     zeta_min : float, optional
@@ -793,7 +819,6 @@ def tune(
     TuneResult
         With ``response`` verified on :func:`dense_freqs` against the bounds and ``warnings``.
     """
-    import optimistix as optx
 
     if method not in SIHD_METHODS:
         raise ValueError(f"gradient tuning supports {', '.join(SIHD_METHODS)}; got {method!r}.")
@@ -817,32 +842,61 @@ def tune(
             loss = _param_loss(method, sigs[0], noise_std, train_seeds, objective, weight,
                                zeta_min, bounds, constrain)
         loss_j = jax.jit(loss)
-        cands = [init] if init is not None else _init_candidates(method, noise_std)
-        best = None
-        for c in cands:
-            th0 = jnp.asarray(theta_from_params(method, c, zeta_min, fa))
-            v = float(loss_j(th0, None))
-            if best is None or (math.isfinite(v) and v < best[0]):
-                best = (v, th0)
-        say(f"tune {method}: start loss {best[0]:.4f} (best of {len(cands)} starts)")
-        solver = optx.BFGS(rtol=1e-5, atol=1e-6)
-        sol = optx.minimise(loss_j, solver, best[1], args=None, max_steps=max_steps,
-                            throw=False)
-        th = sol.value
-        v_end = float(loss_j(th, None))
-        if not (math.isfinite(v_end) and v_end <= best[0]):
-            th, v_end = best[1], best[0]
-        steps = int(sol.stats.get("num_steps", 0))
-        status = ("converged" if sol.result == optx.RESULTS.successful
-                  else "not converged: " + optx.RESULTS[sol.result].split(".")[0])
-        say(f"tune {method}: end loss {v_end:.4f} after {steps} BFGS steps ({status}; the best "
-            "loss seen is kept)")
+        th, steps, status = _minimise(loss_j, method, init, noise_std, zeta_min, fa,
+                                      max_steps, constrain, say)
     params = params_from_theta(method, th, zeta_min, fa)
     res = _finish(method, params, noise_std, sigs, train_seeds, test_seeds, objective,
                   (t_wall, t_cpu), steps, bounds, heldout, say)
     res.extra["solver_status"] = status
     res.extra["constrained"] = bool(constrain)
     return res
+
+
+#: Penalty-weight multipliers of the continuation stages of the constrained BFGS: the gains
+#: move from the unconstrained optimum into the bounds instead of starting far outside them.
+CONTINUATION = (1e-3, 1e-2, 1e-1, 1.0)
+
+
+def _minimise(loss_j, method, init, noise_std, zeta_min, fa, max_steps, constrain, say):
+    """Best start (unpenalised loss), then BFGS.
+
+    Unconstrained: one solve of ``max_steps``.  Constrained: two paths of solves of
+    ``max(1, max_steps // 2)`` steps each (one compilation), (a) the full penalty weight twice
+    from the start, (b) the stages of :data:`CONTINUATION`; the lower full-weight loss of
+    start, (a) and (b) is kept.
+    """
+    import optimistix as optx
+
+    cands = [init] if init is not None else _init_candidates(method, noise_std)
+    best = None
+    for c in cands:
+        th0 = jnp.asarray(theta_from_params(method, c, zeta_min, fa))
+        v = float(loss_j(th0, 0.0))
+        if best is None or (math.isfinite(v) and v < best[0]):
+            best = (v, th0)
+    one = jnp.asarray(1.0, jnp.float64)
+    v_start = float(loss_j(best[1], one))
+    say(f"tune {method}: start loss {v_start:.4f} (best of {len(cands)} starts)")
+    solver = optx.BFGS(rtol=1e-5, atol=1e-6)
+    per = max(1, max_steps // 2) if constrain else max_steps
+    paths = [(1.0, 1.0), CONTINUATION] if constrain else [(1.0,)]
+    out, steps, status = (v_start, best[1]), 0, ""
+    for path in paths:
+        th = best[1]
+        for w in path:
+            wj = jnp.asarray(w, jnp.float64)  # an array: one compilation for every stage
+            sol = optx.minimise(loss_j, solver, th, args=wj, max_steps=per, throw=False)
+            if math.isfinite(float(loss_j(sol.value, wj))):
+                th = sol.value
+            steps += int(sol.stats.get("num_steps", 0))
+            status = ("converged" if sol.result == optx.RESULTS.successful
+                      else "not converged: " + optx.RESULTS[sol.result].split(".")[0])
+        v = float(loss_j(th, one))
+        if math.isfinite(v) and v < out[0]:
+            out = (v, th)
+    say(f"tune {method}: end loss {out[0]:.4f} after {steps} BFGS steps ({len(paths)} path(s); "
+        f"last solve {status}; the lowest of start and ends is kept)")
+    return out[1], steps, status
 
 
 def response_warnings(method: str, resp: FrequencyResponse) -> list[str]:
