@@ -191,15 +191,17 @@ def _leverage_adjusted_windows(design, S, XtX, bandwidth: float, chunk: int = 20
     ``Z^T Z (Z^T Z - G_w)^-1 m_w`` (the HC3 / jackknife correction applied to each Bartlett
     window instead of each row). Windows whose complement is singular keep the raw score.
 
-    Streamed: windows are taken ``chunk`` at a time and each chunk asks ``design`` only for the
-    samples it covers (``chunk + L - 1``), so no (n, p, p) array is ever held.
+    Streamed: windows are taken a chunk at a time and each chunk asks ``design`` only for the
+    samples it covers, about ``chunk`` (``chunk - L + 1`` windows, at least 256), so no
+    (n, p, p) array is ever held.
     """
     n, p = S.shape
     L = max(1, int(np.ceil(bandwidth)))
+    step = max(int(chunk) - L + 1, min(int(chunk), 256))
     c = np.concatenate([np.zeros((1, p)), np.cumsum(S, axis=0)])
     meat = np.zeros((p, p))
-    for k0 in range(0, n + L - 1, chunk):
-        adj = _window_chunk(design, c, XtX, k0, min(k0 + chunk, n + L - 1), n, L)
+    for k0 in range(0, n + L - 1, step):
+        adj = _window_chunk(design, c, XtX, k0, min(k0 + step, n + L - 1), n, L)
         meat += adj.T @ adj
     return meat / L
 
@@ -270,7 +272,8 @@ def hac_covariance_blocks(
     bandwidth, leverage :
         As in :func:`hac_covariance`.
     chunk : int
-        Bartlett windows handled per block (memory ``(chunk + L) p^2`` floats).
+        Samples asked from ``design`` per call (``chunk - L + 1`` Bartlett windows, at least
+        256, per block; memory about ``chunk p^2`` floats).
 
     Returns
     -------

@@ -240,7 +240,8 @@ def least_squares_blocks(block, n: int, names=None, weights=None, groups=None,
             Z = _block_rows(block, i0, i1, p)[0]
             return Z if w is None else Z * w[i0 * k:i1 * k].reshape(-1, k)[..., None]
 
-        cov, bw = hac_covariance_blocks(design, S, R, bandwidth=bandwidth)
+        cov, bw = hac_covariance_blocks(design, S, R, bandwidth=bandwidth,
+                                        chunk=max(chunk, 2048))
     return LSResult(
         names=tuple(names),
         x=x,

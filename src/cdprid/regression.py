@@ -108,8 +108,9 @@ _regressors_jit = jax.jit(regressors, static_argnums=0)
 
 def _blockwise(fn, arrays, out, i0: int, i1: int, chunk: int) -> None:
     """``out[j] = fn(*arrays)[i0 + j]`` for ``i0 <= i < i1``, evaluated ``chunk`` samples at a
-    time with one fixed block shape (the last block padded by repeating its last sample)."""
-    c = max(1, min(int(chunk), i1 - i0))
+    time with one fixed block shape (a shorter request or last block is padded by repeating its
+    last sample), so a jitted ``fn`` compiles once whatever the requests."""
+    c = max(1, int(chunk))
     for a in range(i0, i1, c):
         b = min(a + c, i1)
         parts = [np.asarray(x[a:b], float) for x in arrays]
@@ -128,7 +129,7 @@ def cable_wrench(robot: CableRobot, B_p: Float[np.ndarray, "n 3"],
     n = len(B_p)
     out = np.empty((n, 6))
     _blockwise(lambda p, R, t: _measured_wrench_jit(robot, p, R, t), (B_p, B_R_P, tau), out,
-               0, n, chunk)
+               0, n, min(int(chunk), n))
     return out
 
 
