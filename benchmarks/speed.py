@@ -144,24 +144,26 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         cases = [
-            ("simulate paper-orbits (52 s, 100 Hz)", ["simulate", "--preset", "paper-orbits",
-                                                       "--out", str(d / "po"), "--seed", "1"], "< 10 s"),
+            ("simulate paper-orbits (52 s, 100 Hz)",
+             ["simulate", "--preset", "paper-orbits", "--out", str(d / "po"), "--seed", "1"],
+             "< 10 s"),
             ("identify (euler-filtfilt, 4 parameters)", ["identify", str(d / "po")], ""),
             ("identify (sihd2-cascade)", ["identify", str(d / "po"), "--differentiator",
                                           "sihd2-cascade"], ""),
             ("identify --online (SIHD + RLS scan)", ["identify", str(d / "po"), "--online",
                                                      "--out-csv", str(d / "on.csv")], ""),
-            ("simulate rich + hidden tension_gain", ["simulate", "--preset", "rich", "--out",
-                                                     str(d / "hid"), "--seed", "7", "--noise-rot",
-                                                     "0.0002", "--effect", "tension_gain",
-                                                     "--param", "cable=3", "--param", "gain=1.06"], ""),
-            ("diagnose (52 s dataset, cold start)", ["diagnose", str(d / "hid"), "--quiet"], "<= 30 s"),
+            ("simulate rich + hidden tension_gain",
+             ["simulate", "--preset", "rich", "--out", str(d / "hid"), "--seed", "7",
+              "--noise-rot", "0.0002", "--effect", "tension_gain", "--param", "cable=3",
+              "--param", "gain=1.06"], ""),
+            ("diagnose (52 s dataset, cold start)", ["diagnose", str(d / "hid"), "--quiet"],
+             "<= 30 s"),
         ]
         for name, args, goal in cases:
             wall, cpu, rss = timed(args, ROOT)
             rows.append((name, wall, cpu, rss, goal))
-            print(f"{name:45s} wall {wall:6.1f} s  cpu {cpu:6.1f} s  peak rss {rss:7.0f} MiB  {goal}",
-                  flush=True)
+            print(f"{name:45s} wall {wall:6.1f} s  cpu {cpu:6.1f} s  peak rss {rss:7.0f} MiB  "
+                  f"{goal}", flush=True)
     load = os.getloadavg()[0]
     lines = ["# Speed of the main commands", "",
              f"Command: `python benchmarks/speed.py`; machine: {platform.platform()}, "
