@@ -16,8 +16,8 @@ import numpy as np
 from ..differentiators import differentiate
 from ..dynamics import PARAMETER_NAMES
 from ..identification import least_squares
-from .model import meas_and_jac, regs_jit, rotvec_from_quat
-from .problem import Problem
+from .model import regs_jit, rotvec_from_quat
+from .problem import Problem, cable_side
 from .testing import estimate_noise, wald
 
 
@@ -49,7 +49,7 @@ def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
     theta0 = jnp.zeros(prob.layout.size)
     A4 = np.asarray(regs_jit(prob.d, theta0, prob.layout, False))
     A10 = np.asarray(regs_jit(prob.d, theta0, prob.layout, True)) if prob.has_rotation else None
-    y0 = prob.filt(np.asarray(meas_and_jac(prob.d, theta0, prob.layout)[0]))
+    y0 = cable_side(prob, theta0)[0]
     train = prob.train
     beta, *_ = np.linalg.lstsq(A4[train].reshape(-1, 4), y0[train].reshape(-1), rcond=None)
     e = y0[train] - np.einsum("nip,p->ni", A4[train], beta)

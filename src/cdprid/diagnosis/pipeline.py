@@ -3,7 +3,8 @@
 1. :func:`cdprid.diagnosis.problem.prepare` — align, differentiate, masks.
 2. :func:`cdprid.diagnosis.base.base_fit` — the paper's model, row weights, noise levels.
 3. :func:`cdprid.diagnosis.selection.forward_step` — greedy forward selection with HAC Wald
-   tests, null-calibrated thresholds and the held-out criterion, nonlinear refit each step.
+   tests, thresholds calibrated on null replicates at the first step (reused by the later
+   steps), the held-out criterion, nonlinear refit each step.
 4. :func:`cdprid.diagnosis.selection.swap_stage` — a pick is replaced by a better alternative;
    ties are aliases with what would separate them.
 5. :func:`cdprid.diagnosis.selection.backward_stage` — a finding stays only if needed given the
@@ -17,7 +18,6 @@ from __future__ import annotations
 import math
 import time
 
-import jax.numpy as jnp
 import numpy as np
 
 from ..defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
@@ -27,8 +27,7 @@ from .base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from .budget import MAX_SAMPLES, joined_time, subset
 from .candidates import candidate_list
 from .lengths import lengths_stream, with_elasticity
-from .model import meas_and_jac
-from .problem import Problem, force_heldout_rms, prepare
+from .problem import Problem, force_heldout_rms, measured, prepare
 from .result import DiagnosisResult
 from .selection import Selection, backward_stage, forward_step, linear_model, start, swap_stage
 from .testing import wald
@@ -53,7 +52,7 @@ def weight_at_rest(prob: Problem, theta, min_rest_s: float = 0.5):
     g = np.asarray(prob.d.robot.gravity)
     out = {"n_samples": int(rest.sum()), "t_first": float(prob.t[rest][0])}
     for key, th in (("raw_kg", np.zeros(prob.layout.size)), ("corrected_kg", theta)):
-        y = np.asarray(meas_and_jac(prob.d, jnp.asarray(th), prob.layout)[0])[rest]
+        y = measured(prob, th)[rest]
         out[key] = float(np.mean(-(y[:, :3] @ g)) / float(g @ g))
     return out
 
@@ -186,9 +185,10 @@ def diagnose(
     s = start(prob, base)
     ranking, thr_first = [], alpha / len(candidates)
     for step in range(1, max_effects + 1):
-        nulls = null_residuals(prob, noise, s.x[:4], n_null, rng)
+        # null replicates calibrate the first step's threshold; later steps reuse it
+        nulls = null_residuals(prob, noise, s.x[:4], n_null, rng) if step == 1 else ()
         nxt, rank, thr = forward_step(prob, base, s, candidates, nulls, alpha, min_gain, extra,
-                                      say, step)
+                                      say, step, thr_first if step > 1 else 1.0)
         if step == 1:
             ranking, thr_first = rank, thr
         if nxt is None:

@@ -52,6 +52,8 @@ class Problem:
     n_folds: int
     lags: int
     wrow: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(6))
+    #: linearisations already computed (see :func:`design`); not part of the problem's value
+    cache: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     @property
     def n(self) -> int:
@@ -154,25 +156,95 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     )
 
 
+#: linearisations kept in ``Problem.cache`` (each holds a filtered (n, 6, ntheta) Jacobian)
+DESIGN_CACHE_SIZE = 4
+
+
+def _design_key(theta, x_cur, rotational: bool):
+    x = np.asarray(x_cur if rotational else np.asarray(x_cur)[:4], float)
+    return (np.asarray(theta, float).tobytes(), x.tobytes(), bool(rotational))
+
+
+#: entries kept per kind in ``Problem.cache`` (a "jac" entry holds a (n, 6, ntheta) Jacobian)
+_CACHE_SIZES = {"design": DESIGN_CACHE_SIZE, "jac": 2, "measured": 32}
+
+
+def _remember(prob: Problem, key, value, kind: str = "design"):
+    cache = prob.cache.setdefault(kind, {})
+    cache.pop(key, None)
+    cache[key] = value
+    while len(cache) > _CACHE_SIZES[kind]:
+        cache.pop(next(iter(cache)))
+
+
+def measured(prob: Problem, theta) -> np.ndarray:
+    """Unfiltered measured side (n, 6) at theta (kept when computed by :func:`cable_side`)."""
+    key = np.asarray(theta, float).tobytes()
+    hit = prob.cache.get("measured", {}).get(key)
+    if hit is None:
+        hit = np.asarray(meas_and_jac(prob.d, jnp.asarray(theta), prob.layout)[0])
+        _remember(prob, key, hit, "measured")
+    return hit
+
+
+def cable_side(prob: Problem, theta):
+    """Matched-filtered measured side (n, 6) and its theta-Jacobian (n, 6, ntheta) at theta.
+
+    Kept in ``prob.cache`` (read-only arrays): the base fit and the first selection step use
+    the same one.
+    """
+    key = np.asarray(theta, float).tobytes()
+    hit = prob.cache.get("jac", {}).get(key)
+    if hit is None:
+        ym, Jm = meas_and_jac(prob.d, jnp.asarray(theta), prob.layout)
+        ym = np.asarray(ym)
+        _remember(prob, key, ym, "measured")
+        hit = (prob.filt(ym), prob.filt(Jm))
+        for a in hit:
+            a.setflags(write=False)
+        _remember(prob, key, hit, "jac")
+    return hit
+
+
 def design(prob: Problem, theta, x_cur, rotational: bool):
     """Filtered measured wrench y, model regressor A and theta columns C at theta.
 
     Linearisation: ``y(theta') - model(theta') ~ y - A x - C (theta' - theta)``. The cable side
     and its theta-Jacobian are jitted once (the data are an argument); the matched filter is
     applied along time after (linear, so filtering the Jacobian equals the Jacobian of the
-    filtered side).
+    filtered side). The last :data:`DESIGN_CACHE_SIZE` linearisations are kept in
+    ``prob.cache`` (the selection stages ask for the same one several times); the arrays
+    returned are shared with the cache and must not be modified.
     """
+    key = _design_key(theta, x_cur, rotational)
+    hit = prob.cache.get("design", {}).get(key)
+    if hit is not None:
+        return hit
     d, layout = prob.d, prob.layout
     th = jnp.asarray(theta)
     xin = jnp.asarray(x_cur if rotational else x_cur[:4])
-    ym, Jm = meas_and_jac(d, th, layout)
-    ym = prob.filt(ym)
-    Jm = prob.filt(Jm)  # (n, 6, ntheta)
-    Jmod = np.asarray(model_jac_jit(d, th, xin, layout, rotational))
-    Am = np.asarray(regs_jit(d, th, layout, rotational))
-    mod = np.asarray(model_jit(d, th, xin, layout, rotational))
-    y_now = ym - (mod - np.einsum("nij,j->ni", Am, np.asarray(xin)))
-    return y_now, Am, Jmod - Jm
+    Jmod = model_jac_jit(d, th, xin, layout, rotational)
+    Am = regs_jit(d, th, layout, rotational)
+    mod = model_jit(d, th, xin, layout, rotational)
+    ym, Jm = cable_side(prob, theta)  # (n, 6), (n, 6, ntheta)
+    Am = np.asarray(Am)
+    y_now = ym - (np.asarray(mod) - np.einsum("nij,j->ni", Am, np.asarray(xin)))
+    out = (y_now, Am, np.asarray(Jmod) - Jm)
+    for a in out:
+        a.setflags(write=False)
+    _remember(prob, key, out)
+    return out
+
+
+def seed_design(prob: Problem, theta, x_cur, rotational: bool, lin) -> None:
+    """Keep ``lin = (y, A, C)`` as the linearisation at (theta, x) (a converged refit's last).
+
+    A Gauss-Newton refit that has converged linearised the model at a theta within a small
+    fraction of a standard deviation of the final one; ``lin`` is that linearisation with
+    ``y`` shifted to first order (``y - C dtheta``), so that the linear model built from it at
+    the final theta is the one the refit solved.
+    """
+    _remember(prob, _design_key(theta, x_cur, rotational), lin)
 
 
 def heldout_rms(prob: Problem, Z, y) -> float:

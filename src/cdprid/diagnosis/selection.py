@@ -24,7 +24,7 @@ from .candidates import (
     vocab_params,
 )
 from .model import ThetaLayout
-from .problem import Problem, design, heldout_rms
+from .problem import Problem, design, heldout_rms, seed_design
 from .refit import refit_gauss_newton
 from .result import Finding
 from .testing import aliases_of, partial_wald, partial_wald_many
@@ -140,8 +140,10 @@ def refit(prob: Problem, s: Selection, theta=None, active_idx=None, rotational=N
     active = list(s.active_idx if active_idx is None else active_idx)
     rot = s.rotational if rotational is None else rotational
     x0 = s.x if x is None else x
-    theta, x_new, th_cov = refit_gauss_newton(functools.partial(design, prob), theta, x0,
-                                              active, rot, prob.wrow, prob.train, prob.lags)
+    theta, x_new, th_cov, lin = refit_gauss_newton(functools.partial(design, prob), theta, x0,
+                                                   active, rot, prob.wrow, prob.train, prob.lags)
+    if lin is not None:
+        seed_design(prob, theta, x_new, rot, lin)
     return dataclasses.replace(s, theta=theta, x=x_new, rotational=rot,
                                active_idx=tuple(active), th_cov=th_cov)
 
@@ -208,7 +210,7 @@ def score_step(prob: Problem, Zbase, y_target, cand_cols: dict, null_gen, alpha:
     return scored, pcols, yt, thr_p
 
 
-def try_candidate(prob: Problem, s: Selection, c, beta, rms_before: float, min_gain: float,
+def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: float,
                   extra: dict):
     """Add one candidate, refit, and check plausibility and the held-out gain after the refit.
 
@@ -218,10 +220,10 @@ def try_candidate(prob: Problem, s: Selection, c, beta, rms_before: float, min_g
     if c.effect == "rotational_dynamics":
         t = refit(prob, s, rotational=True)
     else:
+        # Gauss-Newton from the current linearisation (already computed: its first
+        # iteration is the joint linear fit, whose new coefficients are ``beta``)
         idx = layout.candidate_indices(c.effect, c.cable)
-        theta = s.theta.copy()
-        theta[idx] = beta[:len(idx)]
-        t = refit(prob, s, theta=theta, active_idx=sorted(set(s.active_idx) | set(idx)))
+        t = refit(prob, s, active_idx=sorted(set(s.active_idx) | set(idx)))
     vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
     why = implausible(c.effect, vocab)
     if why:
@@ -235,20 +237,28 @@ def try_candidate(prob: Problem, s: Selection, c, beta, rms_before: float, min_g
     return t, vocab, rms_after, ""
 
 
-def forward_step(prob, base, s, candidates, null_gen, alpha, min_gain, extra, say, step):
-    """One greedy forward step; returns ``(selection or None, ranking, thr_p)``."""
+def forward_step(prob, base, s, candidates, null_gen, alpha, min_gain, extra, say, step,
+                 thr_floor: float = 1.0):
+    """One greedy forward step; returns ``(selection or None, ranking, thr_p)``.
+
+    ``null_gen`` yields the null residual replicates that calibrate the threshold (may be
+    empty: Bonferroni alone); ``thr_floor`` caps the threshold (the first step's calibrated
+    threshold, reused by the later steps).
+    """
     n_tests = len(candidates)
     Zbase, y_target, _, C = linear_model(prob, s)
     rms_before = heldout_rms(prob, Zbase, y_target)
     cand_cols = candidate_columns(prob, base, s, C, candidates)
-    say(f"step {step}: testing {len(cand_cols)} candidates, thresholds from null replicates "
-        "simulated from the fitted base model")
+    say(f"step {step}: testing {len(cand_cols)} candidates, "
+        + ("thresholds from null replicates simulated from the fitted base model"
+           if thr_floor >= 1.0 else "the first step's calibrated threshold"))
     scored, pcols, yt, thr_p = score_step(prob, Zbase, y_target, cand_cols, null_gen, alpha,
                                           n_tests)
+    thr_p = min(thr_p, thr_floor)
     ranking = [{"candidate": c.label, "statistic": float(st), "dof": int(q),
                 "p_value": float(p), "p_bonferroni": float(min(1.0, p * n_tests))}
                for p, c, st, q, _ in scored[:15]]
-    for p_best, c, stat, q, beta in scored[:6]:
+    for p_best, c, stat, q, _ in scored[:6]:
         say(f"step {step}: best candidate {c.label}: statistic {stat:.1f} (dof {q}), "
             f"p = {p_best:.2e}, threshold p < {thr_p:.2e}")
         if not p_best < thr_p:
@@ -258,7 +268,7 @@ def forward_step(prob, base, s, candidates, null_gen, alpha, min_gain, extra, sa
             say(f"step {step}: {c.label} does not improve the held-out residual enough "
                 f"({rms_before:.4f} -> {rms_lin:.4f}); stop")
             break
-        t, vocab, rms_after, why = try_candidate(prob, s, c, beta, rms_before, min_gain, extra)
+        t, vocab, rms_after, why = try_candidate(prob, s, c, rms_before, min_gain, extra)
         if t is None:
             say(f"step {step}: {c.label} {why}; rejected, trying the next candidate")
             continue

@@ -46,19 +46,30 @@ def blocks(n: int, k: int):
 
 
 def cv_sse(Z, y, folds, guard):
-    """Blocked held-out sum of squared residuals of the LS of y on Z."""
-    n = Z.shape[0]
+    """Blocked held-out sum of squared residuals of the LS of y on Z.
+
+    Each fold ``(lo, hi)`` is predicted from the LS fit on the samples outside
+    ``[lo - guard, hi + guard)``. The fits use normal equations from prefix sums of the
+    per-sample Gram matrices (one pass over the data for every fold; the same solution as
+    the least squares on the training rows whenever they have full column rank).
+    """
+    n, _, p = Z.shape
+    G = np.zeros((n + 1, p, p))
+    np.cumsum(np.einsum("nip,niq->npq", Z, Z), axis=0, out=G[1:])
+    g = np.zeros((n + 1, p))
+    np.cumsum(np.einsum("nip,ni->np", Z, y), axis=0, out=g[1:])
+    s = np.concatenate([[0.0], np.cumsum(np.einsum("ni,ni->n", y, y))])
     sse = 0.0
     count = 0
-    p = Z.shape[2]
     for lo, hi in folds:
-        train = np.ones(n, bool)
-        train[max(0, lo - guard):min(n, hi + guard)] = False
-        Zt = Z[train].reshape(-1, p)
-        beta, *_ = np.linalg.lstsq(Zt, y[train].reshape(-1), rcond=None)
-        r = y[lo:hi] - np.einsum("nip,p->ni", Z[lo:hi], beta)
-        sse += float(np.sum(r * r))
-        count += r.size
+        a, b = max(0, lo - guard), min(n, hi + guard)
+        Gt = G[n] - (G[b] - G[a])
+        gt = g[n] - (g[b] - g[a])
+        scale = np.sqrt(np.clip(np.diag(Gt), 1e-300, None))
+        beta = np.linalg.lstsq(Gt / np.outer(scale, scale), gt / scale, rcond=None)[0] / scale
+        Gb, gb = G[hi] - G[lo], g[hi] - g[lo]
+        sse += float(max(0.0, s[hi] - s[lo] - 2.0 * beta @ gb + beta @ Gb @ beta))
+        count += int(hi - lo) * y.shape[1]
     return sse, count
 
 
