@@ -319,3 +319,81 @@ def test_sample_budget_subset_keeps_real_samples_and_says_so(tmp_path):
     for tj in sub.joins:  # samples next to a join take no part
         assert not np.any(res.arrays["use"][np.abs(t - tj) < 1.0])
     assert [f.effect for f in res.findings][:1] == ["viscous_drag"]
+
+
+# ----------------------------------------------------------------------------- speed paths
+
+
+def test_prefix_gram_cv_equals_least_squares_per_fold(rng):
+    """cv_sse (normal equations from prefix sums) == lstsq on each fold's training rows."""
+    n, p, guard = 900, 7, 25
+    Z = rng.normal(size=(n, 6, p)) * np.logspace(-2, 2, p) + 30.0  # badly scaled columns
+    y = np.einsum("nip,p->ni", Z, rng.normal(size=p)) + 0.3 * rng.normal(size=(n, 6))
+    folds = T.blocks(n, 5)
+    ref = 0.0
+    for lo, hi in folds:
+        tr = np.ones(n, bool)
+        tr[max(0, lo - guard):hi + guard] = False
+        b = np.linalg.lstsq(Z[tr].reshape(-1, p), y[tr].reshape(-1), rcond=None)[0]
+        ref += float(np.sum((y[lo:hi] - np.einsum("nip,p->ni", Z[lo:hi], b)) ** 2))
+    sse, cnt = T.cv_sse(Z, y, folds, guard)
+    assert cnt == n * 6 and sse == pytest.approx(ref, rel=1e-9)
+    sse2, _ = T.cv_sse(Z, y + 0.3 * rng.normal(size=y.shape), folds, guard)  # other noise
+    assert abs(sse2 - ref) > 1e-2 * ref
+
+
+def _short_dataset(tmp_path, robot_dict, effects, seed=3, noise=(3e-4, 0.7)):
+    from cdprid.effects import Effect
+    from cdprid.geometry import robot_from_dict
+    from cdprid.io import read_dataset
+    from cdprid.simulate import SensorNoise, simulate, write_simulation
+    from cdprid.trajectories import preset
+
+    rob = robot_from_dict(robot_dict)
+    sim = simulate(rob, preset("rich", rob, duration=30.0), None,
+                   effects=[Effect(n, p) for n, p in effects],
+                   noise=SensorNoise(position_m=noise[0], tension_N=noise[1]), seed=seed)
+    return read_dataset(write_simulation(sim, tmp_path / "d", overwrite=True))
+
+
+@pytest.mark.slow
+def test_refit_hands_back_the_linearisation_at_its_result(tmp_path):
+    """The converged refit's seeded linearisation == a fresh one at the refitted theta."""
+    import dataclasses
+
+    from cdprid.diagnosis.base import base_fit
+    from cdprid.diagnosis.problem import design, prepare
+    from cdprid.robots import SIX_SUSPENDED
+
+    ds = _short_dataset(tmp_path, SIX_SUSPENDED, [("tension_gain", {"cable": 2, "gain": 1.06}),
+                                                 ("time_delay", {"delay_s": 0.02})])
+    prob, base = base_fit(prepare(ds))
+    s0 = S.start(prob, base)
+    idx = prob.layout.candidate_indices("tension_gain", 2) + \
+        prob.layout.candidate_indices("time_delay")
+    s1 = S.refit(prob, s0, active_idx=sorted(idx))
+    assert s1.theta[idx[0]] == pytest.approx(0.06, abs=0.01)
+    assert s1.theta[idx[1]] == pytest.approx(0.02, abs=0.003)
+    y_c, A_c, C_c = design(prob, s1.theta, s1.x, False)  # the seeded one
+    fresh = dataclasses.replace(prob, cache={})
+    y_f, A_f, C_f = design(fresh, s1.theta, s1.x, False)
+    assert y_c is not y_f
+    scale = float(np.max(np.abs(y_f)))
+    assert np.max(np.abs(y_c - y_f)) < 1e-5 * scale
+    assert np.allclose(C_c[:, :, idx], C_f[:, :, idx], rtol=1e-3, atol=1e-6 * np.max(np.abs(C_f)))
+    with pytest.raises(ValueError):  # cached arrays are shared: read-only
+        y_c[0, 0] = 1.0
+
+
+@pytest.mark.slow
+def test_point_mass_four_cable_robot_gets_finite_row_weights_and_its_mass(tmp_path):
+    """4 cables meeting at one point: nil moment rows must not get an infinite weight."""
+    from cdprid.diagnosis.base import base_fit
+    from cdprid.diagnosis.problem import prepare
+    from cdprid.robots import FOUR_SUSPENDED
+
+    ds = _short_dataset(tmp_path, FOUR_SUSPENDED, [], noise=(1e-6, 1e-3))
+    prob, base = base_fit(prepare(ds))
+    assert np.all(np.isfinite(prob.wrow)) and np.allclose(prob.wrow[3:], prob.wrow[0])
+    assert base.x[0] == pytest.approx(FOUR_SUSPENDED["platform"]["mass"], rel=2e-3)
+    assert np.all(np.isfinite([v["std"] for v in base.parameters.values()]))

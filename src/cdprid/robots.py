@@ -164,3 +164,18 @@ SIX_TIGHT: dict = {
 """A 6-cable suspended robot (no redundancy) with the issue's small workspace (0.8 x 0.7 x
 0.45 m), 1 m/s cable speed, tight spec 1.1 limits and an uncertain 6 kg platform with a body
 box: an excitation test robot with 6 cables."""
+
+FOUR_SUSPENDED = {  # 4 cables meeting at one point of the platform (a point mass), suspended
+    "name": "four-suspended", "gravity": [0.0, 0.0, -9.81],
+    "limits": {"tension_min": 1.0, "tension_max": 300.0,
+               "workspace_min": [-0.6, -0.5, 0.8], "workspace_max": [0.6, 0.5, 1.8]},
+    "cable": [{"exit": [1.6 * sx, 1.4 * sy, 2.8], "anchor": [0.0, 0.0, 0.0]}
+              for sx, sy in _BOX],
+    "platform": {"mass": 6.0, "com": [0.0, 0.0, 0.0],
+                 "inertia": [[0.05, 0.0, 0.0], [0.0, 0.05, 0.0], [0.0, 0.0, 0.05]]},
+}
+"""A 4-cable suspended robot (robot.toml dict): exits at the corners of a 3.2 m x 2.8 m frame at
+z = 2.8 m, every cable attached at the platform's centre of mass (no moments: a point mass that
+gravity keeps taut; translation only): like FOUR_POINT but with a workspace and tension range
+that the 52 s `rich` diagnosis trajectory fits in. Diagnosis benchmark and tests."""
+__all__ += ["FOUR_SUSPENDED"]

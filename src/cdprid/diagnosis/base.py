@@ -45,7 +45,12 @@ class NoiseLevels:
 
 
 def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
-    """Fit the base model; returns the problem with its row weights set, and the fit."""
+    """Fit the base model; returns the problem with its row weights set, and the fit.
+
+    Force and moment rows are weighted by the inverse of their residual RMS; when the moment
+    residual is nil (every cable attached at one point and the model fits the zero moments
+    exactly) the moment rows get the force rows' weight.
+    """
     theta0 = jnp.zeros(prob.layout.size)
     A4 = np.asarray(regs_jit(prob.d, theta0, prob.layout, False))
     A10 = np.asarray(regs_jit(prob.d, theta0, prob.layout, True)) if prob.has_rotation else None
@@ -55,6 +60,8 @@ def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
     e = y0[train] - np.einsum("nip,p->ni", A4[train], beta)
     sf = np.sqrt(np.mean(e[:, :3] ** 2))
     sm = np.sqrt(np.mean(e[:, 3:] ** 2))
+    if not sm > 1e-9 * sf:  # all cables meet at one point (a point-mass robot): no moments
+        sm = sf
     wrow = np.array([1 / sf] * 3 + [1 / sm] * 3)
     prob = dataclasses.replace(prob, wrow=wrow)
     names = PARAMETER_NAMES["translation"]
@@ -65,7 +72,7 @@ def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
     _, _, Vb, _ = wald(Zb[train], yb[train], [0], prob.lags)
     params = {
         nm: {"value": float(v_), "std": float(np.sqrt(Vb[i, i])),
-             "rel_std_percent": float(100 * np.sqrt(Vb[i, i]) / abs(v_))}
+             "rel_std_percent": float(100 * np.sqrt(Vb[i, i]) / max(abs(v_), 1e-300))}
         for i, (nm, v_) in enumerate(zip(names, x, strict=True))
     }
     rms = [float(np.sqrt(np.mean(res[train][:, i] ** 2))) for i in range(6)]

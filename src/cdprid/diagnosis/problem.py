@@ -75,13 +75,13 @@ class Problem:
 def _motion(sig, cutoff_hz):
     dt = sig.dt
     v, a = differentiate(sig.position, dt, method="euler-filtfilt", cutoff_hz=cutoff_hz)
-    R = np.asarray(jax.vmap(quat_to_matrix)(sig.quaternion))
+    R = np.asarray(jax.jit(jax.vmap(quat_to_matrix))(sig.quaternion))  # one compile
     if sig.has_rotation:
         from ..rotations import angular_rates_from_quat
 
         qd, qdd = differentiate(sig.quaternion, dt, method="euler-filtfilt", cutoff_hz=cutoff_hz)
         om, al = (np.asarray(z) for z in
-                  jax.vmap(angular_rates_from_quat)(sig.quaternion, qd, qdd))
+                  jax.jit(jax.vmap(angular_rates_from_quat))(sig.quaternion, qd, qdd))
     else:
         om = np.zeros_like(v)
         al = np.zeros_like(v)
@@ -244,7 +244,9 @@ def seed_design(prob: Problem, theta, x_cur, rotational: bool, lin) -> None:
     ``y`` shifted to first order (``y - C dtheta``), so that the linear model built from it at
     the final theta is the one the refit solved.
     """
-    _remember(prob, _design_key(theta, x_cur, rotational), lin)
+    for a in lin:
+        a.setflags(write=False)
+    _remember(prob, _design_key(theta, x_cur, rotational), tuple(lin))
 
 
 def heldout_rms(prob: Problem, Z, y) -> float:
