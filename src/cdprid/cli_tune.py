@@ -35,7 +35,7 @@ def _run(args) -> int:
         raise ValueError(f"--max-steps must be >= 0, got {args.max_steps}.")
     if not (0.0 <= args.weight <= 1.0):
         raise ValueError(f"--weight must lie in [0, 1], got {args.weight}.")
-    if not (math.isfinite(args.duration) and args.duration >= 5.0):
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration >= 5.0):
         raise ValueError(f"--duration must be at least 5 s, got {args.duration}.")
     known = (*T.SIHD_METHODS, *T.BASELINE_GRIDS)
     if args.method not in known:
@@ -72,9 +72,9 @@ def _run(args) -> int:
         raise ValueError(f"--bandwidth {args.bandwidth:g} Hz is above 0.45 x the sampling rate "
                          f"({0.45 / dt:g} Hz).")
     if signals is None:
-        signals = ([T.circle_signal(dt=dt, duration=args.duration)]
+        signals = ([T.circle_signal(dt=dt, duration=args.duration or 52.0)]
                    if args.train_signal == "circle"
-                   else T.trajectory_family("train", dt, args.duration))
+                   else T.trajectory_family("train", dt, args.duration or 25.0))
     bw = args.bandwidth if args.bandwidth is not None else T.content_bandwidth(signals)
     bounds = T.ResponseBounds(bw, args.gain_tol, args.phase_max, T.GAIN_MAX_BELOW,
                               args.gain_max_above)
@@ -86,7 +86,7 @@ def _run(args) -> int:
     S = args.seeds
     kw = dict(signals=signals, train_seeds=range(S), test_seeds=range(1000, 1000 + max(S, 4)),
               progress=say, bounds=bounds, constrain=not args.no_constraint,
-              heldout=T.trajectory_family("heldout", dt, args.duration))
+              heldout=T.trajectory_family("heldout", dt, args.duration or 25.0))
     if args.method in T.SIHD_METHODS:
         res = T.tune(args.method, noise, objective=args.objective, weight=args.weight,
                      max_steps=args.max_steps, zeta_min=args.zeta_min, **kw)
@@ -179,8 +179,9 @@ def add_parser(sub) -> None:
                    help="BFGS iterations (SIHD methods)")
     p.add_argument("--zeta-min", type=V.nonneg_float, default=None,
                    help="damping floor of SIHD-N root pairs (default of cdprid.tuning)")
-    p.add_argument("--duration", type=V.positive_float, default=52.0,
-                   help="length of the training circle or of each family trajectory, s")
+    p.add_argument("--duration", type=V.positive_float, default=None,
+                   help="length of the training circle (default 52 s) or of each family and "
+                   "held-out trajectory (default 25 s), s")
     p.add_argument("--json", help="write the result JSON here (with its acceleration frequency "
                    "response; the figure <stem>.response.png is written beside it)")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs")
