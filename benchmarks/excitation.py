@@ -1,22 +1,25 @@
-"""Benchmark: safe excitation designs vs the paper-like orbit and the best hand-made orbit.
+"""Benchmark: safe excitation designs vs the gentle initial design, the paper's orbit and the
+best hand-made orbit, on 4-, 6- and 8-cable robots with tight spec-1.1 limits.
 
 Writes ``results/excitation.md`` and ``results/excitation_<robot>_<family>.png`` (the safety
 time series of each optimised design). Run from the repository root::
 
-    .venv/bin/python benchmarks/excitation.py [--mc 8] [--starts 4]
+    .venv/bin/python benchmarks/excitation.py [--mc 3] [--starts 3] [--cases robot:family,...]
 
-Robots (no ../shared needed): the CRAFT-like robot of :mod:`cdprid.robots` (robot.toml gives no
-spec 1.1 limits: the stated defaults apply) and ``small-8``, an 8-cable robot with a
-0.8 x 0.7 x 0.45 m workspace, tight spec 1.1 limits and an uncertain platform with a body box.
+Robots (:mod:`cdprid.robots`, no ../shared needed): ``four-point`` (4 cables, point mass),
+``six-tight`` (6 cables, the issue's 0.8 x 0.7 x 0.45 m workspace, 1 m/s), ``small-8`` (8 cables,
+small workspace, tight limits, body box) and the CRAFT-like robot (robot.toml gives no spec 1.1
+limits: the stated defaults apply).
 
-For each robot and the ``orbit`` family: the paper-like initial design, the best hand-made
-orbit (a grid of horizontal and vertical orbits of several radii, each at the highest frequency
-that its acceleration and jerk allow within 85 % of the limits; the certified one with the
-lowest cond), and the optimised design; the CRAFT-like robot also gets the ``fourier`` family
-(full model). Reported: cond(W_ID) on the 100 Hz grid, the predicted std of the worst-determined
-parameter (largest predicted std relative to the nominal value, at sigma_rho = 1 N), and a
-Monte-Carlo identification through the full pipeline (simulate with its default pose and
-tension noise -> euler-filtfilt differentiator -> least squares): RMS error of that parameter.
+Per case: the gentle first run (the default initial design: the paper's orbit scaled so that
+every peak is at most 50 % of its limit), the paper's orbit unscaled, for the orbit family the
+best hand-made orbit (a grid of horizontal and vertical orbits, each scaled to 92 % of the
+limits, the certified one with the lowest cond), and the optimised design. Reported: cond(W_ID)
+on the 100 Hz grid, the predicted std of the worst-determined parameter (largest predicted std
+relative to its scale, at sigma_rho = 1 N), a Monte-Carlo identification through the full
+pipeline (simulate with its default pose and tension noise -> euler-filtfilt differentiator ->
+least squares): RMS error of that parameter, the safety checks, and the optimiser's time
+(including the JIT compilation: a fresh process without the persistent cache).
 """
 
 from __future__ import annotations

@@ -205,6 +205,8 @@ def test_cli_optimised_is_certified_and_better(excite_run):
     assert rep["initial"]["cond"] / rep["optimised"]["cond"] >= 2.0
     assert rep["optimised"]["cond"] >= np.sqrt(1 + 9.81**2 / 2.0**2)
     assert "gentle first run" in rep["initial_design"]
+    assert "Not covered" in rep["certificate_scope"]
+    assert rep["starts"][0]["time_s"] > 0
     assert rep["initial"]["peaks"]["acceleration_m_s2"] <= 0.5 * 2.0 + 1e-6
 
 
@@ -238,7 +240,7 @@ def test_cli_trajectory_respects_limits(excite_run, craft_robot_toml):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("family, duration", [("orbits", None)])  # fourier: test_excitation_safety
+@pytest.mark.parametrize("family, duration", [("orbits", 30.0)])  # fourier: test_excitation_safety
 def test_richer_families_optimise_and_certify(craft, family, duration):
     # the K-orbit sequence (4 parameters) and the Fourier family (full model with rotations)
     # go through the same optimiser: the answer is certified by the LP on the 100 Hz grid

@@ -85,8 +85,9 @@ def test_robust_margins_against_linprog(rng):
     A = np.asarray(regressors("full", jnp.asarray(R), jnp.asarray(acc), jnp.zeros((n, 3)),
                               jnp.zeros((n, 3)), r.gravity))
     corners = corner_parameters(4.3, [0, 0, -0.02], np.diag([0.03, 0.03, 0.04]), 0.2, 0.02,
-                                0.3)[::7]  # 147 x 6 pairs: within the LP budget, all solved
-    got, _ = robust_tension_margins(W, A, corners, 5.0, 80.0)
+                                0.3)[::7]  # 147 x 6 pairs, all solved (lp_budget)
+    got, n_lp = robust_tension_margins(W, A, corners, 5.0, 80.0, lp_budget=10**6)
+    assert n_lp == got.size
     m = 8
     for k in range(0, len(corners), 5):
         for i in range(n):
@@ -138,31 +139,39 @@ def test_corners_hold_every_platform_of_the_box(rng):
     assert len(corner_parameters(mass, com, I, mu, cu, iu, rotates=False)) == 16
 
 
-def test_initial_design_is_gentle():
-    # the default initial design keeps every peak of the whole trajectory within half of its
-    # limit, re-checked here with numpy on a 500 Hz grid (acceleration, jerk by differences of
-    # the acceleration, cable speeds by differences of the cable lengths); the unscaled
-    # paper orbit does not (so the scaling is needed and tested)
-    r = robot_from_dict(EIGHT)
-    prob = ex.make_problem(r, "orbit", duration=8.0)
+def test_cli_gentle_writes_the_certified_initial_design(tmp_path, capsys):
+    import cdprid.cli as cli
+
+    (tmp_path / "robot.toml").write_text(_toml(EIGHT))
+    argv = ["excite", str(tmp_path / "robot.toml"), "--duration", "8", "--no-dataset"]
+    rc = cli.main(argv + ["--gentle", "--out", str(tmp_path / "g"), "--json",
+                          str(tmp_path / "g.json")])
+    assert rc == 0
+    rep = json.loads((tmp_path / "g.json").read_text())
+    assert rep["optimised"]["cond"] == rep["initial"]["cond"] and rep["starts"] == []
+    assert rep["optimised"]["certified"] and "gentle" in rep["note"]
+    # every peak within half of its limit, re-checked with numpy from the CSV: acceleration,
+    # jerk by differences of the acceleration, cable speeds by differences of the lengths
+    D = np.loadtxt(tmp_path / "g" / "trajectory.csv", delimiter=",", skiprows=1)
+    t, p, a = D[:, 0], D[:, 1:4], D[:, 7:10]
+    A = np.array([c["exit"] for c in EIGHT["cable"]])
+    b = np.array([c["anchor"] for c in EIGHT["cable"]])
+    L = np.linalg.norm(A[None] - (p[:, None] + b[None]), axis=2)
     lim = EIGHT["limits"]
-
-    def worst(params):
-        traj = prob.homed(jnp.asarray(prob.family.from_params(params)))
-        t = np.arange(int(traj.t_end * 500) + 1) / 500.0
-        s = traj.evaluate(t)
-        p, a = np.asarray(s.p), np.asarray(s.a)
-        A = np.array([c["exit"] for c in EIGHT["cable"]])
-        b = np.array([c["anchor"] for c in EIGHT["cable"]])
-        L = np.linalg.norm(A[None] - (p[:, None] + b[None]), axis=2)
-        return max(np.linalg.norm(a, axis=1).max() / lim["acceleration_max"],
-                   np.linalg.norm(np.gradient(a, t, axis=0), axis=1).max() / lim["jerk_max"],
-                   np.abs(np.gradient(L, t, axis=0)).max() / lim["cable_speed_max"])
-
-    params, rule = ex.initial_design(prob)
-    assert worst(params) <= 0.5 * 1.01
-    assert worst(prob.family.initial_params(r)) > 0.55
-    assert "50 %" in rule and float(params["radius"][0]) < 0.245
+    assert np.linalg.norm(a, axis=1).max() <= 0.5 * lim["acceleration_max"]
+    assert np.linalg.norm(np.gradient(a, t, axis=0), axis=1).max() <= 0.5 * lim["jerk_max"] * 1.02
+    assert np.abs(np.gradient(L, t, axis=0)).max() <= 0.5 * lim["cable_speed_max"] * 1.02
+    # ... which the unscaled paper orbit is not (the scaling is needed)
+    prob = ex.make_problem(robot_from_dict(EIGHT), "orbit", duration=8.0)
+    fam = prob.family
+    unscaled = prob.homed(jnp.asarray(fam.from_params(fam.initial_params(prob.robot))))
+    s = unscaled.evaluate(t[t <= unscaled.t_end])
+    assert np.linalg.norm(np.asarray(s.a), axis=1).max() > 0.55 * lim["acceleration_max"]
+    assert "50 %" in rep["initial_design"]
+    capsys.readouterr()
+    rc = cli.main(argv + ["--gentle", "--initial", '{"radius": 0.1}', "--out",
+                          str(tmp_path / "h")])
+    assert rc == 2 and "--gentle" in capsys.readouterr().err
 
 
 def test_home_moves_start_and_end_at_rest_with_continuous_jerk():
@@ -331,8 +340,9 @@ def test_designs_pass_an_independent_recheck(tmp_path, robot, family):
     assert rep["optimised"]["certified"] and rep["optimised"]["failed_checks"] == []
     # acceptance of issue 16: cond falls at least 2x from the initial (gentle) design
     assert rep["initial"]["cond"] / rep["optimised"]["cond"] >= 2.0
-    bad = _recheck(robot, tmp_path / "o" / "trajectory.csv",
-                   corners_stride=4 if family == "fourier" else 1)
+    bad = _recheck(robot, tmp_path / "o" / "trajectory.csv",  # fourier: a share of the LPs
+                   corners_stride=4 if family == "fourier" else 1,
+                   sample_stride=25 if family == "fourier" else 10)
     assert bad == {}
 
 

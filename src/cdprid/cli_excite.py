@@ -120,8 +120,14 @@ def run(args) -> int:
                            duration=args.duration, prior=args.prior, home=args.home)
     init = _initial_params(args.initial, prob)
     _print_limits(prob)
-    res = ex.optimise_excitation(prob, n_starts=args.starts, seed=args.seed, initial_params=init,
-                                 progress=True)
+    if args.gentle:
+        if init is not None:
+            raise UserError("--gentle writes the default gentle first run; it does not take "
+                            "--initial (drop one of them).")
+        res = ex.gentle_run(prob)
+    else:
+        res = ex.optimise_excitation(prob, n_starts=args.starts, seed=args.seed,
+                                     initial_params=init, progress=True)
     with atomic_dir(out, force=args.force) as tmp:
         _write_outputs(Path(tmp), prob, res, args)
     data = res.as_json()
@@ -139,6 +145,7 @@ def run(args) -> int:
     for name, r in (("initial", i), ("optimised", o)):
         print(f"{name:12s}{r.cond:10.3f}{r.cond_scaled:13.3f}{r.min_tension_margin_N:10.2f}  "
               f"{r.certified}")
+    print(f"initial design: {res.initial_rule}")
     if not i.certified:
         print("initial design not certified: " + "; ".join(i.certificate.failed))
     pk = o.certificate.peaks
@@ -185,6 +192,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "ends at rest (default: the workspace centre)")
     p.add_argument("--initial", help="initial design parameters as JSON (or a JSON file)")
     p.add_argument("--starts", type=int, default=4, help="number of optimiser starts (default 4)")
+    p.add_argument("--gentle", action="store_true",
+                   help="do not optimise: write the gentle first run (the default initial "
+                   "design: the paper's orbit scaled so that every peak is at most 50 %% of its "
+                   "limit), certified like an optimised design; the first step of the workflow "
+                   "gentle run -> identify -> excite --prior")
     p.add_argument("--out", default="excitation", help="output folder (default ./excitation)")
     p.add_argument("--json", help="write the before/after report as JSON to this file")
     p.add_argument("--seed", type=int, default=0, help="seed of the multi-start and simulation")

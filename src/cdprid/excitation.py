@@ -97,7 +97,22 @@ __all__ = [
     "GENTLE_FRACTION",
     "fit_to_limits",
     "initial_design",
+    "gentle_run",
+    "CERTIFICATE_SCOPE",
 ]
+
+#: What the certificate proves, and what it does not (written to the JSON).
+CERTIFICATE_SCOPE = (
+    "Checked exactly on samples: acceleration, jerk, tilt, angular velocity and acceleration on "
+    "a 500 Hz grid and the 100 Hz grid; workspace, cable speeds, cable-cable and cable-body "
+    "clearances and tension feasibility (LP) on the 100 Hz grid of trajectory.csv, with the "
+    "moves from and back to home. Tensions: at every point of a set whose convex hull holds "
+    "every platform of the uncertainty box (robot.toml [platform]: mass, centre of mass per "
+    "axis and principal moments, the m s s^T term of the inertia about P included; --prior: "
+    "the box estimate +- 3 std in x, inertia from robot.toml when the prior has none). Not "
+    "covered: values between samples (10 ms apart; the optimiser keeps margins for this), "
+    "platforms outside the stated box, cable elasticity, pulley geometry errors and the "
+    "tracking error of the controller.")
 
 #: Fraction of every kinematic limit (and of the cable speed) that the default initial design,
 #: the "gentle first run", stays within (see :func:`initial_design`).
@@ -661,6 +676,7 @@ class ExcitationResult:
             "starts": self.starts,
             "note": self.note,
             "initial_design": self.initial_rule,
+            "certificate_scope": CERTIFICATE_SCOPE,
         }
 
 
@@ -760,6 +776,22 @@ def initial_design(prob: ExcitationProblem) -> tuple[dict, str]:
             f"workspace centre; radius fitted to the workspace) with its amplitude scaled by "
             f"{k:.3g} so that every peak is at most {100 * GENTLE_FRACTION:g} % of its limit")
     return params, rule
+
+
+def gentle_run(prob: ExcitationProblem) -> ExcitationResult:
+    """The certified gentle first run (:func:`initial_design`) as a result, not optimised
+    (``cdprid excite --gentle``); a UserError naming the failed checks when it is not safe."""
+    t0 = time.perf_counter()
+    params, rule = initial_design(prob)
+    rep = evaluate_design(prob, prob.family.from_params(params))
+    if not rep.certified:
+        raise UserError("--gentle: the gentle first run does not pass every safety check ("
+                        + "; ".join(rep.certificate.failed) + "); relax the limits, move "
+                        "--home, or give an --initial design.")
+    return ExcitationResult(prob, rep, rep, prob.homed(jnp.asarray(rep.z)), [],
+                            time.perf_counter() - t0, 0.0,
+                            "gentle first run (--gentle): the initial design, not optimised.",
+                            rule)
 
 
 def start_points(prob: ExcitationProblem, n_starts: int = 4, seed: int = 0,

@@ -34,7 +34,7 @@ __all__ = ["SafetyCertificate", "SafetySeries", "certify_trajectory", "kinematic
            "limit_ratios", "robust_tension_margins", "safety_series"]
 
 _TOL = 1e-9
-_LP_BUDGET = 1024
+_LP_BUDGET = 256
 
 
 @dataclasses.dataclass(frozen=True)
@@ -120,12 +120,15 @@ def _closed_form_margins(W, w, tmin, tmax):
     return np.where(ok, marg, -np.inf)
 
 
-def robust_tension_margins(W, A_full, corners, tmin: float, tmax: float):
+def robust_tension_margins(W, A_full, corners, tmin: float, tmax: float,
+                           lp_budget: int = _LP_BUDGET):
     """Proven lower bounds (k, n) of the LP tension margin at every corner and sample, and the
     number of LPs solved.
 
     Closed-form margins everywhere; the LP (:func:`cdprid.tensions.feasibility_margin`) where
-    the closed form fails and at the ``_LP_BUDGET`` smallest closed-form margins. Pairs not
+    the closed form fails, where it is negative (up to 4096 pairs) and at the ``lp_budget``
+    smallest closed-form margins (a closed-form margin >= 0 already proves feasibility: the LP
+    only tightens it). Pairs not
     solved keep their closed-form margin (a lower bound of the LP one), so the minimum over
     all pairs is a lower bound of the true worst margin, and equal to it when the smallest
     LP margin is below the smallest unsolved closed-form margin.
@@ -135,7 +138,8 @@ def robust_tension_margins(W, A_full, corners, tmin: float, tmax: float):
     cf = np.vstack([_closed_form_margins(W, w[k0:k0 + 128], tmin, tmax)
                     for k0 in range(0, w.shape[0], 128)])
     order = np.argsort(cf, axis=None)
-    todo = order[:_LP_BUDGET]
+    n_neg = int(np.sum(~(cf >= 0.0)))  # the order starts with them
+    todo = order[:max(lp_budget, min(n_neg, 4096))]
     todo = np.union1d(todo, np.flatnonzero(~np.isfinite(cf.ravel())))
     out = cf.copy()
     if len(todo):
