@@ -130,17 +130,22 @@ def andrews_bandwidth(S: Float[np.ndarray, "n p"]) -> float:
     """
     S = np.asarray(S, float)
     n = S.shape[0]
-    S = S - S.mean(axis=0)
-    x0, x1 = S[:-1], S[1:]
-    den = np.einsum("np,np->p", x0, x0)
-    ok = den > 0
-    if not ok.any() or n < 8:
+    if n < 8:
         return 1.0
-    rho = np.clip(np.einsum("np,np->p", x0, x1)[ok] / den[ok], -_RHO_MAX, _RHO_MAX)
-    u = x1[:, ok] - rho * x0[:, ok]
-    s2 = np.mean(u**2, axis=0)
-    num = np.sum(4.0 * rho**2 * s2**2 / ((1 - rho) ** 6 * (1 + rho) ** 2))
-    dnm = np.sum(s2**2 / (1 - rho) ** 4)
+    num = dnm = 0.0
+    for j in range(S.shape[1]):  # one column at a time: O(n) memory on long recordings
+        x = S[:, j] - S[:, j].mean()
+        x0, x1 = x[:-1], x[1:]
+        den = float(x0 @ x0)
+        if not den > 0:
+            continue
+        rho = float(np.clip((x0 @ x1) / den, -_RHO_MAX, _RHO_MAX))
+        u = x1 - rho * x0
+        s2 = float(np.mean(u**2))
+        num += 4.0 * rho**2 * s2**2 / ((1 - rho) ** 6 * (1 + rho) ** 2)
+        dnm += s2**2 / (1 - rho) ** 4
+    if dnm == 0.0 and num == 0.0:
+        return 1.0
     alpha = num / dnm if dnm > 0 else 0.0
     b = 1.1447 * (alpha * n) ** (1.0 / 3.0)
     return float(np.clip(b, 1.0, max(1.0, n / 4.0)))
@@ -198,7 +203,9 @@ def _leverage_adjusted_windows(design, S, XtX, bandwidth: float, chunk: int = 20
     n, p = S.shape
     L = max(1, int(np.ceil(bandwidth)))
     step = max(int(chunk) - L + 1, min(int(chunk), 256))
-    c = np.concatenate([np.zeros((1, p)), np.cumsum(S, axis=0)])
+    c = np.empty((n + 1, p))
+    c[0] = 0.0
+    np.cumsum(S, axis=0, out=c[1:])
     meat = np.zeros((p, p))
     for k0 in range(0, n + L - 1, step):
         adj = _window_chunk(design, c, XtX, k0, min(k0 + step, n + L - 1), n, L)
