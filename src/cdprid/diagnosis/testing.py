@@ -106,28 +106,37 @@ def partial_wald(Ct, yt, lags):
 
 
 def partial_wald_many(Ct, Y, lags):
-    """:func:`partial_wald` statistics for many right-hand sides Y (n, 6, R) at once."""
+    """:func:`partial_wald` statistics for many right-hand sides Y (n, 6, R) at once.
+
+    Matrix products throughout (BLAS): residuals, per-sample scores ``C_t^T e_t``, Bartlett
+    window sums from a cumulative sum, and the meat of every right-hand side at once.
+    """
     n, _, q = Ct.shape
+    R = Y.shape[-1]
     Cf = Ct.reshape(-1, q)
-    G = Cf.T @ Cf
-    Ginv = np.linalg.pinv(G)
-    B = Ginv @ (Cf.T @ Y.reshape(-1, Y.shape[-1]))  # (q, R)
-    E = Y - np.einsum("niq,qr->nir", Ct, B)
-    S = np.einsum("niq,nir->nqr", Ct, E)  # (n, q, R)
+    Yf = Y.reshape(-1, R)
+    Ginv = np.linalg.pinv(Cf.T @ Cf)
+    B = Ginv @ (Cf.T @ Yf)  # (q, R)
+    E = (Yf - Cf @ B).reshape(n, 6, R)
+    S = np.matmul(Ct.transpose(0, 2, 1), E)  # (n, q, R)
     L = int(lags) + 1
-    c = np.concatenate([np.zeros((1, q, S.shape[2])), np.cumsum(S, axis=0)])
+    c = np.zeros((n + 1, q, R))
+    np.cumsum(S, axis=0, out=c[1:])
     hi = np.minimum(np.arange(n + L - 1) + 1, n)
     lo = np.maximum(np.arange(n + L - 1) - L + 1, 0)
-    M = c[hi] - c[lo]  # (n+L-1, q, R)
-    meat = np.einsum("kqr,kpr->rqp", M, M) / L
+    M = (c[hi] - c[lo]).transpose(2, 1, 0)  # (R, q, n+L-1)
+    meat = np.matmul(M, M.transpose(0, 2, 1)) / L
     V = Ginv[None] @ meat @ Ginv[None]  # (R, q, q)
-    out = np.empty(B.shape[1])
-    for r in range(B.shape[1]):
-        try:
-            out[r] = B[:, r] @ np.linalg.solve(V[r], B[:, r])
-        except np.linalg.LinAlgError:
-            out[r] = 0.0
-    return out
+    try:
+        return np.einsum("rq,rq->r", B.T, np.linalg.solve(V, B.T[:, :, None])[:, :, 0])
+    except np.linalg.LinAlgError:
+        out = np.zeros(R)
+        for r in range(R):
+            try:
+                out[r] = B[:, r] @ np.linalg.solve(V[r], B[:, r])
+            except np.linalg.LinAlgError:
+                out[r] = 0.0
+        return out
 
 
 def aliases_of(c_best, scored, pcols, corr: float = 0.8) -> list[str]:
