@@ -75,12 +75,13 @@ def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int
 
 
 def best_swap(accepted: list, alts: dict, Z, y, cols_of, alt_cols, heldout_rms,
-              min_gain: float):
+              min_gain: float, near: dict | None = None):
     """Swap step: replace one finding by an alternative when that predicts held-out better.
 
     Returns ``(k, alternative, ties)``: the finding index and its better replacement (or
     ``None``), and for every finding the alternatives within ``min_gain`` of it (the data
-    cannot tell them apart: reported as aliases).
+    cannot tell them apart: reported as aliases); with ``near`` (finding -> alternatives),
+    only those can be ties.
     """
     p = Z.shape[2]
     rms_now = heldout_rms(Z, y)
@@ -95,7 +96,7 @@ def best_swap(accepted: list, alts: dict, Z, y, cols_of, alt_cols, heldout_rms,
             r = heldout_rms(np.concatenate([Z[:, :, rest], alt_cols(a)], axis=2), y)
             if r < best_rms:
                 best, best_rms = (k, a), r
-            elif r < rms_now * (1.0 + min_gain):
+            elif r < rms_now * (1.0 + min_gain) and (near is None or a in near[c]):
                 ties[c].append(a)
     return best[0], best[1], ties
 
@@ -197,7 +198,9 @@ def score_step(prob: Problem, Zbase, y_target, cand_cols: dict, null_gen, alpha:
     for c, Ct in pcols.items():
         stat, beta, _ = partial_wald(Ct, yt, prob.lags)
         scored.append((float(stats.chi2.sf(stat, Ct.shape[2])), c, stat, Ct.shape[2], beta))
-    scored.sort(key=lambda r: (r[0], -r[2]))
+    # rank by the log p-value (no underflow: at p = 0 a raw statistic would favour the
+    # candidates with more degrees of freedom)
+    scored.sort(key=lambda r: (float(stats.chi2.logsf(r[2], r[3])), -r[2]))
     Yn = [partial((e * prob.wrow)[train])[:, :, 0] for e in null_gen]
     thr_p = alpha / n_tests
     if Yn:
@@ -258,12 +261,17 @@ def forward_step(prob, base, s, candidates, null_gen, alpha, min_gain, extra, sa
     ranking = [{"candidate": c.label, "statistic": float(st), "dof": int(q),
                 "p_value": float(p), "p_bonferroni": float(min(1.0, p * n_tests))}
                for p, c, st, q, _ in scored[:15]]
+    # the significant leaders, tried in order of their (linearised) held-out prediction
+    leaders = []
     for p_best, c, stat, q, _ in scored[:6]:
-        say(f"step {step}: best candidate {c.label}: statistic {stat:.1f} (dof {q}), "
+        say(f"step {step}: candidate {c.label}: statistic {stat:.1f} (dof {q}), "
             f"p = {p_best:.2e}, threshold p < {thr_p:.2e}")
         if not p_best < thr_p:
             break
         rms_lin = heldout_rms(prob, np.concatenate([Zbase, cand_cols[c]], axis=2), y_target)
+        leaders.append((rms_lin, p_best, c, stat))
+    leaders.sort(key=lambda r: r[0])
+    for rms_lin, p_best, c, stat in leaders:
         if rms_lin > rms_before * (1 - min_gain):
             say(f"step {step}: {c.label} does not improve the held-out residual enough "
                 f"({rms_before:.4f} -> {rms_lin:.4f}); stop")
@@ -294,13 +302,15 @@ def swap_stage(prob: Problem, s: Selection, candidates, min_gain: float, extra: 
         Z, y, n_model, C = linear_model(prob, s)
         cols_of = functools.partial(finding_columns, layout=layout,
                                     active_idx=list(s.active_idx), n_model=n_model)
-        alts = {c: swap_alternatives(c, candidates, list(s.accepted)) for c in s.accepted}
+        near = {c: swap_alternatives(c, candidates, list(s.accepted)) for c in s.accepted}
+        alts = {c: [a for a in candidates if a not in s.accepted and a.effect in
+                    {b.effect for b in near[c]} | {c.effect}] for c in s.accepted}
 
         def alt_cols(a, C=C):
             return C[:, :, layout.candidate_indices(a.effect, a.cable)] * prob.wrow[None, :, None]
 
         k, alt, ties = best_swap(list(s.accepted), alts, Z, y, cols_of, alt_cols,
-                                 functools.partial(heldout_rms, prob), min_gain)
+                                 functools.partial(heldout_rms, prob), min_gain, near)
         if k is None:
             break
         old = s.accepted[k]
