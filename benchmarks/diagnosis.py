@@ -489,6 +489,8 @@ def main() -> int:
     ap.add_argument("--from-jsonl", action="store_true",
                     help="only write the tables from the records of --jsonl")
     args = ap.parse_args()
+    from cdprid.tensions import InfeasibleTensionsError
+
     runs = [r for r in plan(args.robots.split(","), args.seeds, args.quick)
             if r[0] in args.kinds.split(",")]
     done = {}
@@ -503,8 +505,12 @@ def main() -> int:
                 key = run_key(kind, label, rname, seed)
                 if key in done:
                     continue
-                rec = {"kind": kind, "label": label,
-                       **run_case(seed=seed, workdir=Path(tmp), robot_name=rname, **kw)}
+                try:
+                    rec = {"kind": kind, "label": label,
+                           **run_case(seed=seed, workdir=Path(tmp), robot_name=rname, **kw)}
+                except InfeasibleTensionsError as err:  # the plan, not the diagnosis
+                    print(f"{kind} {label} {rname} seed {seed}: not simulated ({err})")
+                    continue
                 done[key] = rec
                 Path(args.jsonl).parent.mkdir(parents=True, exist_ok=True)
                 with open(args.jsonl, "a") as fh:

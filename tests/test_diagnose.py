@@ -397,3 +397,39 @@ def test_point_mass_four_cable_robot_gets_finite_row_weights_and_its_mass(tmp_pa
     assert np.all(np.isfinite(prob.wrow)) and np.allclose(prob.wrow[3:], prob.wrow[0])
     assert base.x[0] == pytest.approx(FOUR_SUSPENDED["platform"]["mass"], rel=2e-3)
     assert np.all(np.isfinite([v["std"] for v in base.parameters.values()]))
+
+
+def test_swap_replaces_a_pick_by_a_better_candidate_on_another_cable():
+    """A wrong pick is swapped for the true cause on any cable; ties stay same-cable/global."""
+    rng = np.random.default_rng(21)
+    n = 2000
+
+    def filt_cols(k):
+        return zero_phase_filter(rng.normal(size=(n, 6 * k)), 0.01, 4.0).reshape(n, 6, k)
+
+    base, truth, other = filt_cols(1), filt_cols(1), filt_cols(1)
+    wrong = 0.6 * truth + 0.8 * other  # a pick that explains part of the true cause
+    y = (base + truth)[:, :, 0] + 0.05 * filt_cols(1)[:, :, 0]
+    twin = wrong + 1e-4 * filt_cols(1)  # the pick's twin: a tie, not an improvement
+    pick = Candidate("exit_point_error", 6)
+    right = Candidate("tension_gain", 4)  # another cable: only the swap may name it
+    near_twin = Candidate("tension_gain", 6)
+    far_twin = Candidate("tension_offset", 2)
+    cols = {right: truth, near_twin: twin, far_twin: twin}
+
+    def heldout(Zc, yc):
+        half = n // 2
+        b, *_ = np.linalg.lstsq(Zc[:half].reshape(-1, Zc.shape[2]), yc[:half].reshape(-1),
+                                rcond=None)
+        r = yc[half:] - np.einsum("nip,p->ni", Zc[half:], b)
+        return float(np.sqrt(np.mean(r * r)))
+
+    Z = np.concatenate([base, wrong], axis=2)
+    k, alt, ties = S.best_swap([pick], {pick: [right, near_twin, far_twin]}, Z, y,
+                               lambda c: [1], cols.__getitem__, heldout, 0.01,
+                               near={pick: [near_twin]})
+    assert (k, alt) == (0, right)
+    assert ties[pick] == [near_twin]  # the far twin ties too, but is not an alias
+    k2, alt2, _ = S.best_swap([pick], {pick: [near_twin, far_twin]}, Z, y, lambda c: [1],
+                              cols.__getitem__, heldout, 0.01)
+    assert k2 is None and alt2 is None
