@@ -11,18 +11,30 @@ differentiated on its own, so no derivative ever spans a gap, and :func:`segment
 samples near every segment edge exactly like the ends of the recording.
 """
 
+# ruff: noqa: F722  (jaxtyping shape strings)
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable, Sequence
 
 import jax
 import numpy as np
+from jaxtyping import Float
 
 from .differentiators import differentiate
 from .io.dataset import AlignedSignals
 from .rotations import angular_rates_from_quat, quat_to_matrix
 
-__all__ = ["Motion", "estimate_motion", "segment_mask"]
+__all__ = ["BLOCK", "Motion", "angular_rates", "blockwise", "estimate_motion", "rotation_matrices",
+           "segment_mask"]
+
+BLOCK = 16384
+"""Samples per jitted call when the per-sample rotation functions are evaluated block by block
+(the same size as ``cdprid.regression.CHUNK``): one block shape, so each function compiles once,
+and only (BLOCK, ...) temporaries are alive at a time."""
+
+_quat_to_matrix_jit = jax.jit(jax.vmap(quat_to_matrix))
+_angular_rates_jit = jax.jit(jax.vmap(angular_rates_from_quat))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,6 +96,84 @@ def segment_mask(t, segments, trim: float) -> np.ndarray:
     return keep
 
 
+def blockwise(fn: Callable, arrays: Sequence[np.ndarray], outs: Sequence[np.ndarray],
+              block: int = BLOCK) -> None:
+    """Evaluate a per-sample-vmapped ``fn`` over time in blocks of one fixed shape.
+
+    ``outs[k][i] = fn(*arrays)[k][i]`` for every sample ``i``; ``fn`` sees ``block`` samples at a
+    time (a shorter input or last block is padded by repeating its last sample, and the padding
+    is dropped), so a jitted ``fn`` compiles once for any length and any number of segments, and
+    holds only (block, ...) temporaries.
+
+    Parameters
+    ----------
+    fn : callable
+        Maps arrays of shape (block, ...) to a tuple of arrays of shape (block, ...).
+    arrays : sequence of ndarray (n, ...)
+        Inputs, numpy (sliced and padded on the host, so no eager JAX op is run).
+    outs : sequence of ndarray (n, ...)
+        Preallocated outputs, one per result of ``fn``, filled in place.
+    block : int
+        Samples per call.
+    """
+    n = len(arrays[0])
+    c = max(1, int(block))
+    for a in range(0, n, c):
+        b = min(a + c, n)
+        parts = [x[a:b] for x in arrays]
+        if b - a < c:
+            parts = [np.concatenate([x, np.repeat(x[-1:], c - (b - a), axis=0)]) for x in parts]
+        for o, r in zip(outs, fn(*parts), strict=True):
+            o[a:b] = np.asarray(r)[: b - a]
+
+
+def rotation_matrices(q: Float[np.ndarray, "n 4"],
+                      block: int = BLOCK) -> Float[np.ndarray, "n 3 3"]:
+    """Rotation matrices of unit quaternions (``cdprid.rotations.quat_to_matrix`` per sample).
+
+    Parameters
+    ----------
+    q : ndarray (n, 4)
+        Quaternions ``[qw, qx, qy, qz]`` (normalised per sample).
+    block : int
+        Samples per jitted call (see :func:`blockwise`).
+
+    Returns
+    -------
+    ndarray (n, 3, 3)
+    """
+    q = np.asarray(q, float)
+    R = np.empty((len(q), 3, 3))
+    if len(q):
+        blockwise(lambda x: (_quat_to_matrix_jit(x),), (q,), (R,), block)
+    return R
+
+
+def angular_rates(q: Float[np.ndarray, "n 4"], qd: Float[np.ndarray, "n 4"],
+                  qdd: Float[np.ndarray, "n 4"], block: int = BLOCK
+                  ) -> tuple[Float[np.ndarray, "n 3"], Float[np.ndarray, "n 3"]]:
+    """Angular velocity and acceleration (base frame) per sample from q and its derivatives.
+
+    ``cdprid.rotations.angular_rates_from_quat`` per sample, jit-compiled and evaluated in blocks.
+
+    Parameters
+    ----------
+    q, qd, qdd : ndarray (n, 4)
+        Quaternion and its first and second time derivatives.
+    block : int
+        Samples per jitted call (see :func:`blockwise`).
+
+    Returns
+    -------
+    omega, alpha : ndarray (n, 3)
+    """
+    arrays = tuple(np.asarray(x, float) for x in (q, qd, qdd))
+    om, al = np.empty((len(arrays[0]), 3)), np.empty((len(arrays[0]), 3))
+    if len(om):
+        blockwise(_angular_rates_jit, arrays, (om, al), block)
+    return om, al
+
+
 def estimate_motion(sig: AlignedSignals, method: str = "euler-filtfilt", params: dict | None = None,
                     angular: bool = True) -> Motion:
     """Differentiate the aligned pose.
@@ -100,7 +190,7 @@ def estimate_motion(sig: AlignedSignals, method: str = "euler-filtfilt", params:
     """
     params = dict(params or {})
     segs = tuple(getattr(sig, "segments", ()) or ((0, len(sig.t)),))
-    R = np.asarray(jax.vmap(quat_to_matrix)(sig.quaternion))
+    R = rotation_matrices(sig.quaternion)
     rot = angular and sig.has_rotation
     n = len(sig.t)
     v, a = np.empty((n, 3)), np.empty((n, 3))
@@ -111,6 +201,5 @@ def estimate_motion(sig: AlignedSignals, method: str = "euler-filtfilt", params:
         if rot:
             q = sig.quaternion[i0:i1]
             qd, qdd = differentiate(q, sig.dt, method=method, **params)
-            o, al_ = jax.vmap(angular_rates_from_quat)(q, qd, qdd)
-            om[i0:i1], al[i0:i1] = np.asarray(o), np.asarray(al_)
+            om[i0:i1], al[i0:i1] = angular_rates(q, qd, qdd)
     return Motion(sig.t, sig.position, v, a, R, om, al, method, segs)
