@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .rotations import angular_rates_from_quat, rotvec_to_quat
-from .trajectories import Trajectory, TrajectoryState, smoothstep7_derivs
+from .trajectories import TimedTrajectory, Trajectory, TrajectoryState, smoothstep7_derivs
 
 __all__ = [
     "FAMILIES",
@@ -204,7 +204,7 @@ class OrbitFamily(eqx.Module):
         return TrajectoryState(t, P["centre"] + d[0], d[1], d[2], d[3], q, zero, zero)
 
 
-class FourierTrajectory(eqx.Module):
+class FourierTrajectory(TimedTrajectory):
     """Position and small rotation as ramped Fourier series (duck-types ``Trajectory``).
 
     ``B_p(t) = c + E(t) sum_k (P_cos[k] cos(2 pi k f0 s) + P_sin[k] sin(2 pi k f0 s))`` and the
@@ -227,14 +227,6 @@ class FourierTrajectory(eqx.Module):
     @property
     def has_rotation(self) -> bool:
         return True
-
-    @property
-    def t_start(self) -> float:
-        return 0.0
-
-    @property
-    def t_end(self) -> float:
-        return float(self.duration)
 
     def _series_derivs(self, C, S, t):
         """Derivatives 0..3 (each (n, 3)) of ``E(t) sum_k (C_k cos + S_k sin)`` at times t (n,)."""
@@ -410,7 +402,7 @@ def move_duration(distance: float, speed_max: float, acceleration_max: float, je
     return float(np.ceil(T * 10.0 - 1e-9) / 10.0)
 
 
-class HomedTrajectory(eqx.Module):
+class HomedTrajectory(TimedTrajectory):
     """A family's trajectory (coordinates z) preceded by a move from rest at ``home`` to its
     start point and followed by the move back (rest to rest, continuous jerk).
 
@@ -430,16 +422,9 @@ class HomedTrajectory(eqx.Module):
         return bool(self.family.rotates)
 
     @property
-    def t_start(self) -> float:
-        return 0.0
-
-    @property
-    def t_end(self) -> float:
-        return float(2.0 * self.t_move + self.family.duration)
-
-    @property
     def duration(self) -> float:
-        return self.t_end
+        """Whole duration (moves and exciting part), s; ``t_end`` of :class:`TimedTrajectory`."""
+        return float(2.0 * self.t_move + self.family.duration)
 
     @property
     def name(self) -> str:

@@ -47,6 +47,7 @@ from .rotations import angular_rates_from_quat, quat_multiply, rotvec_to_quat
 __all__ = [
     "Orbit",
     "Rotation",
+    "TimedTrajectory",
     "Trajectory",
     "SampledTrajectory",
     "TrajectoryState",
@@ -265,7 +266,22 @@ class Orbit:
             )
 
 
-class Trajectory(eqx.Module):
+class TimedTrajectory(eqx.Module):
+    """Base of the trajectories that start at t = 0 and last ``duration`` s: ``t_start`` and
+    ``t_end`` (the interface that :class:`SampledTrajectory` gives from its samples)."""
+
+    @property
+    def t_start(self) -> float:
+        """Start time, s."""
+        return 0.0
+
+    @property
+    def t_end(self) -> float:
+        """End time, s."""
+        return float(self.duration)
+
+
+class Trajectory(TimedTrajectory):
     """A sequence of ramped orbits about a rest point, optionally with small rotations.
 
     Build it with :func:`orbit_sequence` or :func:`preset`; evaluate it with :meth:`evaluate`.
@@ -302,16 +318,6 @@ class Trajectory(eqx.Module):
     def has_rotation(self) -> bool:
         """True when the platform rotates."""
         return self.rotation is not None and bool(np.any(np.asarray(self.rotation.amplitude) != 0))
-
-    @property
-    def t_start(self) -> float:
-        """Start time, s."""
-        return 0.0
-
-    @property
-    def t_end(self) -> float:
-        """End time, s."""
-        return float(self.duration)
 
     def position(self, t):
         """Position of P (3,) at a scalar time t (closed form of the module docstring)."""
