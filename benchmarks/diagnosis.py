@@ -375,8 +375,8 @@ def tables(rows: list, args) -> list:
                   "finding's 95 % interval, or within 25 % / 35 % for displacements) and no "
                   "other finding; `extra` = named plus another finding; `in 95 %` = true value "
                   "inside the reported interval. Detection limit = smallest size named in "
-                  ">= 90 % of the seeds (shown only with 10 seeds or more; otherwise the "
-                  "smallest size named in every seed run, marked `*`).", "",
+                  ">= 90 % of 10 or more seeds, over at least two sizes (otherwise `not measured`, "
+                  "with the size named in every run).", "",
                   "| robot | effect | size | named | extra | partial/wrong | missed | in 95 % |",
                   "|---|---|---|---|---|---|---|---|"]
         limits = []
@@ -397,11 +397,22 @@ def tables(rows: list, args) -> list:
                     need = 0.9 * len(g) if len(g) >= 10 else len(g)
                     if k >= need:  # sizes go down: the last one that passes is the smallest
                         limit = (size, len(g))
+                n_sizes = len({r["label"] for r in sub})
+                n_seeds = min(sum(r["label"] == lab for r in sub) for lab in
+                              {r["label"] for r in sub})
+                if n_sizes < 2 or n_seeds < 10:
+                    limit = ("not measured", n_sizes, n_seeds, limit)
                 limits.append((rb, eff, limit))
         lines += ["", "| robot | effect | detection limit |", "|---|---|---|"]
         for rb, eff, limit in limits:
-            txt = "not named at any size tried" if limit is None else (
-                f"{limit[0]:g}" + ("" if limit[1] >= 10 else f" * ({limit[1]} seeds)"))
+            if limit is not None and limit[0] == "not measured":
+                _, n_sizes, n_seeds, lim = limit
+                txt = (f"not measured ({n_sizes} size(s), {n_seeds} seed(s)); named in every "
+                       f"run at size {lim[0]:g}" if lim else
+                       f"not measured ({n_sizes} size(s), {n_seeds} seed(s)); not named in "
+                       "every run at any size tried")
+            else:
+                txt = "not named at any size tried" if limit is None else f"{limit[0]:g}"
             lines.append(f"| {rb} | {eff} | {txt} |")
         lines.append("")
     pairs = [r for r in rows if r["kind"] == "pair"]
