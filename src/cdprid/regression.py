@@ -22,14 +22,14 @@ from jaxtyping import Float
 
 from .dynamics import regressor
 from .geometry import CableRobot, wrench_matrix
-from .motion import Motion
+from .motion import BLOCK, Motion, blockwise
 
 __all__ = [
     "CHUNK", "Regression", "StreamedRegression", "build_regression", "cable_wrench",
     "measured_wrench", "regressor_blocks", "regressors", "wrench_matrices",
 ]
 
-CHUNK = 16384
+CHUNK = BLOCK  # 16384, the same blocks as cdprid.motion
 """Time samples per block when per-sample arrays are evaluated block by block (bounded memory:
 the jitted functions see one fixed block shape, the last block is padded)."""
 
@@ -107,16 +107,10 @@ _regressors_jit = jax.jit(regressors, static_argnums=0)
 
 
 def _blockwise(fn, arrays, out, i0: int, i1: int, chunk: int) -> None:
-    """``out[j] = fn(*arrays)[i0 + j]`` for ``i0 <= i < i1``, evaluated ``chunk`` samples at a
-    time with one fixed block shape (a shorter request or last block is padded by repeating its
-    last sample), so a jitted ``fn`` compiles once whatever the requests."""
-    c = max(1, int(chunk))
-    for a in range(i0, i1, c):
-        b = min(a + c, i1)
-        parts = [np.asarray(x[a:b], float) for x in arrays]
-        if b - a < c:
-            parts = [np.concatenate([x, np.repeat(x[-1:], c - (b - a), axis=0)]) for x in parts]
-        out[a - i0:b - i0] = np.asarray(fn(*parts))[: b - a]  # numpy in: no eager ops
+    """``out[j] = fn(*arrays)[i0 + j]`` for ``i0 <= i < i1``: :func:`cdprid.motion.blockwise` on
+    that range (one fixed block shape, so a jitted ``fn`` compiles once whatever the requests)."""
+    blockwise(lambda *parts: (fn(*parts),), [np.asarray(x[i0:i1], float) for x in arrays],
+              [out], chunk)
 
 
 def cable_wrench(robot: CableRobot, B_p: Float[np.ndarray, "n 3"],
