@@ -16,22 +16,13 @@ from cdprid import excitation as ex
 from cdprid.excitation_check import robust_tension_margins
 from cdprid.excitation_safety import corner_parameters, uncertainty_from_prior
 from cdprid.geometry import robot_from_dict
-from cdprid.robots import SIX_TIGHT, SMALL_EIGHT
+from cdprid.robots import FOUR_POINT, SIX_TIGHT, SMALL_EIGHT
 
 # ----------------------------------------------------------------------------- robots
 
 EIGHT = SMALL_EIGHT  # 8 cables, small workspace, tight limits, uncertain platform with a body
 
-FOUR = {  # suspended point-mass robot: 4 cables meeting at P, com at P (no moment to balance)
-    "name": "four-point",
-    "limits": {"tension_min": 2.0, "tension_max": 60.0, "cable_speed_max": 0.8,
-               "workspace_min": [-0.35, -0.3, 0.5], "workspace_max": [0.35, 0.3, 0.9],
-               "acceleration_max": 1.2, "jerk_max": 6.0, "cable_clearance": 0.01},
-    "cable": [{"exit": [x, y, 1.8], "anchor": [0.0, 0.0, 0.0]}
-              for x, y in ((1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0))],
-    "platform": {"mass": 3.0, "com": [0.0, 0.0, 0.0], "inertia": np.eye(3).tolist(),
-                 "mass_uncertainty": 0.2, "com_uncertainty": 0.0},
-}
+FOUR = FOUR_POINT  # suspended point-mass robot: 4 cables meeting at P, com at P (no moment)
 
 
 def test_segment_distances_against_brute_force(rng):
