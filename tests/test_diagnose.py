@@ -255,6 +255,15 @@ def test_structure_features_sign_matches_cable_rate():
     assert np.allclose(f["sign of cable velocity"], W * np.sign(ldot)[:, None, :])
 
 
+def half_split_heldout(Zc, yc):
+    """Held-out RMS of a fit on the first half of the samples, evaluated on the second."""
+    half = len(Zc) // 2
+    b, *_ = np.linalg.lstsq(Zc[:half].reshape(-1, Zc.shape[2]), yc[:half].reshape(-1),
+                            rcond=None)
+    r = yc[half:] - np.einsum("nip,p->ni", Zc[half:], b)
+    return float(np.sqrt(np.mean(r * r)))
+
+
 def test_backward_step_drops_a_redundant_pick_and_keeps_a_needed_one():
     rng = np.random.default_rng(9)
     n = 2000
@@ -267,12 +276,7 @@ def test_backward_step_drops_a_redundant_pick_and_keeps_a_needed_one():
     cols = {picks[0]: [1], picks[1]: [2], picks[2]: [3]}
     train = np.ones(n, bool)
 
-    def heldout(Zc, yc):
-        half = n // 2
-        b, *_ = np.linalg.lstsq(Zc[:half].reshape(-1, Zc.shape[2]), yc[:half].reshape(-1),
-                                rcond=None)
-        r = yc[half:] - np.einsum("nip,p->ni", Zc[half:], b)
-        return float(np.sqrt(np.mean(r * r)))
+    heldout = half_split_heldout
 
     k, why, _ = S.weakest_finding(picks, Z, y, cols.__getitem__, heldout, train, 75, 0.01, 1e-4)
     assert k in (0, 2) and why
@@ -417,12 +421,7 @@ def test_swap_replaces_a_pick_by_a_better_candidate_on_another_cable():
     far_twin = Candidate("tension_offset", 2)
     cols = {right: truth, near_twin: twin, far_twin: twin}
 
-    def heldout(Zc, yc):
-        half = n // 2
-        b, *_ = np.linalg.lstsq(Zc[:half].reshape(-1, Zc.shape[2]), yc[:half].reshape(-1),
-                                rcond=None)
-        r = yc[half:] - np.einsum("nip,p->ni", Zc[half:], b)
-        return float(np.sqrt(np.mean(r * r)))
+    heldout = half_split_heldout
 
     Z = np.concatenate([base, wrong], axis=2)
     k, alt, ties = S.best_swap([pick], {pick: [right, near_twin, far_twin]}, Z, y,
