@@ -34,8 +34,25 @@ CHUNK = BLOCK  # 16384, the same blocks as cdprid.motion
 the jitted functions see one fixed block shape, the last block is padded)."""
 
 
+class _StackedWrenches:
+    """Stacked views shared by :class:`Regression` and :class:`StreamedRegression`."""
+
+    t: np.ndarray
+    y: np.ndarray
+
+    @property
+    def Y_ID(self) -> np.ndarray:
+        """Stacked wrenches (6 n,)."""
+        return self.y.reshape(-1)
+
+    @property
+    def groups(self) -> np.ndarray:
+        """Row group per stacked row: 0 force, 1 moment."""
+        return np.tile(np.array([0, 0, 0, 1, 1, 1]), len(self.t))
+
+
 @dataclasses.dataclass(frozen=True)
-class Regression:
+class Regression(_StackedWrenches):
     """Per-sample regressors and measured wrenches.
 
     Attributes
@@ -57,16 +74,6 @@ class Regression:
     def W_ID(self) -> np.ndarray:
         """Stacked regressor (6 n, p)."""
         return self.A.reshape(-1, self.A.shape[-1])
-
-    @property
-    def Y_ID(self) -> np.ndarray:
-        """Stacked wrenches (6 n,)."""
-        return self.y.reshape(-1)
-
-    @property
-    def groups(self) -> np.ndarray:
-        """Row group per stacked row: 0 force, 1 moment."""
-        return np.tile(np.array([0, 0, 0, 1, 1, 1]), len(self.t))
 
     def select(self, mask) -> Regression:
         """The samples where ``mask`` is True."""
@@ -158,7 +165,7 @@ def regressor_blocks(model: str, B_R_P: Float[np.ndarray, "n 3 3"], B_a: Float[n
 
 
 @dataclasses.dataclass(frozen=True)
-class StreamedRegression:
+class StreamedRegression(_StackedWrenches):
     """:class:`Regression` whose regressor is evaluated block by block, never held whole.
 
     Attributes
@@ -193,16 +200,6 @@ class StreamedRegression:
         """Stacked regressor (6 n, p), materialised on demand."""
         A = self.A
         return A.reshape(-1, A.shape[-1])
-
-    @property
-    def Y_ID(self) -> np.ndarray:
-        """Stacked wrenches (6 n,)."""
-        return self.y.reshape(-1)
-
-    @property
-    def groups(self) -> np.ndarray:
-        """Row group per stacked row: 0 force, 1 moment."""
-        return np.tile(np.array([0, 0, 0, 1, 1, 1]), len(self.t))
 
     def select(self, mask) -> Regression:
         """The samples where ``mask`` is True (materialised)."""
