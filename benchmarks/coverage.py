@@ -25,18 +25,19 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
-from cdprid.dynamics import PARAMETER_NAMES, InertialParameters  # noqa: E402
-from cdprid.geometry import robot_from_dict  # noqa: E402
+from cdprid.identify import identify_dataset  # noqa: E402
 from cdprid.io import read_dataset  # noqa: E402
-from cdprid.pipeline import identify_dataset  # noqa: E402
-from cdprid.robots import (  # noqa: E402
+from cdprid.model import (  # noqa: E402  # noqa: E402
     EIGHT_REDUNDANT,
+    PARAMETER_NAMES,
     SIX_SUSPENDED,
+    InertialParameters,
     craft_like_robot,
     craft_like_truth,
+    preset,  # noqa: E402
+    robot_from_dict,  # noqa: E402
 )
-from cdprid.simulate import SensorNoise, simulate, write_simulation  # noqa: E402
-from cdprid.trajectories import preset  # noqa: E402
+from cdprid.simulation import SensorNoise, simulate, write_simulation  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 

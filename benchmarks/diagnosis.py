@@ -4,7 +4,7 @@ Usage: python benchmarks/diagnosis.py [--quick] [--seeds 10] [--robots four,six,
        [--kinds clean,oov,pair,single] [--jsonl results/diagnosis_runs.jsonl]
        [--out results/diagnosis.md] [--from-jsonl]
 
-Robots with 4 (point mass), 6 (square W) and 8 cables (:mod:`cdprid.robots`); per seed:
+Robots with 4 (point mass), 6 (square W) and 8 cables (:mod:`cdprid.model._robots`); per seed:
 clean data at several noise levels (no finding expected), Coulomb friction at every load cell
 (outside the vocabulary: no finding, an ``unexplained`` entry), the issue's pairs of effects
 and a pulley reached from below (robot.toml without pulleys), and every effect of the
@@ -144,9 +144,14 @@ def in_interval(effect: str, truth: dict, finding: dict) -> bool:
 
 
 def make_robot(name: str):
-    """``four`` / ``six`` / ``craft8`` / ``eight``: the sample robots of :mod:`cdprid.robots`."""
-    from cdprid.geometry import robot_from_dict
-    from cdprid.robots import EIGHT_REDUNDANT, FOUR_SUSPENDED, SIX_SUSPENDED, craft_like_robot
+    """``four`` / ``six`` / ``craft8`` / ``eight``: the sample robots of :mod:`cdprid.model._robots`."""
+    from cdprid.model import robot_from_dict
+    from cdprid.model._robots import (
+        EIGHT_REDUNDANT,
+        FOUR_SUSPENDED,
+        SIX_SUSPENDED,
+        craft_like_robot,
+    )
 
     if name == "craft8":
         return craft_like_robot()
@@ -178,11 +183,9 @@ def simulate_case(truth: list, seed: int, workdir: Path, robot_name: str = "craf
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    from cdprid.dynamics import InertialParameters
     from cdprid.effects import Effect
-    from cdprid.robots import craft_like_truth
-    from cdprid.simulate import SensorNoise, simulate, write_simulation
-    from cdprid.trajectories import preset
+    from cdprid.model import InertialParameters, craft_like_truth, preset
+    from cdprid.simulation import SensorNoise, simulate, write_simulation
 
     robot = make_robot(robot_name)
     plant = robot
@@ -500,7 +503,7 @@ def main() -> int:
     ap.add_argument("--from-jsonl", action="store_true",
                     help="only write the tables from the records of --jsonl")
     args = ap.parse_args()
-    from cdprid.tensions import InfeasibleTensionsError
+    from cdprid.model import InfeasibleTensionsError
 
     runs = [r for r in plan(args.robots.split(","), args.seeds, args.quick)
             if r[0] in args.kinds.split(",")]
@@ -539,7 +542,7 @@ def main() -> int:
              f"{platform.platform()}, python {sys.version.split()[0]}.", "",
              "Each run: 52 s at 100 Hz on the `rich` trajectory, position noise 0.3 mm, tension "
              "noise 0.7 N, orientation noise 0.2 mrad (none on the 4-cable point-mass robot), "
-             "times the noise scale for clean data; robots of `cdprid.robots`: `four` "
+             "times the noise scale for clean data; robots of `cdprid.model._robots`: `four` "
              "(FOUR_SUSPENDED, point mass), `six` (SIX_SUSPENDED, square W), `craft8` "
              "(CRAFT-like). Cables, signs and directions are drawn per seed.", ""]
     lines += summary(rows) + tables(rows, args)

@@ -1,4 +1,4 @@
-"""Benchmark of cdprid.differentiators: accuracy on a noisy circle and speed.
+"""Benchmark of cdprid.signal._differentiators: accuracy on a noisy circle and speed.
 
 Usage::
 
@@ -40,8 +40,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy import signal  # noqa: E402
 
-from cdprid import differentiators as D  # noqa: E402
-from cdprid.differentiators import METHODS, differentiate  # noqa: E402
+from cdprid.signal import METHODS, differentiate  # noqa: E402
+from cdprid.signal import _differentiators as D  # noqa: E402
 
 DT = 0.01
 T_END = 52.0
@@ -65,7 +65,7 @@ def rmse3(a_hat, acc, mask):
 
 
 # ---------------------------------------------------------------------------
-# pure-Python SIHD-2 cascade (same equations as cdprid.differentiators)
+# pure-Python SIHD-2 cascade (same equations as cdprid.signal._differentiators)
 # ---------------------------------------------------------------------------
 
 
@@ -367,7 +367,7 @@ body as ~14 small fused kernels per step (~0.5-0.9 us per step on this
 machine), which bounds the speed-up over a scalar Python loop (~7.5 us per
 3-channel step) to the order of 10x (the ratio below varies between runs with
 the speed of both sides). The output blocking of
-`cdprid.differentiators.scan_blocked` keeps the body on XLA's sequential
+`cdprid.signal._differentiators.scan_blocked` keeps the body on XLA's sequential
 executor path: kernel alone on this signal, timed interleaved (best of 20),
 {t_blk * 1e3:.2f} ms with output blocks of {D._block_size(3)} steps vs
 {t_plain * 1e3:.2f} ms for the plain scan ({t_blk / 5200 * 1e9:.0f} vs

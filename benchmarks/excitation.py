@@ -6,7 +6,7 @@ time series of each optimised design). Run from the repository root::
 
     .venv/bin/python benchmarks/excitation.py [--mc 3] [--starts 3] [--cases robot:family,...]
 
-Robots (:mod:`cdprid.robots`, no ../shared needed): ``four-point`` (4 cables, point mass),
+Robots (:mod:`cdprid.model._robots`, no ../shared needed): ``four-point`` (4 cables, point mass),
 ``six-tight`` (6 cables, the issue's 0.8 x 0.7 x 0.45 m workspace, 1 m/s), ``small-8`` (8 cables,
 small workspace, tight limits, body box) and the CRAFT-like robot (robot.toml gives no spec 1.1
 limits: the stated defaults apply).
@@ -40,15 +40,20 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from cdprid import excitation as ex  # noqa: E402
-from cdprid.excitation_check import safety_series  # noqa: E402
-from cdprid.geometry import robot_from_dict  # noqa: E402
+from cdprid.excitation import _optimise as ex  # noqa: E402
+from cdprid.excitation import safety_series  # noqa: E402
+from cdprid.model import (  # noqa: E402
+    CRAFT_LIKE,
+    FOUR_POINT,
+    SIX_TIGHT,
+    SMALL_EIGHT,
+    robot_from_dict,  # noqa: E402
+)
 from cdprid.report.excitation import plot_safety_series  # noqa: E402
-from cdprid.robots import CRAFT_LIKE, FOUR_POINT, SIX_TIGHT, SMALL_EIGHT  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SMALL8 = SMALL_EIGHT  # the sample robot of cdprid.robots (also used by the tests)
+SMALL8 = SMALL_EIGHT  # the sample robot of cdprid.model._robots (also used by the tests)
 SPEED: list = []  # (case, goal s, optimiser s incl. JIT, starts, whole call s)
 SUMMARY: list = []  # one row per case
 
@@ -97,9 +102,9 @@ def worst_parameter(prob, rep):
 
 def mc_pipeline(prob, rep, n_runs, seed):
     """RMS errors (p,) of n_runs simulate -> differentiate -> identify runs (true = nominal)."""
+    from cdprid.identify import identify_dataset
     from cdprid.io import read_dataset
-    from cdprid.pipeline import identify_dataset
-    from cdprid.simulate import simulate, write_simulation
+    from cdprid.simulation import simulate, write_simulation
 
     traj = prob.homed(jnp.asarray(rep.z))
     x_true = np.asarray(prob.nominal.vector(prob.model))

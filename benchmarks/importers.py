@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-CDPRID = [sys.executable, "-m", "cdprid.cli"]
+CDPRID = [sys.executable, "-m", "cdprid.cli._main"]
 
 
 def _long_dataset(minutes: float, rate: float = 100.0):
@@ -150,7 +150,7 @@ def main() -> int:
     text = "\n".join(lines) + "\n"
     print(text)
     out = ROOT / "results" / "importers.md"
-    from cdprid.outputs import write_text
+    from cdprid.base import write_text
 
     write_text(out, text)
     print(f"wrote {out}")

@@ -2,12 +2,12 @@
 
 Measures, for the 4- and 10-parameter models:
 
-- the per-sample latency of :func:`cdprid.online.online_step` called one sample at a time
+- the per-sample latency of :func:`cdprid.identify.online_step` called one sample at a time
   from Python (jit-compiled, ``block_until_ready`` after every call: what a real-time loop
   driven from Python pays, dispatch overhead included);
-- the same through :class:`cdprid.online.OnlineStepper` (compiled ahead of time, state packed
+- the same through :class:`cdprid.identify.OnlineStepper` (compiled ahead of time, state packed
   in one vector: the real-time driver);
-- the per-sample cost inside one ``lax.scan`` (:func:`cdprid.online.online_identify`'s kernel,
+- the per-sample cost inside one ``lax.scan`` (:func:`cdprid.identify.online_identify`'s kernel,
   whole run divided by the number of samples: the cost of the step itself);
 
 and the estimation quality on simulated CRAFT-like data (``paper-orbits``, 52 s, default
@@ -41,8 +41,7 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from cdprid.dynamics import InertialParameters  # noqa: E402
-from cdprid.online import (  # noqa: E402
+from cdprid.identify._online import (  # noqa: E402
     OnlineSample,
     OnlineStepper,
     _online_scan,
@@ -50,10 +49,14 @@ from cdprid.online import (  # noqa: E402
     online_init,
     online_step,
 )
+from cdprid.model import (  # noqa: E402
+    InertialParameters,  # noqa: E402
+    craft_like_robot,
+    craft_like_truth,
+    preset,  # noqa: E402
+)
 from cdprid.report.online import plot_online  # noqa: E402
-from cdprid.robots import craft_like_robot, craft_like_truth  # noqa: E402
-from cdprid.simulate import simulate  # noqa: E402
-from cdprid.trajectories import preset  # noqa: E402
+from cdprid.simulation import simulate  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results"
@@ -149,10 +152,10 @@ def online_vs_batch(seeds: int) -> list[str]:
     """
     import tempfile
 
-    from cdprid.dynamics import PARAMETER_NAMES
+    from cdprid.identify import identify_dataset
     from cdprid.io import read_dataset
-    from cdprid.pipeline import identify_dataset
-    from cdprid.simulate import SensorNoise, write_simulation
+    from cdprid.model import PARAMETER_NAMES
+    from cdprid.simulation import SensorNoise, write_simulation
 
     lines = [VS_BATCH_HEADING, "",
              f"Command: `PYTHONPATH=src python benchmarks/online.py --only vs-batch --seeds "
@@ -241,9 +244,9 @@ def main(argv=None) -> int:
     # ---- convergence: wrench filters vs truth and the batch pipeline
     import tempfile
 
+    from cdprid.identify import identify_dataset
     from cdprid.io import read_dataset
-    from cdprid.pipeline import identify_dataset
-    from cdprid.simulate import write_simulation
+    from cdprid.simulation import write_simulation
 
     rows = []
     runs = {}
@@ -328,7 +331,7 @@ def main(argv=None) -> int:
         lines.append(f"| {label} | {cells} | {sr:.3g} |")
     lines += [
         "",
-        "Lag compensation (module docstring of `cdprid.online`): the causal SIHD cascade delays "
+        "Lag compensation (module docstring of `cdprid.identify._online`): the causal SIHD cascade delays "
         "and attenuates the accelerations; `matched` passes W tau through the same SIHD cascade "
         "(fed with its running integral), `delay` delays it by 30 samples, `none` leaves it. "
         "Without compensation m zG (carried by the horizontal accelerations) is biased; a pure "

@@ -2,7 +2,7 @@
 
 Imports the recording with the geometric calibration (both configuration files), identifies
 the paper's translation model and its extensions jointly with the sensor nuisances
-(:mod:`cdprid.real`), train t < 25 s, held-out 25-37 s, taut phases only, and writes
+(:mod:`cdprid.identify._real`), train t < 25 s, held-out 25-37 s, taut phases only, and writes
 ``results/real-uacdpr.md`` and ``results/real_*.png``.
 
 Run: ``.venv/bin/python benchmarks/real_uacdpr.py`` (a few minutes; reads ../shared or
@@ -23,8 +23,13 @@ import numpy as np
 jax.config.update("jax_enable_x64", True)
 
 from cdprid import read_dataset  # noqa: E402
-from cdprid.calibration import import_calibrated_uacdpr  # noqa: E402
-from cdprid.real import compare_extensions, identify_real, prepare_real, weight_at_rest  # noqa: E402
+from cdprid.identify import (  # noqa: E402
+    compare_extensions,
+    identify_real,
+    import_calibrated_uacdpr,  # noqa: E402
+    prepare_real,
+    weight_at_rest,
+)
 from cdprid.report.real import fig_nuisance, fig_residuals, fig_tensions, fig_wrench  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,11 +59,10 @@ def _inertia_G(r) -> np.ndarray:
 
 def interpolation_study(true_delay: float = 0.0237, seeds: int = 3) -> list[str]:
     """Delay recovered on simulated data with a known delay: linear vs Catmull-Rom
-    interpolation of the tension stream, raw vs smoothed (cdprid.nuisance.SMOOTH_HZ)."""
-    from cdprid.nuisance import SMOOTH_HZ
-    from cdprid.robots import craft_like_robot
-    from cdprid.simulate import simulate, write_simulation
-    from cdprid.trajectories import preset
+    interpolation of the tension stream, raw vs smoothed (cdprid.core._nuisance.SMOOTH_HZ)."""
+    from cdprid.core._nuisance import SMOOTH_HZ
+    from cdprid.model import craft_like_robot, preset
+    from cdprid.simulation import simulate, write_simulation
 
     rob = craft_like_robot()
     datas = []

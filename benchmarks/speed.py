@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-CDPRID = [sys.executable, "-m", "cdprid.cli"]
+CDPRID = [sys.executable, "-m", "cdprid.cli._main"]
 
 
 def timed(args, cwd):
@@ -82,8 +82,8 @@ def _startup(d: Path) -> list[str]:
     imp = _importtime(env)
     for n, v in imp:
         print(f"import time of {n:10s} {v:6.2f} s", flush=True)
-    lines += ["", "Import time on identify's path (`python -X importtime -c \"import cdprid.cli, "
-              "cdprid.pipeline, cdprid.io.dataset\"`, cumulative time of each top-level package "
+    lines += ["", "Import time on identify's path (`python -X importtime -c \"import cdprid.cli._main, "
+              "cdprid.identify._batch, cdprid.io.dataset\"`, cumulative time of each top-level package "
               "the first time it is imported, least of 3; scipy 0 means it is not imported):", "",
               "| package | import time [s] |", "|---|---:|"]
     lines += [f"| {n} | {v:.2f} |" for n, v in imp]
@@ -97,7 +97,7 @@ def _importtime(env: dict) -> list[tuple[str, float]]:
     pipeline, the dataset reader); a package's entries count unless nested in one of its own
     (jax imported inside cdprid counts for jax and inside cdprid's time too).
     """
-    code = "import cdprid.cli, cdprid.pipeline, cdprid.io.dataset"
+    code = "import cdprid.cli._main, cdprid.identify._batch, cdprid.io.dataset"
     best = None
     for _ in range(3):
         p = subprocess.run([sys.executable, "-X", "importtime", "-c", code], cwd=ROOT,

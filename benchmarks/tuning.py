@@ -1,4 +1,4 @@
-"""Benchmark of cdprid.tuning: tuned differentiators under acceleration-response bounds, on a
+"""Benchmark of cdprid.tuning._tuning: tuned differentiators under acceleration-response bounds, on a
 held-out family of trajectories, against the best causal anchor (a 5-state Kalman filter).
 
 Usage::
@@ -42,7 +42,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy.linalg  # noqa: E402
 
-from cdprid import tuning as T  # noqa: E402
+from cdprid.tuning import _tuning as T  # noqa: E402
 
 NOISE = 5e-4
 RELAXED_ABOVE = 1.5  # a variant that allows a gain peak above the bandwidth (below it: unchanged)

@@ -1,8 +1,8 @@
 """Replication of the seed paper's section 7 (Table 1, Figs. 3-4) and of its mzG gap.
 
 Everything here goes through the public data path (:func:`cdprid.identify_dataset`,
-:func:`cdprid.differentiate`, :func:`cdprid.io.align`, :func:`cdprid.motion.estimate_motion`,
-:func:`cdprid.regression.build_regression`, :func:`cdprid.least_squares`) and is shared by
+:func:`cdprid.differentiate`, :func:`cdprid.io.align`, :func:`cdprid.core.estimate_motion`,
+:func:`cdprid.core.build_regression`, :func:`cdprid.least_squares`) and is shared by
 ``benchmarks/paper_replication.py`` and ``notebooks/02_paper_replication.ipynb``.
 
 The mzG gap
@@ -42,14 +42,14 @@ import numpy as np
 from scipy import signal as _signal
 from scipy.special import gamma as _gamma
 
-from cdprid.covariance import hac_covariance, std_from_cov
-from cdprid.differentiators import METHODS, differentiate
-from cdprid.dynamics import PARAMETER_NAMES
-from cdprid.identification import least_squares
+from cdprid.core import hac_covariance, std_from_cov
+from cdprid.core import least_squares
+from cdprid.core import estimate_motion
+from cdprid.core import build_regression
+from cdprid.identify import DEFAULT_TRIM_S, identify_dataset
 from cdprid.io.dataset import Dataset, align
-from cdprid.motion import estimate_motion
-from cdprid.pipeline import DEFAULT_TRIM_S, identify_dataset
-from cdprid.regression import build_regression
+from cdprid.model import PARAMETER_NAMES
+from cdprid.signal import METHODS, differentiate
 
 __all__ = [
     "PAPER_TABLE1",
@@ -126,7 +126,7 @@ def find_shared(start: str | Path | None = None) -> Path | None:
 
 def hac_std(A, e, lags: int) -> np.ndarray:
     """Newey-West (Bartlett) standard deviations of ordinary LS coefficients with a fixed
-    window: :func:`cdprid.covariance.hac_covariance` with bandwidth ``lags + 1`` (weights
+    window: :func:`cdprid.core.hac_covariance` with bandwidth ``lags + 1`` (weights
     ``1 - k / (lags + 1)`` for lags ``k <= lags``).
 
     Parameters
@@ -476,7 +476,7 @@ def mzg_gap(ds: Dataset, f_hz: float = ORBIT_FREQ_HZ, amplitude: float = 0.4,
     _, a_euler = differentiate(sig.position, dt, "euler-filtfilt")
     from functools import partial
 
-    from cdprid.differentiators import zero_phase_filter
+    from cdprid.signal import zero_phase_filter
 
     zp = partial(zero_phase_filter, dt=dt, cutoff_hz=4.0, order=2)
     V = {

@@ -21,9 +21,9 @@ import numpy as np
 jax.config.update("jax_enable_x64", True)
 
 from cdprid.data import SAMPLE_ROBOT, SAMPLE_SETTINGS  # noqa: E402
-from cdprid.geometry import robot_from_dict  # noqa: E402
-from cdprid.simulate import simulate, write_simulation  # noqa: E402
-from cdprid.trajectories import preset  # noqa: E402
+from cdprid.model import robot_from_dict  # noqa: E402
+from cdprid.model import preset  # noqa: E402
+from cdprid.simulation import simulate, write_simulation  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "src" / "cdprid" / "data"

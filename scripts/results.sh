@@ -18,7 +18,7 @@ if [ -f benchmarks/paper_replication.py ]; then
     TMP=$(mktemp -d)
     trap 'rm -rf "$TMP"' EXIT
     echo "[results] $SHARED is absent: regenerating the CRAFT-like orbits dataset (cdprid simulate, seed 0)"
-    "$PY" -m cdprid.cli simulate --preset paper-orbits --seed 0 --out "$TMP/craft-sim-orbits"
+    "$PY" -m cdprid.cli._main simulate --preset paper-orbits --seed 0 --out "$TMP/craft-sim-orbits"
     run benchmarks/paper_replication.py --dataset "$TMP/craft-sim-orbits"
   fi
 fi

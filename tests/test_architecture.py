@@ -38,6 +38,9 @@ ALLOWED_BENCHMARK_USERS: dict[str, str] = {
 # import cycles as frozensets of module names
 ALLOWED_CYCLES: dict[frozenset, str] = {
 }
+# "importer -> imported" against the layer order (LAYERS below)
+ALLOWED_LAYER_VIOLATIONS: dict[str, str] = {
+}
 
 
 # --------------------------------------------------------------------------- the tree
@@ -144,7 +147,7 @@ def _check(found: dict[str, str], allowed: dict, what: str) -> None:
 def test_import_graph_is_built_from_the_tree():
     g = _graph()
     # a known edge of the core path: the check would pass vacuously without it
-    assert "cdprid.geometry" in g["cdprid.regression"]
+    assert "cdprid.model._geometry" in g["cdprid.core._regression"]
     assert len(g) > 20
 
 
@@ -165,18 +168,14 @@ def test_nothing_below_cli_imports_cli():
     _check(found, ALLOWED_CLI_IMPORTS, "imports of the CLI from below it")
 
 
-BASE = {"cdprid.errors", "cdprid.outputs", "cdprid.defaults"}
-MODEL = {"cdprid.geometry", "cdprid.rotations", "cdprid.dynamics"}
-
-
 def _is_report(mod: str) -> bool:
-    return mod == "cdprid.plots" or mod == "cdprid.report" or mod.startswith("cdprid.report.")
+    return mod == "cdprid.report" or mod.startswith("cdprid.report.")
 
 
 def test_io_layer_imports_only_base_model_and_io():
     """io converts formats: it reads the robot model but never calls a feature."""
     bad = {f"{m} -> {d}" for m, deps in _graph().items() if m.startswith("cdprid.io")
-           for d in deps if not (d.startswith("cdprid.io") or d in BASE | MODEL)}
+           for d in deps if not d.startswith(("cdprid.io", "cdprid.base", "cdprid.model"))}
     assert not bad, f"io modules importing above their layer: {sorted(bad)}"
 
 
@@ -189,6 +188,83 @@ def test_nothing_below_report_imports_report():
             if _is_report(d):
                 found[f"{m} -> {d}"] = "computation layer imports the figure layer"
     _check(found, ALLOWED_REPORT_IMPORTS, "imports of the report layer from below it")
+
+
+# The layers, in import order: a module imports only from its own layer or an earlier one, and
+# the features (identify, diagnosis, excitation, tuning) never import each other. The tree is
+# the architecture: ``ls src/cdprid`` shows these subpackages (docs/architecture.md).
+LAYERS = [("base",), ("model",), ("io",), ("signal",), ("core",), ("effects",), ("simulation",),
+          ("identify", "diagnosis", "excitation", "tuning"), ("report",), ("cli",)]
+OUTSIDE_LAYERS = {"cdprid", "cdprid.__main__", "cdprid.data"}
+
+
+def _layer(mod: str) -> tuple[int, str]:
+    sub = mod.split(".")[1]
+    for i, group in enumerate(LAYERS):
+        if sub in group:
+            return i, sub
+    raise AssertionError(f"{mod} is in no layer: add its subpackage to LAYERS")
+
+
+def test_every_module_is_in_a_layer():
+    for m in MODULES:
+        if m not in OUTSIDE_LAYERS:
+            _layer(m)
+
+
+def _layer_violations() -> dict[str, str]:
+    found = {}
+    for m, deps in _graph().items():
+        if m in OUTSIDE_LAYERS:
+            continue
+        (i, sub) = _layer(m)
+        for d in deps:
+            if d in OUTSIDE_LAYERS:
+                continue
+            (j, dsub) = _layer(d)
+            if j > i:
+                found[f"{m} -> {d}"] = f"{sub} imports the later layer {dsub}"
+            elif j == i and dsub != sub:
+                found[f"{m} -> {d}"] = f"feature {sub} imports feature {dsub}"
+    return found
+
+
+def test_imports_follow_the_layer_order():
+    _check(_layer_violations(), ALLOWED_LAYER_VIOLATIONS, "imports against the layer order")
+
+
+def test_layer_check_can_fail():
+    g = {"cdprid.core._motion": {"cdprid.identify._batch"}, "cdprid.identify._batch": set()}
+    bad = [f"{m} -> {d}" for m, deps in g.items() for d in deps if _layer(d)[0] > _layer(m)[0]]
+    assert bad == ["cdprid.core._motion -> cdprid.identify._batch"]
+
+
+def test_subpackages_re_export_explicitly():
+    """Each layer's ``__init__`` re-exports its public names as ``from ._x import Y as Y``."""
+    for group in LAYERS:
+        for sub in group:
+            init = SRC / sub / "__init__.py"
+            assert init.exists(), f"src/cdprid/{sub} is not a package"
+            tree = ast.parse(init.read_text())
+            froms = [n for n in tree.body if isinstance(n, ast.ImportFrom)]
+            assert froms or sub in ("report",), f"{init}: re-exports nothing"
+            for node in froms:
+                if node.module and node.module.startswith(f"cdprid.{sub}._"):
+                    for a in node.names:
+                        assert a.asname == a.name, f"{init}: '{a.name}' re-exported implicitly"
+
+
+def test_old_flat_paths_still_import_with_a_warning():
+    """``cdprid.geometry`` (flat layout) forwards to ``cdprid.model`` and says so."""
+    import importlib
+    import sys
+
+    sys.modules.pop("cdprid.geometry", None)
+    with pytest.warns(DeprecationWarning, match="cdprid.model"):
+        old = importlib.import_module("cdprid.geometry")
+    from cdprid.model import CableRobot
+
+    assert old.CableRobot is CableRobot
 
 
 def test_no_private_name_imported_across_modules():

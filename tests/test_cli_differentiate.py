@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdprid.cli import main
+from cdprid.cli._main import main
 
 
 def _write(path, t, cols):

@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdprid.covariance import (
+from cdprid.core import (
     andrews_bandwidth,
     hac_covariance,
     iid_covariance,
     sample_scores,
     std_from_cov,
 )
-from cdprid.robots import EIGHT_REDUNDANT, SIX_SUSPENDED
+from cdprid.model import EIGHT_REDUNDANT, SIX_SUSPENDED
 
 
 def _ar1(rng, n, phi, burn=200):
@@ -127,12 +127,10 @@ def test_identify_default_std_covers_the_error(tmp_path, robot_dict, tau_ref):
     4.5 kg platform, 3 deg rotations, 0.3 mm / 0.5 N noise: the HAC z-scores of m and m s_G
     have RMS near 1 (eq. 20's are several times larger) and the nominal 95 % interval covers.
     """
-    from cdprid.dynamics import InertialParameters
-    from cdprid.geometry import robot_from_dict
+    from cdprid.identify import identify_dataset
     from cdprid.io import read_dataset
-    from cdprid.pipeline import identify_dataset
-    from cdprid.simulate import SensorNoise, simulate, write_simulation
-    from cdprid.trajectories import preset
+    from cdprid.model import InertialParameters, preset, robot_from_dict
+    from cdprid.simulation import SensorNoise, simulate, write_simulation
 
     robot = robot_from_dict(robot_dict, source=robot_dict["name"])
     truth = InertialParameters(4.5, np.array([0.01, -0.005, -0.04]), np.diag([0.03, 0.035, 0.05]))

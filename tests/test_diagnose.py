@@ -16,8 +16,7 @@ from cdprid.diagnosis import selection as S
 from cdprid.diagnosis import testing as T
 from cdprid.diagnosis import unexplained as U
 from cdprid.diagnosis.candidates import Candidate
-from cdprid.differentiators import zero_phase_filter
-from cdprid.filters import make_zero_phase_filter
+from cdprid.signal import make_zero_phase_filter, zero_phase_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
@@ -61,7 +60,7 @@ def test_hac_wald_is_calibrated_on_autocorrelated_noise():
 
 
 def test_per_cable_jacobian_equals_full_jacobian():
-    from cdprid.geometry import robot_from_dict
+    from cdprid.model import robot_from_dict
     from conftest import SAMPLE_ROBOTS
 
     robot = robot_from_dict(SAMPLE_ROBOTS["craft"])
@@ -93,7 +92,7 @@ def test_flipped_pulley_is_a_pulley_with_the_opposite_arrival():
     import equinox as eqx
 
     from cdprid.diagnosis.candidates import candidate_list
-    from cdprid.geometry import robot_from_dict
+    from cdprid.model import robot_from_dict
     from conftest import SAMPLE_ROBOTS
 
     robot = robot_from_dict(SAMPLE_ROBOTS["craft"])
@@ -176,7 +175,7 @@ def test_non_redundant_six_cable_robot_names_a_gain_not_a_geometry_error(tmp_pat
 
 
 def test_cli_json_contract(tmp_path):
-    from cdprid.cli import main
+    from cdprid.cli._main import main
 
     sim = tmp_path / "sim"
     assert main(["simulate", "--preset", "rich", "--out", str(sim), "--seed", "5",
@@ -291,7 +290,7 @@ def test_backward_step_drops_a_redundant_pick_and_keeps_a_needed_one():
 
 def test_sample_budget_subset_keeps_real_samples_and_says_so(tmp_path):
     """Above the budget: evenly spaced real blocks, joins excluded, a note; findings still come."""
-    from cdprid.cli import main
+    from cdprid.cli._main import main
     from cdprid.diagnosis import diagnose
     from cdprid.diagnosis.budget import subset
     from cdprid.io import read_dataset
@@ -348,10 +347,9 @@ def test_prefix_gram_cv_equals_least_squares_per_fold(rng):
 
 def _short_dataset(tmp_path, robot_dict, effects, seed=3, noise=(3e-4, 0.7)):
     from cdprid.effects import Effect
-    from cdprid.geometry import robot_from_dict
     from cdprid.io import read_dataset
-    from cdprid.simulate import SensorNoise, simulate, write_simulation
-    from cdprid.trajectories import preset
+    from cdprid.model import preset, robot_from_dict
+    from cdprid.simulation import SensorNoise, simulate, write_simulation
 
     rob = robot_from_dict(robot_dict)
     sim = simulate(rob, preset("rich", rob, duration=30.0), None,
@@ -367,7 +365,7 @@ def test_refit_hands_back_the_linearisation_at_its_result(tmp_path):
 
     from cdprid.diagnosis.base import base_fit
     from cdprid.diagnosis.problem import design, prepare
-    from cdprid.robots import SIX_SUSPENDED
+    from cdprid.model import SIX_SUSPENDED
 
     ds = _short_dataset(tmp_path, SIX_SUSPENDED, [("tension_gain", {"cable": 2, "gain": 1.06}),
                                                  ("time_delay", {"delay_s": 0.02})])
@@ -394,7 +392,7 @@ def test_point_mass_four_cable_robot_gets_finite_row_weights_and_its_mass(tmp_pa
     """4 cables meeting at one point: nil moment rows must not get an infinite weight."""
     from cdprid.diagnosis.base import base_fit
     from cdprid.diagnosis.problem import prepare
-    from cdprid.robots import FOUR_SUSPENDED
+    from cdprid.model._robots import FOUR_SUSPENDED
 
     ds = _short_dataset(tmp_path, FOUR_SUSPENDED, [], noise=(1e-6, 1e-3))
     prob, base = base_fit(prepare(ds))

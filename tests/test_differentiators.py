@@ -1,4 +1,4 @@
-"""Tests of cdprid.differentiators (SIHD, filters, Kalman/RTS, public interface)."""
+"""Tests of cdprid.signal._differentiators (SIHD, filters, Kalman/RTS, public interface)."""
 
 import jax
 
@@ -10,8 +10,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from cdprid import differentiators as D  # noqa: E402
-from cdprid.differentiators import METHODS, differentiate, zero_phase_filter  # noqa: E402
+from cdprid.signal import METHODS, differentiate, zero_phase_filter  # noqa: E402
+from cdprid.signal import _differentiators as D  # noqa: E402
 
 H = 0.01
 
@@ -328,9 +328,9 @@ def test_zero_phase_filter_matches_euler_filtfilt():
                                               (3, 0.5, 1000.0), (4, 30.0, 100.0),
                                               (5, 1.0, 200.0)])
 def test_butterworth_and_filtering_match_scipy_signal(order, cutoff, fs):
-    """The SciPy-free Butterworth design and filters (cdprid.filters) against scipy.signal."""
+    """The SciPy-free Butterworth design and filters (cdprid.signal._filters) against scipy.signal."""
     ss = pytest.importorskip("scipy.signal")
-    from cdprid.filters import (
+    from cdprid.signal import (
         butter_lowpass,
         butter_sos,
         lfilter,
@@ -374,7 +374,7 @@ def test_identify_path_does_not_import_scipy_signal():
     import subprocess
     import sys
 
-    code = ("import sys, numpy as np; from cdprid.differentiators import differentiate;"
+    code = ("import sys, numpy as np; from cdprid.signal._differentiators import differentiate;"
             "differentiate(np.ones((50, 3)), 0.01, 'euler-filtfilt');"
             "differentiate(np.ones((50, 3)), 0.01, 'euler-butter-causal');"
             "print('scipy.signal' in sys.modules)")
@@ -444,7 +444,7 @@ def test_sharded_batch_equals_single_device(tmp_path):
         jax.config.update("jax_enable_x64", True)
         import numpy as np
         import jax.numpy as jnp
-        from cdprid import differentiators as D
+        from cdprid.signal import _differentiators as D
         assert jax.local_device_count() == 2
         rng = np.random.default_rng(0)
         y = np.cumsum(rng.standard_normal((300, 131)), axis=0) * 1e-3  # odd width: padding

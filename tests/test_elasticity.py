@@ -11,11 +11,9 @@ import pytest
 
 from cdprid.diagnosis import lengths as LG
 from cdprid.effects import Effect
-from cdprid.geometry import robot_from_dict
 from cdprid.io import read_dataset
-from cdprid.robots import CRAFT_LIKE, SIX_SUSPENDED, craft_like_truth
-from cdprid.simulate import SensorNoise, simulate, write_simulation
-from cdprid.trajectories import preset
+from cdprid.model import CRAFT_LIKE, SIX_SUSPENDED, craft_like_truth, preset, robot_from_dict
+from cdprid.simulation import SensorNoise, simulate, write_simulation
 
 
 def test_fit_cable_recovers_stiffness_and_offset_exactly(rng):
@@ -84,7 +82,7 @@ def test_malformed_stream_is_a_note_not_a_test(tmp_path):
 def test_diagnose_names_cable_elasticity_and_nothing_else(tmp_path):
     import json
 
-    from cdprid.cli import main
+    from cdprid.cli._main import main
 
     sim = tmp_path / "sim"
     assert main(["simulate", "--preset", "rich", "--duration", "36", "--out", str(sim),

@@ -11,9 +11,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid import excitation as ex
-from cdprid.geometry import robot_from_dict, wrench_matrix
-from cdprid.robots import CRAFT_LIKE
+from cdprid.excitation import _optimise as ex
+from cdprid.model import CRAFT_LIKE, robot_from_dict, wrench_matrix
 
 
 @pytest.fixture(scope="module")
@@ -108,7 +107,7 @@ def test_fourier_states_are_consistent(craft):
     np.testing.assert_allclose(np.asarray(s.alpha),
                                (np.asarray(sp.omega) - np.asarray(sm.omega)) / (2 * h), atol=1e-6)
     # omega from the quaternion: dq/dt = 0.5 [0, omega] * q (base frame)
-    from cdprid.rotations import quat_multiply
+    from cdprid.model import quat_multiply
 
     qd = (np.asarray(sp.q) - np.asarray(sm.q)) / (2 * h)
     for k in range(len(t)):
@@ -155,10 +154,10 @@ def test_certificate_agrees_with_linprog(craft):
 
 
 def _main(argv):
-    import cdprid.cli as cli
+    import cdprid.cli._main as cli
 
-    if ("cdprid.cli_excite", "add_parser") not in cli._OPTIONAL_COMMANDS:
-        cli._OPTIONAL_COMMANDS = cli._OPTIONAL_COMMANDS + (("cdprid.cli_excite", "add_parser"),)
+    if ("cdprid.cli._excite", "add_parser") not in cli._OPTIONAL_COMMANDS:
+        cli._OPTIONAL_COMMANDS = cli._OPTIONAL_COMMANDS + (("cdprid.cli._excite", "add_parser"),)
     return cli.main(argv)
 
 
@@ -245,8 +244,7 @@ def test_richer_families_optimise_and_certify(craft, family, duration):
     # the K-orbit sequence (4 parameters) and the Fourier family (full model with rotations)
     # go through the same optimiser: the answer is certified by the LP on the 100 Hz grid
     # and its cond(W_ID), recomputed here with numpy from the returned trajectory, is lower
-    from cdprid.dynamics import regressor_full, regressor_translation
-    from cdprid.rotations import quat_to_matrix
+    from cdprid.model import quat_to_matrix, regressor_full, regressor_translation
 
     prob = ex.make_problem(craft, family, "cond", duration=duration)
     res = ex.optimise_excitation(prob, n_starts=1, seed=0, max_steps=200, progress=False)

@@ -11,12 +11,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid import clearance as cl
-from cdprid import excitation as ex
-from cdprid.excitation_check import robust_tension_margins
-from cdprid.excitation_safety import corner_parameters, uncertainty_from_prior
-from cdprid.geometry import robot_from_dict
-from cdprid.robots import FOUR_POINT, SIX_TIGHT, SMALL_EIGHT
+from cdprid.excitation import _optimise as ex
+from cdprid.excitation import corner_parameters, robust_tension_margins, uncertainty_from_prior
+from cdprid.model import FOUR_POINT, SIX_TIGHT, SMALL_EIGHT, robot_from_dict
+from cdprid.model import _clearance as cl
 
 # ----------------------------------------------------------------------------- robots
 
@@ -64,7 +62,7 @@ def test_cable_body_distance_cases():
 def test_robust_margins_against_linprog(rng):
     from scipy.optimize import linprog
 
-    from cdprid.regression import regressors, wrench_matrices
+    from cdprid.core import regressors, wrench_matrices
 
     r = robot_from_dict(EIGHT)
     n = 6
@@ -109,7 +107,7 @@ def test_corners_hold_every_platform_of_the_box(rng):
     # physical box do not hold them (the m s s^T term of I_P is quadratic in s)
     import itertools
 
-    from cdprid.dynamics import InertialParameters
+    from cdprid.model import InertialParameters
 
     mass, com = 4.3, np.array([0.01, -0.02, -0.03])
     I = np.array([[0.03, 0.002, 0.0], [0.002, 0.035, 0.001], [0.0, 0.001, 0.04]])
@@ -131,7 +129,7 @@ def test_corners_hold_every_platform_of_the_box(rng):
 
 
 def test_cli_gentle_writes_the_certified_initial_design(tmp_path, capsys):
-    import cdprid.cli as cli
+    import cdprid.cli._main as cli
 
     (tmp_path / "robot.toml").write_text(_toml(EIGHT))
     argv = ["excite", str(tmp_path / "robot.toml"), "--duration", "8", "--no-dataset"]
@@ -186,7 +184,7 @@ def test_home_moves_start_and_end_at_rest_with_continuous_jerk():
 
 
 def test_refuses_without_platform_and_states_defaults(tmp_path, capsys):
-    import cdprid.cli as cli
+    import cdprid.cli._main as cli
 
     d = copy.deepcopy(FOUR)
     del d["platform"]
@@ -214,7 +212,7 @@ def test_prior_box(tmp_path):
     np.testing.assert_allclose(box.corners[:, 0].min(), 4.37)
     np.testing.assert_allclose(box.corners[:, 3].max(), -0.09 + 0.012)
     path.write_text('{"parameters": {"m": {"value": 4.4}}}')
-    from cdprid.errors import UserError
+    from cdprid.base import UserError
 
     with pytest.raises(UserError, match="--prior .*'m'.*'std'"):
         uncertainty_from_prior(path, r)
@@ -319,7 +317,7 @@ def _recheck(robot_dict, csv_path, corners_stride=1, sample_stride=10):
 def test_designs_pass_an_independent_recheck(tmp_path, robot, family):
     import tomllib  # noqa: F401
 
-    import cdprid.cli as cli
+    import cdprid.cli._main as cli
 
     text = _toml(robot)
     (tmp_path / "robot.toml").write_text(text)

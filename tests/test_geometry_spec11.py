@@ -8,7 +8,7 @@ import copy
 import numpy as np
 import pytest
 
-from cdprid.geometry import RobotFileError, load_robot, robot_from_dict, robot_to_dict
+from cdprid.model import RobotFileError, load_robot, robot_from_dict, robot_to_dict
 
 BASE = {
     "name": "spec11",

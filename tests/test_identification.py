@@ -8,11 +8,16 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from cdprid.dynamics import InertialParameters, platform_wrench, regressor_full
-from cdprid.identification import condition_number, least_squares
+from cdprid.core import condition_number, least_squares
+from cdprid.identify import identify_dataset
 from cdprid.io.dataset import read_dataset, write_dataset
-from cdprid.pipeline import identify_dataset
-from cdprid.rotations import quat_to_matrix, rotvec_to_quat
+from cdprid.model import (
+    InertialParameters,
+    platform_wrench,
+    quat_to_matrix,
+    regressor_full,
+    rotvec_to_quat,
+)
 
 
 def test_least_squares_matches_independent_oracle(rng):
@@ -56,8 +61,12 @@ def test_weighted_least_squares_by_groups(rng):
 
 def test_least_squares_blocks_equal_the_stacked_solution(rng):
     """Block-by-block QR, residual and HAC passes give the stacked arrays' answer to rounding."""
-    from cdprid.covariance import hac_covariance, hac_covariance_blocks, sample_scores
-    from cdprid.identification import least_squares_blocks
+    from cdprid.core import (
+        hac_covariance,
+        hac_covariance_blocks,
+        least_squares_blocks,
+        sample_scores,
+    )
 
     n, k, p = 1500, 6, 5
     Z = rng.normal(size=(n, k, p)) * np.array([1.0, 10.0, 0.1, 3.0, 0.5])
@@ -101,7 +110,7 @@ def test_condition_number_scaled_invariance(rng):
 
 def _noise_free_dataset(tmp_path, robot_dict, rotate: bool):
     """A minimal in-test generator: analytic orbit, exact tensions by least norm."""
-    from cdprid.geometry import robot_from_dict, wrench_matrix
+    from cdprid.model import robot_from_dict, wrench_matrix
 
     robot = robot_from_dict(robot_dict)
     par = InertialParameters(9.88, [-0.0065, 0.0019, -0.107], np.diag([0.12, 0.12, 0.10]))
@@ -119,7 +128,7 @@ def _noise_free_dataset(tmp_path, robot_dict, rotate: bool):
         p, q = pose(s)
         v, qd = jax.jacfwd(pose)(s)
         a, qdd = jax.jacfwd(jax.jacfwd(pose))(s)
-        from cdprid.rotations import angular_rates_from_quat
+        from cdprid.model import angular_rates_from_quat
 
         om, al = angular_rates_from_quat(q, qd, qdd)
         R = quat_to_matrix(q)
@@ -147,8 +156,7 @@ def _noise_free_dataset(tmp_path, robot_dict, rotate: bool):
 @pytest.mark.parametrize("rotate", [False, True])
 def test_noise_free_recovery_with_exact_derivatives(tmp_path, rotate):
     """With the differentiator replaced by exact derivatives the truth comes back to 1e-9."""
-    from cdprid.motion import Motion
-    from cdprid.regression import build_regression
+    from cdprid.core import Motion, build_regression
     from conftest import ROBOT_CRAFT
 
     ds, par = _noise_free_dataset(tmp_path, ROBOT_CRAFT, rotate)
@@ -162,7 +170,7 @@ def test_noise_free_recovery_with_exact_derivatives(tmp_path, rotate):
         rv = jnp.array([0.05 * jnp.sin(w2 * s), 0.04 * jnp.cos(w1 * s), 0.03 * jnp.sin(w1 * s)])
         return p, rotvec_to_quat(rv if rotate else 0.0 * rv)
 
-    from cdprid.rotations import angular_rates_from_quat
+    from cdprid.model import angular_rates_from_quat
 
     def kin(s):
         p, q = pose(s)
@@ -235,10 +243,9 @@ def test_streamed_identify_equals_the_materialised_regression(rotating_ds, metho
     holds every array: W tau and the pose-only regressor terms filtered whole, stacked LS."""
     import dataclasses
 
-    from cdprid.differentiators import acceleration_filter
+    from cdprid.core import build_regression, estimate_motion, regressors
     from cdprid.io.dataset import align
-    from cdprid.motion import estimate_motion
-    from cdprid.regression import build_regression, regressors
+    from cdprid.signal import acceleration_filter
 
     ds, _ = rotating_ds
     noise = np.random.default_rng(7).normal(0.0, 0.5, ds.tension.shape)  # realistic residuals
@@ -285,7 +292,7 @@ def test_guards_fire_where_they_should(rotating_ds):
 
 
 def test_inertia_about_com_and_its_jacobian(rotating_ds):
-    from cdprid.physical import inertia_about_com
+    from cdprid.core import inertia_about_com
 
     ds, par = rotating_ds
     x = np.asarray(par.vector("full"))
@@ -303,7 +310,7 @@ def test_inertia_about_com_and_its_jacobian(rotating_ds):
 
 
 def test_physical_checks_and_constrained_fit(rng):
-    from cdprid.physical import physical_fit, physical_warnings, violations
+    from cdprid.core import physical_fit, physical_warnings, violations
 
     good = np.asarray(InertialParameters(4.5, [0.01, 0.0, -0.04],
                                          np.diag([0.03, 0.035, 0.05])).vector("full"))
@@ -331,7 +338,7 @@ def test_physical_checks_and_constrained_fit(rng):
 
 
 def test_cli_identify_refuses_to_overwrite(tmp_path, rotating_ds, capsys):
-    from cdprid.cli import main
+    from cdprid.cli._main import main
 
     ds, _ = rotating_ds
     out = tmp_path / "r.json"

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from cdprid import identify_dataset, read_dataset
-from cdprid.cli import main
+from cdprid.cli._main import main
 
 MODEL = "full"
 

@@ -6,15 +6,15 @@ import json
 import shutil
 import subprocess
 import sys
-import tomllib
 
 import numpy as np
 import pytest
-from conftest import ROBOT_CRAFT
+import tomllib
 
-from cdprid.cli import main
-from cdprid.geometry import robot_from_dict
+from cdprid.cli._main import main
 from cdprid.io.dataset import DatasetError, align, read_dataset, sampling_report, write_dataset
+from cdprid.model import robot_from_dict
+from conftest import ROBOT_CRAFT
 
 
 @pytest.fixture
@@ -102,7 +102,7 @@ def test_cli_exit_code_2_and_one_line(small_ds, kind, capsys):
 
 def test_console_script_no_traceback(small_ds):
     _corrupt("text", small_ds)
-    proc = subprocess.run([sys.executable, "-m", "cdprid.cli", "identify", str(small_ds)],
+    proc = subprocess.run([sys.executable, "-m", "cdprid.cli._main", "identify", str(small_ds)],
                           capture_output=True, text=True)
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1

@@ -7,28 +7,24 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid.dynamics import (
+from cdprid.model import (
     InertialParameters,
-    platform_wrench,
-    regressor_full,
-    regressor_translation,
-)
-from cdprid.geometry import (
+    angular_rates_from_quat,
     cable_lengths,
     cable_vectors,
     leave_points,
-    robot_from_dict,
-    robot_to_dict,
-    swivel_angles,
-    wrench_matrix,
-)
-from cdprid.rotations import (
-    angular_rates_from_quat,
     matrix_to_quat,
+    platform_wrench,
     quat_multiply,
     quat_to_matrix,
+    regressor_full,
+    regressor_translation,
+    robot_from_dict,
+    robot_to_dict,
     rotvec_to_quat,
     skew,
+    swivel_angles,
+    wrench_matrix,
 )
 
 

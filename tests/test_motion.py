@@ -1,4 +1,4 @@
-"""cdprid.motion: the jitted, block-by-block rotation functions against per-sample oracles."""
+"""cdprid.core._motion: the jitted, block-by-block rotation functions against per-sample oracles."""
 
 from __future__ import annotations
 
@@ -6,10 +6,10 @@ import jax
 import numpy as np
 import pytest
 
-from cdprid.differentiators import differentiate
+from cdprid.core import BLOCK, angular_rates, estimate_motion, rotation_matrices
 from cdprid.io.dataset import AlignedSignals
-from cdprid.motion import BLOCK, angular_rates, estimate_motion, rotation_matrices
-from cdprid.rotations import angular_rates_from_quat, quat_to_matrix
+from cdprid.model import angular_rates_from_quat, quat_to_matrix
+from cdprid.signal import differentiate
 
 
 def _quaternions(n: int, seed: int = 0, unit: bool = True) -> np.ndarray:

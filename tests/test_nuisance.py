@@ -1,4 +1,4 @@
-"""The one nuisance pipeline (cdprid.nuisance): masks, interpolation, joint fit."""
+"""The one nuisance pipeline (cdprid.core._nuisance): masks, interpolation, joint fit."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid.errors import ConvergenceError
-from cdprid.nuisance import (
+from cdprid.base import ConvergenceError
+from cdprid.core import (
     NuisanceSpec,
     TensionStream,
     fit_nuisance,

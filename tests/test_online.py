@@ -10,25 +10,29 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid.cli import main
-from cdprid.cli_online import run_online_cli
-from cdprid.differentiators import differentiate
-from cdprid.dynamics import InertialParameters, regressor_full, regressor_translation
-from cdprid.errors import UserError
-from cdprid.geometry import wrench_matrix
-from cdprid.identification import least_squares
-from cdprid.io import align, read_dataset
-from cdprid.motion import estimate_motion
-from cdprid.online import (
+from cdprid.base import UserError
+from cdprid.cli._main import main
+from cdprid.cli._online import run_online_cli
+from cdprid.core import estimate_motion, least_squares
+from cdprid.identify import (
     OnlineSample,
     online_identify,
     online_init,
     online_step,
     recursive_least_squares,
 )
-from cdprid.robots import craft_like_robot, craft_like_truth
-from cdprid.simulate import SensorNoise, simulate, write_simulation
-from cdprid.trajectories import preset
+from cdprid.io import align, read_dataset
+from cdprid.model import (
+    InertialParameters,
+    craft_like_robot,
+    craft_like_truth,
+    preset,
+    regressor_full,
+    regressor_translation,
+    wrench_matrix,
+)
+from cdprid.signal import differentiate
+from cdprid.simulation import SensorNoise, simulate, write_simulation
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +62,7 @@ def _exact_rows(robot, res, model="translation"):
     g = robot.gravity
 
     def one(p, q, a, om, al, tau):
-        from cdprid.rotations import quat_to_matrix
+        from cdprid.model import quat_to_matrix
 
         R = quat_to_matrix(q)
         A = (regressor_translation(R, a, g) if model == "translation"
@@ -235,7 +239,7 @@ def test_scan_equals_python_loop_and_no_recompilation(robot, sim_noisy):
 
 @pytest.mark.parametrize("model", ["translation", "full"])
 def test_stepper_equals_online_step(robot, sim_noisy, model):
-    from cdprid.online import OnlineStepper
+    from cdprid.identify import OnlineStepper
 
     n = 120
     sig = _signals(sim_noisy)
@@ -306,7 +310,7 @@ def test_online_json_has_the_batch_guards_when_auto_picks_the_model(robot, tmp_p
                                                                     monkeypatch):
     """--model auto on rotating data: the online JSON names the model, rotation, inertia point
     and the same guard sentences as batch identify (excitation, physics), filled the same way."""
-    from cdprid import pipeline
+    from cdprid.identify import _batch as pipeline
 
     # cond_scaled is ~2 here: a threshold of 1 makes the excitation guard fire in both paths
     monkeypatch.setattr(pipeline, "COND_WARN", 1.0)

@@ -1,4 +1,4 @@
-"""Real-data identification (cdprid.real) and the calibrated UACDPR import.
+"""Real-data identification (cdprid.identify._real) and the calibrated UACDPR import.
 
 The real-data tests read ../shared/datasets/uacdpr-freemotion02 and skip when it is absent.
 """
@@ -9,9 +9,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid.differentiators import zero_phase_filter
+from cdprid.identify import jax_zero_phase_filter
 from cdprid.io.dataset import read_dataset
-from cdprid.real import jax_zero_phase_filter
+from cdprid.signal import zero_phase_filter
 from conftest import shared_dataset
 
 NAME = "uacdpr-freemotion02"
@@ -25,7 +25,7 @@ def test_jax_filter_matches_scipy_filtfilt(rng):
 
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory):
-    from cdprid.calibration import import_calibrated_uacdpr
+    from cdprid.identify import import_calibrated_uacdpr
 
     root = shared_dataset(NAME)
     out = tmp_path_factory.mktemp("uacdpr_cal") / "ds"
@@ -50,7 +50,7 @@ def test_calibrated_import_passes_reader_in_base_frame(calibrated):
 
 @pytest.mark.slow
 def test_mass_from_motion_matches_weight_at_rest(calibrated):
-    from cdprid.real import identify_real, prepare_real, weight_at_rest
+    from cdprid.identify import identify_real, prepare_real, weight_at_rest
 
     data = prepare_real(read_dataset(calibrated))
     r = identify_real(data, model="full", offsets=False, gains=False, delay=True,

@@ -20,12 +20,11 @@ import numpy as np
 import pytest
 
 import cdprid.io.dataset as dsmod
-from cdprid.cli import _is_user_error, main
-from cdprid.errors import OutputError, UserError
-from cdprid.geometry import robot_from_dict
+from cdprid.base import OutputError, UserError, atomic_dir, atomic_file, check_output
+from cdprid.cli._main import _is_user_error, main
+from cdprid.core import estimate_motion, segment_mask
 from cdprid.io.dataset import DatasetError, align, read_csv_stream, read_dataset, write_dataset
-from cdprid.motion import estimate_motion, segment_mask
-from cdprid.outputs import atomic_dir, atomic_file, check_output
+from cdprid.model import robot_from_dict
 from conftest import ROBOT_CRAFT
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
@@ -375,7 +374,7 @@ def test_identify_json_after_gap_keeps_truth_like_result(tmp_path):
 def test_command_table_matches_the_registered_helps():
     import argparse
 
-    from cdprid.cli import COMMANDS, build_parser
+    from cdprid.cli._main import COMMANDS, build_parser
 
     sp = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     helps = {ca.dest: ca.help for ca in sp._choices_actions}
@@ -383,7 +382,7 @@ def test_command_table_matches_the_registered_helps():
 
 
 def test_help_imports_no_jax():
-    code = ("import sys, contextlib, io\nfrom cdprid.cli import main\n"
+    code = ("import sys, contextlib, io\nfrom cdprid.cli._main import main\n"
             "with contextlib.redirect_stdout(io.StringIO()):\n    rc = main(['--help'])\n"
             "print(rc, 'jax' in sys.modules, 'scipy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

@@ -8,15 +8,24 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import tomli_w  # noqa: E402
 
-from cdprid.dynamics import InertialParameters, platform_wrench, regressor_translation  # noqa: E402
 from cdprid.effects import Effect, effect_parameters_table  # noqa: E402
-from cdprid.geometry import leave_points, wrench_matrix  # noqa: E402
 from cdprid.io.dataset import read_dataset  # noqa: E402
-from cdprid.robots import CRAFT_LIKE, craft_like_robot, craft_like_truth  # noqa: E402
-from cdprid.rotations import quat_to_matrix  # noqa: E402
-from cdprid.simulate import SensorNoise, simulate, write_simulation  # noqa: E402
-from cdprid.tensions import InfeasibleTensionsError  # noqa: E402
-from cdprid.trajectories import Orbit, orbit_sequence, preset  # noqa: E402
+from cdprid.model import (  # noqa: E402  # noqa: E402  # noqa: E402  # noqa: E402
+    CRAFT_LIKE,
+    InertialParameters,
+    InfeasibleTensionsError,  # noqa: E402
+    Orbit,
+    craft_like_robot,
+    craft_like_truth,
+    leave_points,
+    orbit_sequence,
+    platform_wrench,
+    preset,
+    quat_to_matrix,  # noqa: E402
+    regressor_translation,
+    wrench_matrix,
+)
+from cdprid.simulation import SensorNoise, simulate, write_simulation  # noqa: E402
 
 OFF = SensorNoise.off()
 
@@ -262,7 +271,7 @@ def test_written_dataset_reads_back(tmp_path, robot, traj):
 
 
 def test_paper_orbits_identify_exactly(robot):
-    from cdprid.identification import least_squares
+    from cdprid.core import least_squares
 
     res = simulate(robot, preset("paper-orbits", robot, duration=12.0), noise=OFF)
     m = res.motion_tension
@@ -279,7 +288,7 @@ def test_paper_orbits_identify_exactly(robot):
 
 
 def test_cli_simulate(tmp_path, capsys):
-    from cdprid.cli import main
+    from cdprid.cli._main import main
 
     out = tmp_path / "sim"
     args = [
@@ -326,7 +335,7 @@ def test_cli_simulate(tmp_path, capsys):
 
 
 def test_cli_infeasible_exits_2_with_one_line(tmp_path, capsys):
-    from cdprid.cli import main
+    from cdprid.cli._main import main
 
     data = dict(CRAFT_LIKE)
     data["limits"] = dict(CRAFT_LIKE["limits"], tension_max=5.0)
@@ -353,8 +362,8 @@ def test_cli_infeasible_exits_2_with_one_line(tmp_path, capsys):
 
 
 def test_cli_trajectory_file(tmp_path, robot, traj):
-    from cdprid.cli import main
-    from cdprid.trajectories import save_trajectory_csv
+    from cdprid.cli._main import main
+    from cdprid.io.trajectory import save_trajectory_csv
 
     f = save_trajectory_csv(traj, tmp_path / "t.csv", rate_hz=100.0)
     assert (

@@ -7,13 +7,13 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from cdprid.geometry import wrench_matrix  # noqa: E402
-from cdprid.robots import craft_like_robot  # noqa: E402
-from cdprid.tensions import (  # noqa: E402
+from cdprid.model import (  # noqa: E402
     InfeasibleTensionsError,
     closed_form_tensions,
+    craft_like_robot,  # noqa: E402
     distribute_tensions,
     feasibility_margin,
+    wrench_matrix,  # noqa: E402
 )
 
 
@@ -76,7 +76,7 @@ def test_feasibility_margin_certificate(W_w):
 def test_block_lp_equals_per_sample_lps(W_w, monkeypatch):
     # many samples go through one block-diagonal LP per chunk; same margins as one LP per
     # sample, including infeasible samples, a wrench outside the range of W and a padded tail
-    from cdprid import tensions as T
+    from cdprid.model import _tensions as T
 
     robot = craft_like_robot()
     rng = np.random.default_rng(4)

@@ -8,15 +8,15 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from cdprid.robots import craft_like_robot  # noqa: E402
-from cdprid.rotations import quat_conjugate, quat_multiply  # noqa: E402
-from cdprid.trajectories import (  # noqa: E402
+from cdprid.io.trajectory import load_trajectory_csv, save_trajectory_csv  # noqa: E402
+from cdprid.model import (  # noqa: E402  # noqa: E402
     Orbit,
     check_workspace,
-    load_trajectory_csv,
+    craft_like_robot,  # noqa: E402
     orbit_sequence,
     preset,
-    save_trajectory_csv,
+    quat_conjugate,
+    quat_multiply,
     with_rotation,
 )
 

@@ -1,4 +1,4 @@
-"""Differentiator tuning (cdprid.tuning, cdprid tune) and the higher-order SIHD."""
+"""Differentiator tuning (cdprid.tuning._tuning, cdprid tune) and the higher-order SIHD."""
 
 from __future__ import annotations
 
@@ -9,12 +9,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid import tuning as T
-from cdprid.cli import build_parser, main, parse_params
-from cdprid.differentiators import METHODS, differentiate
-from cdprid.geometry import robot_from_dict
+from cdprid.cli._main import build_parser, main, parse_params
 from cdprid.io import write_dataset
-from cdprid.sihd_high import differentiate_high, poly_gains, sihdn_channel
+from cdprid.model import robot_from_dict
+from cdprid.signal import METHODS, differentiate, differentiate_high, poly_gains, sihdn_channel
+from cdprid.tuning import _tuning as T
 from conftest import ROBOT_CRAFT
 
 SHORT = T.circle_signal(duration=12.0)
@@ -175,7 +174,7 @@ def test_acceleration_response_matches_the_butterworth_and_flags_resonance():
 def test_cli_tune_reports_response_and_refuses_to_overwrite(tmp_path, capsys):
     import json
 
-    from cdprid.cli import main
+    from cdprid.cli._main import main
 
     out = tmp_path / "t.json"
     assert main(["tune", "--noise-std", "3e-4", "--method", "euler-filtfilt", "--json", str(out),

@@ -20,9 +20,9 @@ NAME = "uacdpr-freemotion02"
 
 def _run_cli(argv, capsys, monkeypatch):
     """Run ``cdprid`` with the import command registered; return (code, stdout, stderr)."""
-    import cdprid.cli as cli
+    import cdprid.cli._main as cli
 
-    entry = ("cdprid.cli_import", "add_parser")
+    entry = ("cdprid.cli._import", "add_parser")
     if entry not in cli._OPTIONAL_COMMANDS:
         monkeypatch.setattr(cli, "_OPTIONAL_COMMANDS", cli._OPTIONAL_COMMANDS + (entry,))
     code = cli.main(argv)
@@ -96,8 +96,8 @@ def test_calibration_recovers_known_transform_synthetic():
     import jax
     import jax.numpy as jnp
 
-    from cdprid.calibration import CalibrationData, calibrate_geometry, platform_pose
-    from cdprid.geometry import cable_lengths, robot_from_dict, swivel_angles
+    from cdprid.identify import CalibrationData, calibrate_geometry, platform_pose
+    from cdprid.model import cable_lengths, robot_from_dict, swivel_angles
 
     robot = robot_from_dict(ROBOT_FOUR)
     L = np.asarray(cable_lengths(robot, jnp.array([0.02, -0.01, 0.6]), jnp.eye(3)))
@@ -295,8 +295,12 @@ def test_malformed_inputs_exit_2_with_one_sentence(case, small_inputs, capsys, m
 
 
 def test_write_calibrated_dataset_moves_pose_to_base_frame(small_inputs, capsys, monkeypatch):
-    from cdprid.calibration import CalibrationResult, platform_pose, write_calibrated_dataset
-    from cdprid.rotations import quat_to_matrix
+    from cdprid.identify import (
+        CalibrationResult,
+        platform_pose,
+        write_calibrated_dataset,
+    )
+    from cdprid.model import quat_to_matrix
 
     code, _, err = _run_cli(_argv(small_inputs, small_inputs / "ds"), capsys, monkeypatch)
     assert code == 0, err

@@ -14,7 +14,7 @@ import pytest
 
 from cdprid.diagnosis import unexplained as U
 from cdprid.diagnosis.testing import blocks, cv_sse
-from cdprid.differentiators import zero_phase_filter
+from cdprid.signal import zero_phase_filter
 
 DT = 0.01
 CUTOFF = 4.0
@@ -128,11 +128,9 @@ def test_materiality_floor_rule():
 def _diagnose(robot_dict, effects=(), noise_scale=1.0, seed=0, modify=None, tmp_path=None):
     from cdprid.diagnosis import diagnose
     from cdprid.effects import Effect
-    from cdprid.geometry import robot_from_dict
     from cdprid.io import read_dataset
-    from cdprid.robots import CRAFT_LIKE, craft_like_truth
-    from cdprid.simulate import SensorNoise, simulate, write_simulation
-    from cdprid.trajectories import preset
+    from cdprid.model import CRAFT_LIKE, craft_like_truth, preset, robot_from_dict
+    from cdprid.simulation import SensorNoise, simulate, write_simulation
 
     robot = robot_from_dict(robot_dict or CRAFT_LIKE)
     noise = SensorNoise(position_m=3e-4 * noise_scale, tension_N=0.7 * noise_scale,
@@ -178,7 +176,7 @@ def _check_json(res):
 @pytest.mark.slow
 @pytest.mark.parametrize("robot,noise_scale", [("SIX_SUSPENDED", 0.7), ("CRAFT_LIKE", 1.5)])
 def test_clean_data_leave_nothing_unexplained(robot, noise_scale, tmp_path):
-    from cdprid import robots
+    from cdprid.model import _robots as robots
 
     res = _diagnose(getattr(robots, robot), noise_scale=noise_scale, seed=3, tmp_path=tmp_path)
     js, rule = _check_json(res)

@@ -9,10 +9,10 @@ null model), :mod:`.candidates` (effect x cable and their vocabulary form), :mod
 :func:`cdprid.report.diagnosis.save_report`.
 """
 
-from .candidates import CANDIDATE_EFFECTS, Candidate
-from .pipeline import diagnose
-from .result import DiagnosisResult, Finding
-from .testing import estimate_noise
+from cdprid.diagnosis.candidates import CANDIDATE_EFFECTS, Candidate
+from cdprid.diagnosis.pipeline import diagnose
+from cdprid.diagnosis.result import DiagnosisResult, Finding
+from cdprid.diagnosis.testing import estimate_noise
 
 __all__ = ["CANDIDATE_EFFECTS", "Candidate", "DiagnosisResult", "Finding", "diagnose",
            "estimate_noise"]

@@ -13,12 +13,12 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
-from ..differentiators import differentiate
-from ..dynamics import PARAMETER_NAMES
-from ..identification import least_squares
-from .model import regs_jit, rotvec_from_quat
-from .problem import Problem, cable_side
-from .testing import estimate_noise, wald
+from cdprid.core._identification import least_squares
+from cdprid.diagnosis.model import regs_jit, rotvec_from_quat
+from cdprid.diagnosis.problem import Problem, cable_side
+from cdprid.diagnosis.testing import estimate_noise, wald
+from cdprid.model._dynamics import PARAMETER_NAMES
+from cdprid.signal._differentiators import differentiate
 
 
 @dataclasses.dataclass(frozen=True)

@@ -2,9 +2,9 @@
 
 A cdprid extension of spec 1.1 (``docs/lengths.md``): ``lengths.csv`` with columns
 ``t, l_1, ..., l_m`` (s, m), one column per ``[[cable]]``, the unstrained cable length the
-winch encoder measures. For an elastic cable (:mod:`cdprid.effects`, ``cable_elasticity``)
+winch encoder measures. For an elastic cable (:mod:`cdprid.effects._effects`, ``cable_elasticity``)
 ``l = L / (1 + tau / EA)`` with L the geometric length from the exit point to the
-attachment (:func:`cdprid.geometry.cable_lengths`) and tau the tension; the encoder zero is
+attachment (:func:`cdprid.model.cable_lengths`) and tau the tension; the encoder zero is
 unknown, so each cable is fitted as ``l = c + L / (1 + tau k)`` with ``k = 1 / EA`` and an
 offset c (Gauss-Newton from the linearised fit). The force model is not involved: this is its
 own test, on its own residual (metres), named only when a dataset carries the stream.
@@ -20,11 +20,11 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
-from ..covariance import hac_covariance
-from ..geometry import cable_lengths
-from .problem import Problem
-from .result import Finding
-from .testing import blocks
+from cdprid.core._covariance import hac_covariance
+from cdprid.diagnosis.problem import Problem
+from cdprid.diagnosis.result import Finding
+from cdprid.diagnosis.testing import blocks
+from cdprid.model._geometry import cable_lengths
 
 #: the stream's file stem and column names (``l_1..l_m``), in the style of tensions.csv
 STREAM = "lengths"

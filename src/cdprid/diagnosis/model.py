@@ -17,9 +17,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..dynamics import regressor_full, regressor_translation
-from ..effects import DIAGNOSIS, tilt_gravity
-from ..geometry import CableRobot, cable_vectors, pulley_leave_point, wrench_matrix
+from cdprid.effects._effects import DIAGNOSIS, tilt_gravity
+from cdprid.model._dynamics import regressor_full, regressor_translation
+from cdprid.model._geometry import CableRobot, cable_vectors, pulley_leave_point, wrench_matrix
 
 
 class ThetaLayout:

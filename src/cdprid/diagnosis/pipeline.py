@@ -20,18 +20,25 @@ import time
 
 import numpy as np
 
-from ..defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
-from ..dynamics import PARAMETER_NAMES
-from ..io.dataset import Dataset
-from .base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
-from .budget import MAX_SAMPLES, joined_time, subset
-from .candidates import candidate_list
-from .lengths import lengths_stream, with_elasticity
-from .problem import Problem, force_heldout_rms, measured, prepare
-from .result import DiagnosisResult
-from .selection import Selection, backward_stage, forward_step, linear_model, start, swap_stage
-from .testing import wald
-from .unexplained import structure_features, unexplained_stage
+from cdprid.base._defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
+from cdprid.diagnosis.base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
+from cdprid.diagnosis.budget import MAX_SAMPLES, joined_time, subset
+from cdprid.diagnosis.candidates import candidate_list
+from cdprid.diagnosis.lengths import lengths_stream, with_elasticity
+from cdprid.diagnosis.problem import Problem, force_heldout_rms, measured, prepare
+from cdprid.diagnosis.result import DiagnosisResult
+from cdprid.diagnosis.selection import (
+    Selection,
+    backward_stage,
+    forward_step,
+    linear_model,
+    start,
+    swap_stage,
+)
+from cdprid.diagnosis.testing import wald
+from cdprid.diagnosis.unexplained import structure_features, unexplained_stage
+from cdprid.io.dataset import Dataset
+from cdprid.model._dynamics import PARAMETER_NAMES
 
 
 def weight_at_rest(prob: Problem, theta, min_rest_s: float = 0.5):

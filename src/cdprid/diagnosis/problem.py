@@ -14,15 +14,22 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
-from ..differentiators import differentiate, zero_phase_filter
-from ..errors import UserError
-from ..io.dataset import Dataset, align
-from ..nuisance import taut_mask
-from ..regression import wrench_matrices
-from ..rotations import quat_to_matrix
-from .model import DiagData, ThetaLayout, meas_and_jac, model_jac_jit, model_jit, regs_jit
-from .testing import blocks, cv_sse
+from cdprid.base._defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
+from cdprid.base._errors import UserError
+from cdprid.core._nuisance import taut_mask
+from cdprid.core._regression import wrench_matrices
+from cdprid.diagnosis.model import (
+    DiagData,
+    ThetaLayout,
+    meas_and_jac,
+    model_jac_jit,
+    model_jit,
+    regs_jit,
+)
+from cdprid.diagnosis.testing import blocks, cv_sse
+from cdprid.io.dataset import Dataset, align
+from cdprid.model._rotations import quat_to_matrix
+from cdprid.signal._differentiators import differentiate, zero_phase_filter
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,7 +84,7 @@ def _motion(sig, cutoff_hz):
     v, a = differentiate(sig.position, dt, method="euler-filtfilt", cutoff_hz=cutoff_hz)
     R = np.asarray(jax.jit(jax.vmap(quat_to_matrix))(sig.quaternion))  # one compile
     if sig.has_rotation:
-        from ..rotations import angular_rates_from_quat
+        from cdprid.model._rotations import angular_rates_from_quat
 
         qd, qdd = differentiate(sig.quaternion, dt, method="euler-filtfilt", cutoff_hz=cutoff_hz)
         om, al = (np.asarray(z) for z in
@@ -106,7 +113,7 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
 
     Samples are used when inside the trimmed recording (and the delay margin of the tension
     stream) and when every cable is above ``taut_N`` within the window of
-    :func:`cdprid.nuisance.taut_mask` (the rule shared with real-data fitting; slack phases
+    :func:`cdprid.core.taut_mask` (the rule shared with real-data fitting; slack phases
     are outside every model here). With ``train_until``, t < train_until is fitted and the
     rest held out; otherwise held-out figures are blocked cross-validation over ``n_folds``
     time blocks. ``joins`` (times where blocks of a budgeted subset meet, see

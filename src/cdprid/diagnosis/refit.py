@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .testing import hac_cov
+from cdprid.diagnosis.testing import hac_cov
 
 
 def refit_gauss_newton(design, theta, x0, active_idx, rotational, wrow, train, lags,

@@ -13,8 +13,8 @@ import functools
 import numpy as np
 from scipy import stats
 
-from .base import BaseFit
-from .candidates import (
+from cdprid.diagnosis.base import BaseFit
+from cdprid.diagnosis.candidates import (
     Candidate,
     alias_label,
     implausible,
@@ -23,12 +23,12 @@ from .candidates import (
     vocab_interval,
     vocab_params,
 )
-from .model import ThetaLayout
-from .problem import Problem, design, heldout_rms, seed_design
-from .refit import refit_gauss_newton
-from .result import Finding
-from .testing import aliases_of, partial_wald, partial_wald_many
-from .unexplained import structure_tests
+from cdprid.diagnosis.model import ThetaLayout
+from cdprid.diagnosis.problem import Problem, design, heldout_rms, seed_design
+from cdprid.diagnosis.refit import refit_gauss_newton
+from cdprid.diagnosis.result import Finding
+from cdprid.diagnosis.testing import aliases_of, partial_wald, partial_wald_many
+from cdprid.diagnosis.unexplained import structure_tests
 
 
 def finding_columns(c: Candidate, layout: ThetaLayout, active_idx: list, n_model: int) -> list:

@@ -1,16 +1,15 @@
 """Stage 2 of the diagnosis: statistics (HAC Wald tests, blocked held-out error, noise).
 
-The HAC covariance is :func:`cdprid.covariance.hac_covariance` with a fixed Bartlett window of
+The HAC covariance is :func:`cdprid.core.hac_covariance` with a fixed Bartlett window of
 ``lags + 1`` samples (the correlation length of the matched-filtered residual).
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from ..covariance import hac_covariance
+from cdprid.core._covariance import hac_covariance
+from cdprid.core._noise import estimate_noise  # noqa: F401  (re-exported)
 
 
 def hac_cov(Z, e, lags: int):
@@ -18,7 +17,7 @@ def hac_cov(Z, e, lags: int):
 
     Z : (n, 6, p) design rows grouped by sample; e : (n, 6) residuals; lags up to ``lags``
     get the Bartlett weights ``1 - j / (lags + 1)``. This is
-    :func:`cdprid.covariance.hac_covariance` with the window ``lags + 1``.
+    :func:`cdprid.core.hac_covariance` with the window ``lags + 1``.
     """
     return hac_covariance(Z, e, bandwidth=int(lags) + 1)[0]
 
@@ -71,20 +70,6 @@ def cv_sse(Z, y, folds, guard):
         sse += float(max(0.0, s[hi] - s[lo] - 2.0 * beta @ gb + beta @ Gb @ beta))
         count += int(hi - lo) * y.shape[1]
     return sse, count
-
-
-def estimate_noise(x, order: int = 4) -> np.ndarray:
-    """White-noise standard deviation of each column of a smooth signal plus noise.
-
-    The ``order``-th difference of white noise of variance s^2 has variance
-    ``C(2 order, order) s^2`` while a smooth signal's is negligible at 100 Hz; a median
-    absolute deviation keeps it robust.
-    """
-    x = np.asarray(x, float)
-    d = np.diff(x, n=order, axis=0)
-    c = math.comb(2 * order, order)
-    mad = np.median(np.abs(d - np.median(d, axis=0)), axis=0) * 1.4826
-    return mad / math.sqrt(c)
 
 
 def partial_wald(Ct, yt, lags):

@@ -13,7 +13,7 @@ import math
 import numpy as np
 from scipy import stats
 
-from .testing import partial_wald
+from cdprid.diagnosis.testing import partial_wald
 
 #: generic signals the residual of the extended model is tested against (unexplained stage)
 STRUCTURE_SIGNALS = ("sign of cable velocity", "tension level", "pose", "time (slow drift)")
@@ -221,7 +221,7 @@ def heldout_residuals(Z, y, wrow, use, test, n_folds: int, guard: int) -> np.nda
     leaving ``guard`` samples out on each side of the predicted block (the criterion of
     :func:`cdprid.diagnosis.problem.force_heldout_rms`).
     """
-    from .testing import blocks
+    from cdprid.diagnosis.testing import blocks
 
     n, _, p = Z.shape
     out = np.full((n, 3), np.nan)

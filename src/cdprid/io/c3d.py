@@ -8,7 +8,8 @@ file; default every marker) give the platform pose by the shared rigid-body fit 
   frame, origin P), the pose is the platform's in the motion-capture frame;
 - without it, the layout is **estimated from the data**, and the pose is that of a marker
   frame (origin at ``origin_marker``, axes = the capture axes at the first frame where every
-  marker is seen): a nuisance that :mod:`cdprid.calibration` or the user must relate to the
+  marker is seen): a nuisance that :mod:`cdprid.identify._calibration` or the user must relate to
+  the
   robot's platform frame. meta.toml says which.
 
 The motion-capture frame is taken as the robot's base frame (stated in meta.toml).
@@ -29,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import UserError
-from .table import UNITS, unit_scale
+from cdprid.base._errors import UserError
+from cdprid.io.table import UNITS, unit_scale
 
 __all__ = ["import_c3d", "marker_gaps", "platform_pose", "read_c3d_markers", "read_layout"]
 
@@ -91,7 +92,7 @@ def read_c3d_markers(c, path, markers: list[str] | None):
 
 def read_layout(path: str | Path, names: list[str], units: str = "m"):
     """Marker layout (k, 3) in the platform frame, m, from a CSV ``name,x,y,z`` (header line)."""
-    from .table import read_table
+    from cdprid.io.table import read_table
 
     tab = read_table(path, "--layout")
     raw = Path(path).read_text(encoding="utf-8-sig").splitlines()
@@ -177,7 +178,7 @@ def platform_pose(V_m, names: list[str], t, path, layout=None, layout_units: str
     V_R_M : (n, 3, 3), V_p_M : (n, 3), residual : (n, k) m, layout M_m : (k, 3) m, and a
     sentence saying which frame the pose is of.
     """
-    from .markers import estimate_layout, fit_rigid_body
+    from cdprid.io.markers import estimate_layout, fit_rigid_body
 
     if layout is not None:
         M_m = read_layout(layout, names, layout_units)
@@ -239,9 +240,9 @@ def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
     -------
     Path
     """
-    from ..geometry import load_robot
-    from ..outputs import check_output
-    from .table import parse_mapping, parse_units, read_tension_table, write_imported
+    from cdprid.base._outputs import check_output
+    from cdprid.io.table import parse_mapping, parse_units, read_tension_table, write_imported
+    from cdprid.model._geometry import load_robot
 
     check_output(out, force, "--out", kind="dir")
     rob = load_robot(robot)

@@ -11,7 +11,7 @@ tensions that are all zero or mostly negative (cables only pull).
 Alignment (:func:`align`): the pose stream is the master time base; **data are never
 invented**. A period longer than :data:`GAP_FACTOR` median periods in the pose stream, or a
 gap of the tension stream, splits the recording into segments that are differentiated
-separately (:func:`cdprid.motion.estimate_motion`) and never bridged; pose samples outside the
+separately (:func:`cdprid.core.estimate_motion`) and never bridged; pose samples outside the
 tension stream's range are dropped (the share is reported). Inside a segment, tensions are
 linearly interpolated onto the pose times and a pose sampling with jitter above 1 % of the
 median period is resampled onto a uniform grid by a cubic spline (reported in the notes).
@@ -29,10 +29,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 import tomllib
 
-from ..errors import OutputError, OutputExistsError, UserError
+from cdprid.base._errors import OutputError, OutputExistsError, UserError
 
 if TYPE_CHECKING:  # geometry imports JAX: loaded only when a dataset is read or written
-    from ..geometry import CableRobot
+    from cdprid.model._geometry import CableRobot
 
 __all__ = ["Dataset", "DatasetError", "AlignedSignals", "read_dataset", "write_dataset", "align",
            "sampling_report", "read_csv_stream", "GAP_FACTOR", "MIN_SEGMENT_SAMPLES",
@@ -238,7 +238,7 @@ def read_dataset(path: str | Path) -> Dataset:
     DatasetError
         One sentence naming the file, line or column, and the problem.
     """
-    from ..geometry import RobotFileError, load_robot
+    from cdprid.model._geometry import RobotFileError, load_robot
 
     root = Path(path)
     if not root.exists():
@@ -378,7 +378,7 @@ class AlignedSignals:
         Human-readable notes on what alignment did (gaps, drops, resampling, warnings).
     segments : tuple of (int, int)
         Half-open index ranges ``[start, stop)`` of the gap-free segments in ``t``; each is
-        differentiated on its own (:func:`cdprid.motion.estimate_motion`). One segment
+        differentiated on its own (:func:`cdprid.core.estimate_motion`). One segment
         ``((0, n),)`` when the recording has no gap.
     """
 
@@ -408,7 +408,7 @@ class AlignedSignals:
 
 def _continuous_quaternions(q: np.ndarray) -> np.ndarray:
     """Flip signs so consecutive quaternions agree (vectorised; same rule as
-    :func:`cdprid.rotations.quat_continuity`)."""
+    :func:`cdprid.model.quat_continuity`)."""
     q = np.asarray(q, float)
     if len(q) < 2:
         return q.copy()
@@ -513,8 +513,8 @@ def align(ds: Dataset, t_start: float | None = None, t_end: float | None = None,
         whole signal at once): only the longest gap-free segment, the others dropped and
         reported. True: every segment of at least :data:`MIN_SEGMENT_SAMPLES` samples, listed in
         ``segments``; the caller must differentiate them separately
-        (:func:`cdprid.motion.estimate_motion` does) and trim their edges like the ends
-        (:func:`cdprid.motion.segment_mask`).
+        (:func:`cdprid.core.estimate_motion` does) and trim their edges like the ends
+        (:func:`cdprid.core.segment_mask`).
 
     Returns
     -------
@@ -634,7 +634,7 @@ def write_dataset(
     """Write a spec-v1 dataset folder, whole or not at all.
 
     The folder is built under a temporary name beside ``path`` and renamed into place when
-    every file is complete (:func:`cdprid.outputs.atomic_dir`): an interrupted or failed write
+    every file is complete (:func:`cdprid.base.atomic_dir`): an interrupted or failed write
     leaves ``path`` as it was and no partial dataset that parses.
 
     Parameters
@@ -658,13 +658,13 @@ def write_dataset(
     ------
     OutputError
         ``path`` exists (non-empty, without ``overwrite``), is a file, or its folder cannot be
-        written (:class:`~cdprid.errors.OutputExistsError`, also a ``FileExistsError``, for the
+        written (:class:`~cdprid.base.OutputExistsError`, also a ``FileExistsError``, for the
         first).
     """
     import tomli_w
 
-    from ..geometry import robot_to_dict
-    from ..outputs import atomic_dir
+    from cdprid.base._outputs import atomic_dir
+    from cdprid.model._geometry import robot_to_dict
 
     root = Path(path)
     if root.exists() and not root.is_dir():

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 from jaxtyping import Float
 
-from ..errors import UserError
+from cdprid.base._errors import UserError
 
 __all__ = ["UNITS", "Table", "import_table", "parse_mapping", "parse_units", "read_table",
            "read_tension_table", "unit_scale", "euler_to_quaternion", "write_imported"]
@@ -276,10 +276,10 @@ def write_imported(out: str | Path, robot, pose_t, position, tension_t, tension,
     """Write an imported dataset folder atomically (whole or not at all).
 
     Checks that the pose and tension time ranges overlap (UserError otherwise), then writes
-    with :func:`cdprid.io.write_dataset` inside :func:`cdprid.outputs.atomic_dir`.
+    with :func:`cdprid.io.write_dataset` inside :func:`cdprid.base.atomic_dir`.
     """
-    from ..outputs import atomic_dir
-    from .dataset import write_dataset
+    from cdprid.base._outputs import atomic_dir
+    from cdprid.io.dataset import write_dataset
 
     if pose_t[-1] < tension_t[0] or tension_t[-1] < pose_t[0]:
         raise UserError(f"the pose time range [{pose_t[0]:g}, {pose_t[-1]:g}] s and the tension "
@@ -326,8 +326,8 @@ def import_table(pose: str | Path, tensions: str | Path, robot: str | Path, out:
     Path
         The dataset folder.
     """
-    from ..geometry import load_robot
-    from ..outputs import check_output
+    from cdprid.base._outputs import check_output
+    from cdprid.model._geometry import load_robot
 
     check_output(out, force, "--out", kind="dir")
     rob = load_robot(robot)

@@ -13,7 +13,7 @@ Inputs (see ``docs/importers.md``):
 The written pose is that of the MARKER frame in the VICON frame (both defined in
 :mod:`cdprid.io.vicon`: origin at marker 9, axes = Vicon axes at the first frame); robot.toml
 holds the configuration's geometry in the robot base frame and attachments in the platform
-frame. The two frames pairs differ by transforms that :mod:`cdprid.calibration` estimates;
+frame. The two frames pairs differ by transforms that :mod:`cdprid.identify._calibration` estimates;
 meta.toml says so.
 
 Swivel axis. In the lab's MATLAB model (``libs/cdpr_model/@Pulley``) the swivel axis is the
@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..geometry import CableRobot, robot_from_dict
-from .vicon import MarkerFit, ViconTrajectories, estimate_layout, read_vicon_trajectories
+from cdprid.io.vicon import MarkerFit, ViconTrajectories, estimate_layout, read_vicon_trajectories
+from cdprid.model._geometry import CableRobot, robot_from_dict
 
 __all__ = [
     "RobotLog",
@@ -205,7 +205,7 @@ def config_to_dict(path: str | Path, swivel_axis: str = DEFAULT_SWIVEL_AXIS,
 
 
 def read_config(path: str | Path, swivel_axis: str = DEFAULT_SWIVEL_AXIS) -> CableRobot:
-    """A :class:`~cdprid.geometry.CableRobot` from a UACDPR configuration ``.mat``."""
+    """A :class:`~cdprid.model.CableRobot` from a UACDPR configuration ``.mat``."""
     return robot_from_dict(config_to_dict(path, swivel_axis), source=str(path))
 
 
@@ -285,7 +285,7 @@ def uacdpr_meta(rec: UacdprRecording, sources: dict, swivel_axis: str) -> dict:
         "source": "; ".join(f"{k}: {v}" for k, v in sources.items()),
         "frames": {
             "pose": "marker frame M in the Vicon frame V (NOT the platform frame in the base "
-                    "frame): run cdprid.calibration to estimate V->B and M->P",
+                    "frame): run cdprid.identify._calibration to estimate V->B and M->P",
             "marker_frame": f"origin at marker {rec.fit.origin_marker + 1} "
                             f"({rec.vicon.names[rec.fit.origin_marker]}); axes = Vicon axes at "
                             f"frame row {rec.fit.reference_frame} (t = "
@@ -328,8 +328,8 @@ def write_uacdpr(rec: UacdprRecording, out: str | Path, meta: dict, R=None, p=No
         Pose to write at ``rec.pose_t`` (default: the marker frame in the Vicon frame).
     overwrite : bool
     """
-    from ..rotations import matrix_to_quat
-    from .dataset import write_dataset
+    from cdprid.io.dataset import write_dataset
+    from cdprid.model._rotations import matrix_to_quat
 
     v = rec.valid
     R = rec.fit.V_R_M[v] if R is None else R
@@ -361,17 +361,17 @@ def import_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
 
     The pose is that of the marker frame in the Vicon frame; the geometric calibration and
     the nuisance fit are separate stages
-    (:func:`cdprid.calibration.import_calibrated_uacdpr` runs all three, as
+    (:func:`cdprid.identify.import_calibrated_uacdpr` runs all three, as
     ``cdprid import uacdpr`` does). The folder appears whole or not at all.
 
     Raises
     ------
     ValueError
         Malformed input (one sentence naming the file).
-    cdprid.errors.OutputError
+    cdprid.base._errors.OutputError
         ``out`` exists and ``overwrite`` is False (checked before reading).
     """
-    from ..outputs import atomic_dir, check_output
+    from cdprid.base._outputs import atomic_dir, check_output
 
     check_output(out, force=overwrite, kind="dir")
     rec = load_uacdpr(vicon, robot_log, config, swivel_axis)

@@ -15,7 +15,7 @@ as NaN. :func:`read_vicon_trajectories` returns positions in metres.
 Pose from markers: :mod:`cdprid.io.markers` (the one Kabsch/Horn rigid-body fit shared with the
 C3D importer; re-exported here). The UACDPR authors take marker 9, the lowest one, as the
 marker-frame origin. The relation between this marker frame and the robot's platform frame is
-a nuisance that :mod:`cdprid.calibration` estimates.
+a nuisance that :mod:`cdprid.identify._calibration` estimates.
 
 Names carry their frame: ``V_`` Vicon frame, ``M_`` marker frame; ``V_R_M`` rotates
 marker-frame vectors into the Vicon frame and ``V_p_M`` is the marker-frame origin.
@@ -28,10 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .markers import MarkerFit as MarkerFit
-from .markers import estimate_layout as estimate_layout
-from .markers import fit_rigid_body as fit_rigid_body
-from .markers import kabsch as kabsch
+from cdprid.io.markers import MarkerFit as MarkerFit
+from cdprid.io.markers import estimate_layout as estimate_layout
+from cdprid.io.markers import fit_rigid_body as fit_rigid_body
+from cdprid.io.markers import kabsch as kabsch
 
 __all__ = [
     "ViconTrajectories",

@@ -1,4 +1,4 @@
-"""Figures of the geometric calibration (:mod:`cdprid.calibration`)."""
+"""Figures of the geometric calibration (:mod:`cdprid.identify._calibration`)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from ..calibration import CalibrationData, CalibrationResult, platform_pose
-from ..geometry import CableRobot, cable_lengths, swivel_angles
-from ..outputs import save_figure
+from cdprid.base._outputs import save_figure
+from cdprid.identify._calibration import CalibrationData, CalibrationResult, platform_pose
+from cdprid.model._geometry import CableRobot, cable_lengths, swivel_angles
 
 __all__ = ["calibration_figures"]
 

@@ -51,8 +51,8 @@ def unexplained_figure(result, out: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..diagnosis.unexplained import decimate_runs, periodogram
-    from ..plots import save_fig
+    from cdprid.diagnosis.unexplained import decimate_runs, periodogram
+    from cdprid.report.figures import save_fig
 
     A = result.arrays
     t, r, use = A["t"], A["residual_extended"], A["use"]
@@ -113,7 +113,7 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     Path
         ``out_dir / "report.md"``.
     """
-    from ..plots import diagnosis_figures
+    from cdprid.report.figures import diagnosis_figures
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

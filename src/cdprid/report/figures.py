@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..outputs import save_figure
+from cdprid.base._outputs import save_figure
 
 __all__ = ["diagnosis_figures", "pyplot", "save_fig"]
 

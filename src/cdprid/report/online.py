@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..online import OnlineResult
-from .figures import pyplot, save_fig
+from cdprid.identify._online import OnlineResult
+from cdprid.report.figures import pyplot, save_fig
 
 __all__ = ["plot_online"]
 

@@ -1,17 +1,17 @@
-"""Figures of the real-data identification (:mod:`cdprid.real`): wrench, residuals,
-tensions and nuisances of the cumulative extensions (:func:`cdprid.real.compare_extensions`).
+"""Figures of the real-data identification (:mod:`cdprid.identify._real`): wrench, residuals,
+tensions and nuisances of the cumulative extensions (:func:`cdprid.identify.compare_extensions`).
 
-``data`` is a :class:`cdprid.real.RealData`; ``steps`` the list returned by
+``data`` is a :class:`cdprid.identify.RealData`; ``steps`` the list returned by
 ``compare_extensions`` (dicts with ``"step"`` and ``"result"``); ``path`` the figure file
-(written atomically by :func:`cdprid.outputs.save_figure`).
+(written atomically by :func:`cdprid.base.save_figure`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..differentiators import zero_phase_filter
-from ..outputs import save_figure
+from cdprid.base._outputs import save_figure
+from cdprid.signal._differentiators import zero_phase_filter
 
 __all__ = ["fig_nuisance", "fig_residuals", "fig_tensions", "fig_wrench"]
 

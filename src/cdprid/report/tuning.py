@@ -12,7 +12,7 @@ def plot_response(resp, path, method: str = "", force: bool = False) -> Path:
 
     Parameters
     ----------
-    resp : cdprid.tuning.FrequencyResponse
+    resp : cdprid.tuning._tuning.FrequencyResponse
     path : path-like
         PNG to write (atomically; refused if it exists unless ``force``).
     method : str
@@ -23,8 +23,8 @@ def plot_response(resp, path, method: str = "", force: bool = False) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..outputs import save_figure
-    from ..tuning import GAIN_MAX_ABOVE, GAIN_MAX_BELOW
+    from cdprid.base._outputs import save_figure
+    from cdprid.tuning._tuning import GAIN_MAX_ABOVE, GAIN_MAX_BELOW
 
     b = resp.bounds
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6.5, 5.5), sharex=True)

@@ -1,0 +1,20 @@
+"""Base layer: error types, atomic outputs, named defaults, progress lines."""
+
+# ruff: noqa: F401  (explicit re-exports)
+
+from cdprid.base._defaults import CUTOFF_HZ as CUTOFF_HZ
+from cdprid.base._defaults import FILTER_ORDER as FILTER_ORDER
+from cdprid.base._defaults import REST_SPEED_M_S as REST_SPEED_M_S
+from cdprid.base._defaults import TAUT_THRESHOLD_N as TAUT_THRESHOLD_N
+from cdprid.base._defaults import TRIM_S as TRIM_S
+from cdprid.base._errors import ConvergenceError as ConvergenceError
+from cdprid.base._errors import OutputError as OutputError
+from cdprid.base._errors import OutputExistsError as OutputExistsError
+from cdprid.base._errors import UserError as UserError
+from cdprid.base._outputs import atomic_dir as atomic_dir
+from cdprid.base._outputs import atomic_file as atomic_file
+from cdprid.base._outputs import check_output as check_output
+from cdprid.base._outputs import save_figure as save_figure
+from cdprid.base._outputs import write_json as write_json
+from cdprid.base._outputs import write_text as write_text
+from cdprid.base._progress import Progress as Progress

@@ -1,0 +1,249 @@
+"""The exact safety certificate of a trajectory (numpy and the CasADi/HiGHS LP, no smoothing).
+
+Every limit of :class:`cdprid.excitation.SafetyLimits` is checked on the samples given
+(``cdprid excite`` passes the 100 Hz grid of the written CSV for tensions and clearances, and a
+500 Hz grid for the kinematic limits):
+
+- workspace box (position of P), norm of the acceleration and of the jerk of P, tilt (rotation
+  angle ``2 atan2(|q_vec|, |q_w|)`` from the identity), norms of the angular velocity and
+  acceleration, cable speeds ``|dl_i/dt| = |W_i^T [v; omega]|``;
+- cable-cable and cable-body clearance (:mod:`cdprid.model._clearance`);
+- tension feasibility at the nominal platform and at every corner of the uncertainty box:
+  the closed-form centred distribution ``tau = tau_mid + W^+ (w - W tau_mid)`` certifies a
+  sample when it satisfies ``W tau = w`` within bounds; the samples where it does not, and the
+  ones with the smallest closed-form margins, get the LP ``max s`` (:func:`cdprid.model._tensions.
+  feasibility_margin`). The robust margin is a proven lower bound of the worst-corner LP margin.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from cdprid.core._regression import regressors, wrench_matrices
+from cdprid.excitation._safety import SafetyLimits, UncertaintyBox
+from cdprid.model._clearance import cable_body_distances, cable_cable_distances
+from cdprid.model._rotations import quat_to_matrix
+from cdprid.model._tensions import feasibility_margin
+from cdprid.model._trajectories import TrajectoryState
+
+__all__ = ["SafetyCertificate", "SafetySeries", "certify_trajectory", "kinematic_peaks",
+           "limit_ratios", "robust_tension_margins", "safety_series"]
+
+_TOL = 1e-9
+_LP_BUDGET = 256
+
+
+@dataclasses.dataclass(frozen=True)
+class SafetyCertificate:
+    """Peaks, limits and verdict of one trajectory.
+
+    ``peaks`` maps each checked quantity to its worst value (max, or min for margins and
+    clearances); ``failed`` lists one sentence per violated check (empty when certified).
+    """
+
+    peaks: dict
+    failed: tuple
+    robust_margin_N: float
+    nominal_margin_N: float
+    worst_corner: list
+    n_corners: int
+    n_lp: int
+
+    @property
+    def certified(self) -> bool:
+        return not self.failed
+
+    def as_json(self) -> dict:
+        return {"peaks": self.peaks, "failed_checks": list(self.failed),
+                "robust_tension_margin_N": self.robust_margin_N,
+                "nominal_tension_margin_N": self.nominal_margin_N,
+                "worst_corner": self.worst_corner, "n_corners": self.n_corners,
+                "n_lp_solved": self.n_lp, "certified": self.certified}
+
+
+def _tilt(q):
+    q = np.asarray(q)
+    return 2.0 * np.arctan2(np.linalg.norm(q[:, 1:], axis=1), np.abs(q[:, 0]))
+
+
+def kinematic_peaks(states: TrajectoryState) -> dict:
+    """Largest |a|, |j| (of P), tilt, |omega|, |alpha| over the samples (SI units)."""
+    n = lambda x: float(np.max(np.linalg.norm(np.asarray(x), axis=1)))  # noqa: E731
+    return {"acceleration_m_s2": n(states.a), "jerk_m_s3": n(states.j),
+            "tilt_rad": float(np.max(_tilt(states.q))),
+            "angular_velocity_rad_s": n(states.omega),
+            "angular_acceleration_rad_s2": n(states.alpha)}
+
+
+def limit_ratios(robot, states: TrajectoryState, lim: SafetyLimits) -> dict:
+    """Peak over limit (dimensionless) of every kinematic limit and of the cable speed.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    states : TrajectoryState
+        Motion samples (n of each field).
+    lim : SafetyLimits
+
+    Returns
+    -------
+    dict
+        ``{"acceleration": ..., "jerk": ..., "tilt": ..., "angular_velocity": ...,
+        "angular_acceleration": ..., "cable_speed": ...}``; 1.0 means at the limit.
+    """
+    kin = kinematic_peaks(states)
+    _, W, _ = _pose_arrays(robot, *(jnp.asarray(x) for x in (states.p, states.q, states.a,
+                                                             states.omega, states.alpha)))
+    tw = np.hstack([np.asarray(states.v), np.asarray(states.omega)])
+    speed = float(np.max(np.abs(np.einsum("nim,ni->nm", np.asarray(W), tw))))
+    return {"acceleration": kin["acceleration_m_s2"] / lim.acceleration_max,
+            "jerk": kin["jerk_m_s3"] / lim.jerk_max, "tilt": kin["tilt_rad"] / lim.tilt_max,
+            "angular_velocity": kin["angular_velocity_rad_s"] / lim.angular_velocity_max,
+            "angular_acceleration": kin["angular_acceleration_rad_s2"]
+            / lim.angular_acceleration_max,
+            "cable_speed": speed / lim.cable_speed_max}
+
+
+def _closed_form_margins(W, w, tmin, tmax):
+    """Margins (k, n) of the centred least-norm distribution; -inf where W tau != w."""
+    mid = 0.5 * (tmin + tmax)
+    Wp = np.linalg.pinv(W)  # (n, m, 6)
+    base = mid - np.einsum("nmi,ni->nm", Wp, W.sum(axis=2) * mid)  # (n, m)
+    tau = base[None] + np.einsum("nmi,kni->knm", Wp, w)  # (k, n, m)
+    resid = np.einsum("nim,knm->kni", W, tau) - w
+    ok = np.max(np.abs(resid), axis=-1) <= 1e-6 * (1.0 + np.max(np.abs(w), axis=-1))
+    marg = np.minimum(tau - tmin, tmax - tau).min(axis=-1)
+    return np.where(ok, marg, -np.inf)
+
+
+def robust_tension_margins(W, A_full, corners, tmin: float, tmax: float,
+                           lp_budget: int = _LP_BUDGET):
+    """Proven lower bounds (k, n) of the LP tension margin at every corner and sample, and the
+    number of LPs solved.
+
+    Closed-form margins everywhere; the LP (:func:`cdprid.model.feasibility_margin`) where
+    the closed form fails, where it is negative (up to 4096 pairs) and at the ``lp_budget``
+    smallest closed-form margins (a closed-form margin >= 0 already proves feasibility: the LP
+    only tightens it). Pairs not
+    solved keep their closed-form margin (a lower bound of the LP one), so the minimum over
+    all pairs is a lower bound of the true worst margin, and equal to it when the smallest
+    LP margin is below the smallest unsolved closed-form margin.
+    """
+    W = np.asarray(W, float)
+    w = np.einsum("nip,kp->kni", np.asarray(A_full, float), np.asarray(corners, float))
+    cf = np.vstack([_closed_form_margins(W, w[k0:k0 + 128], tmin, tmax)
+                    for k0 in range(0, w.shape[0], 128)])
+    order = np.argsort(cf, axis=None)
+    n_neg = int(np.sum(~(cf >= 0.0)))  # the order starts with them
+    todo = order[:max(lp_budget, min(n_neg, 4096))]
+    todo = np.union1d(todo, np.flatnonzero(~np.isfinite(cf.ravel())))
+    out = cf.copy()
+    if len(todo):
+        k, i = np.unravel_index(todo, cf.shape)
+        lp = np.atleast_1d(feasibility_margin(W[i], w[k, i], tmin, tmax))
+        out[k, i] = np.maximum(lp, cf[k, i])
+    return out, len(todo)
+
+
+@jax.jit
+def _pose_arrays(robot, p, q, a, omega, alpha):
+    R = jax.vmap(quat_to_matrix)(q)
+    W = wrench_matrices(robot, p, R)
+    A = regressors("full", R, a, omega, alpha, robot.gravity)
+    return R, W, A
+
+
+@dataclasses.dataclass(frozen=True)
+class SafetySeries:
+    """Time series of every checked quantity on one grid (for the certificate and figures)."""
+
+    t: np.ndarray
+    tension_nominal: np.ndarray  # (n, m) centred least-norm distribution, nominal platform
+    margin: np.ndarray  # (k, n) tension margin lower bounds, row 0 nominal, then the corners
+    n_lp: int
+    cable_speed: np.ndarray  # (n, m) |dl/dt|
+    acceleration: np.ndarray  # (n,)
+    jerk: np.ndarray
+    tilt: np.ndarray
+    angular_velocity: np.ndarray
+    angular_acceleration: np.ndarray
+    cable_cable: np.ndarray  # (n, k) checked pairs
+    cable_body: np.ndarray | None  # (n, m)
+
+
+def safety_series(robot, states: TrajectoryState, lim: SafetyLimits,
+                  box: UncertaintyBox) -> SafetySeries:
+    """Every checked quantity at the samples of ``states`` (exact: numpy and LP)."""
+    R, W, A = (np.asarray(x) for x in _pose_arrays(
+        robot, *(jnp.asarray(x) for x in (states.p, states.q, states.a, states.omega,
+                                           states.alpha))))
+    corners = np.vstack([box.x_nominal[None], box.corners])
+    marg, n_lp = robust_tension_margins(W, A, corners, lim.tension_min, lim.tension_max)
+    mid = 0.5 * (lim.tension_min + lim.tension_max)
+    Wp = np.linalg.pinv(W)
+    w_nom = A @ box.x_nominal
+    tau = mid + np.einsum("nmi,ni->nm", Wp, w_nom - W.sum(axis=2) * mid)
+    v, om = np.asarray(states.v), np.asarray(states.omega)
+    speeds = np.abs(np.einsum("nim,ni->nm", W, np.hstack([v, om])))
+    p = np.asarray(states.p)
+    nrm = lambda x: np.linalg.norm(np.asarray(x), axis=1)  # noqa: E731
+    cb = cable_body_distances(robot, p, R) if robot.platform.body_min is not None else None
+    return SafetySeries(np.asarray(states.t), tau, marg, n_lp, speeds, nrm(states.a),
+                        nrm(states.j), _tilt(states.q), nrm(om), nrm(states.alpha),
+                        cable_cable_distances(robot, p, R), cb)
+
+
+def certify_trajectory(robot, states_grid: TrajectoryState, states_dense: TrajectoryState,
+                       lim: SafetyLimits, box: UncertaintyBox) -> SafetyCertificate:
+    """Exact check of every limit (module docstring); tensions and clearances on
+    ``states_grid``, kinematics on ``states_dense`` (and on the grid)."""
+    peaks = {}
+    failed = []
+
+    def check(name, value, limit, unit, below=True):
+        peaks[name] = value
+        bad = value > limit * (1 + _TOL) if below else value < limit * (1 - _TOL)
+        if bad:
+            word = "exceeds" if below else "is below"
+            failed.append(f"{name} {value:.4g} {unit} {word} the limit {limit:.4g} {unit}")
+
+    kin = {k: max(a, b) for (k, a), b in zip(kinematic_peaks(states_dense).items(),
+                                             kinematic_peaks(states_grid).values(), strict=True)}
+    check("acceleration_m_s2", kin["acceleration_m_s2"], lim.acceleration_max, "m/s^2")
+    check("jerk_m_s3", kin["jerk_m_s3"], lim.jerk_max, "m/s^3")
+    check("tilt_rad", kin["tilt_rad"], lim.tilt_max, "rad")
+    check("angular_velocity_rad_s", kin["angular_velocity_rad_s"], lim.angular_velocity_max,
+          "rad/s")
+    check("angular_acceleration_rad_s2", kin["angular_acceleration_rad_s2"],
+          lim.angular_acceleration_max, "rad/s^2")
+    lo, hi = np.asarray(lim.workspace_min), np.asarray(lim.workspace_max)
+    p = np.vstack([np.asarray(states_dense.p), np.asarray(states_grid.p)])
+    check("workspace_distance_m", float(np.min(np.minimum(p - lo, hi - p))), 0.0, "m", below=False)
+    ser = safety_series(robot, states_grid, lim, box)
+    marg = ser.margin
+    check("cable_speed_m_s", float(ser.cable_speed.max()), lim.cable_speed_max, "m/s")
+    cc = ser.cable_cable
+    check("cable_cable_clearance_m", float(cc.min()) if cc.size else float("inf"),
+          lim.cable_clearance, "m", below=False)
+    if ser.cable_body is not None:
+        check("cable_body_clearance_m", float(ser.cable_body.min()), lim.cable_clearance, "m",
+              below=False)
+    else:
+        peaks["cable_body_clearance_m"] = None
+    peaks["tension_nominal_min_N"] = float(ser.tension_nominal.min())
+    peaks["tension_nominal_max_N"] = float(ser.tension_nominal.max())
+    robust = float(marg.min())
+    k_worst = int(np.unravel_index(np.argmin(marg), marg.shape)[0])
+    peaks["robust_tension_margin_N"] = robust
+    if not robust >= 0.0:
+        n_bad = int(np.sum(np.any(marg < 0, axis=0)))
+        failed.append(f"tensions: {n_bad} samples have no tension distribution within "
+                      f"[{lim.tension_min:g}, {lim.tension_max:g}] N for some platform in the "
+                      f"uncertainty box (worst margin {robust:.3g} N)")
+    x = np.vstack([box.x_nominal[None], box.corners])[k_worst]
+    return SafetyCertificate(peaks, tuple(failed), robust, float(marg[0].min()),
+                             [float(v) for v in x], len(box.corners), ser.n_lp)

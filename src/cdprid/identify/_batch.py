@@ -1,0 +1,471 @@
+"""End-to-end identification of a dataset: the data path in one call.
+
+dataset -> :func:`~cdprid.io.align` -> :func:`~cdprid.core.estimate_motion` ->
+:func:`~cdprid.core.build_regression` -> :func:`~cdprid.core.least_squares`,
+with the checks that keep the printed numbers honest (:mod:`cdprid.core._physical` and the
+guards below): each guard that fires adds one sentence to ``warnings``.
+
+Defaults chosen so that the estimate is unbiased and its ``std`` covers the real error:
+
+* ``model="auto"``: the full model when the quaternions show rotation (the translation model
+  on rotating data biases m s_G), else the paper's translation model;
+* matched filtering of ``W tau`` for every differentiator
+  (:func:`cdprid.signal.acceleration_filter`): the zero-phase filter for the
+  Euler recipe, the differentiator's own response for the causal ones (their lag would
+  otherwise shrink mzG by 10-60 %);
+* ``std`` from the HAC covariance (:mod:`cdprid.core._covariance`); eq. 20 kept as ``std_iid``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from cdprid.base._defaults import TRIM_S
+from cdprid.core._identification import LSResult, least_squares_blocks
+from cdprid.core._motion import Motion, estimate_motion
+from cdprid.core._physical import inertia_about_com, physical_fit, physical_warnings
+from cdprid.core._regression import (
+    CHUNK,
+    Regression,
+    StreamedRegression,
+    cable_wrench,
+    regressor_blocks,
+    regressors,
+)
+from cdprid.io.dataset import AlignedSignals, Dataset, align
+from cdprid.model._dynamics import PARAMETER_NAMES
+from cdprid.model._rotations import quat_to_matrix
+from cdprid.signal._differentiators import METHODS, acceleration_filter
+
+__all__ = [
+    "COND_WARN",
+    "DEFAULT_TRIM_S",
+    "IdentificationReport",
+    "MODELS",
+    "ROTATION_WARN_DEG",
+    "WRENCH_FILTERS",
+    "excitation_warnings",
+    "format_table",
+    "identify_dataset",
+    "physical_report",
+    "rotation_angle_deg",
+]
+
+DEFAULT_TRIM_S = TRIM_S
+"""Seconds dropped at both ends after differentiation (kept for compatibility)."""
+
+MODELS = ("auto", "translation", "full")
+WRENCH_FILTERS = ("matched", "none")
+
+ROTATION_WARN_DEG = 1.0
+"""Rotation (99th percentile of the angle from the mean orientation, deg) above which the
+translation model is a mismatch (its moment rows ignore I alpha and the rotating first moment)
+and ``model="auto"`` picks the full model."""
+
+COND_WARN = 1.0e3
+"""Scaled condition number of W_ID above which the excitation is reported as too little."""
+
+ZERO_COLUMN_REL = 1.0e-6
+"""A column of W_ID whose norm is below this fraction of the largest is 'near zero'."""
+
+
+@dataclasses.dataclass(frozen=True)
+class IdentificationReport:
+    """Everything an identification produced.
+
+    Attributes
+    ----------
+    result : LSResult
+    model : str
+        The model used ("translation" or "full"; "auto" resolved).
+    differentiator : str
+    params : dict
+    n_samples : int
+        Time samples used (each gives 6 equations).
+    signals : AlignedSignals
+    motion : Motion
+    regression : Regression or StreamedRegression
+        The samples used (after trimming); the pipeline's regressor is streamed (evaluated
+        block by block, ``.A`` / ``.W_ID`` materialise it on demand).
+    notes : tuple of str
+    warnings : tuple of str
+        One sentence per guard that fired (model mismatch, lag, physics, excitation).
+    inertia_about : {"P", "G"}
+        Reference point of the inertia in the output (platform frame either way).
+    wrench_filter : str
+    rotation_deg : float
+        99th percentile of the rotation angle from the mean orientation (0 without quaternions).
+    """
+
+    result: LSResult
+    model: str
+    differentiator: str
+    params: dict
+    n_samples: int
+    signals: AlignedSignals
+    motion: Motion
+    regression: Regression | StreamedRegression
+    notes: tuple = ()
+    warnings: tuple = ()
+    inertia_about: str = "P"
+    wrench_filter: str = "matched"
+    rotation_deg: float = 0.0
+
+    @property
+    def inertia_about_text(self) -> str:
+        """``"P, platform frame"`` or ``"G (centre of mass), platform frame"``."""
+        return ("P, platform frame" if self.inertia_about == "P"
+                else "G (centre of mass), platform frame")
+
+    def estimates(self) -> tuple[tuple, np.ndarray, np.ndarray, np.ndarray]:
+        """``(names, x, cov, cov_iid)`` with the inertia about the chosen point."""
+        r = self.result
+        cov_iid = r.cov if r.cov_iid is None else r.cov_iid
+        if self.model != "full" or self.inertia_about == "P":
+            return r.names, r.x, r.cov, cov_iid
+        x, J = inertia_about_com(r.x)
+        return r.names, x, J @ r.cov @ J.T, J @ cov_iid @ J.T
+
+    def parameters(self) -> dict:
+        """``{name: {"value", "std", "rel_std_percent", "std_iid"}}`` (JSON ``parameters``)."""
+        names, x, cov, cov_iid = self.estimates()
+        s = np.sqrt(np.clip(np.diag(cov), 0, None))
+        si = np.sqrt(np.clip(np.diag(cov_iid), 0, None))
+        with np.errstate(divide="ignore"):
+            rel = 100.0 * s / np.abs(x)
+        return {n: {"value": float(v), "std": float(a), "rel_std_percent": float(c),
+                    "std_iid": float(b)}
+                for n, v, a, c, b in zip(names, x, s, rel, si, strict=True)}
+
+    def as_json(self) -> dict:
+        """The JSON contract of ``cdprid identify --json``."""
+        r = self.result
+        out = {
+            "model": self.model,
+            "parameters": self.parameters(),
+            "sigma_rho": r.sigma_rho,
+            "cond": r.cond,
+            "cond_scaled": r.cond_scaled,
+            "n_samples": self.n_samples,
+            "differentiator": self.differentiator,
+            "differentiator_params": self.params,
+            "weighting": "groups" if r.weights is not None else "none",
+            "covariance": r.covariance,
+            "hac_bandwidth_samples": r.hac_bandwidth if r.covariance == "hac" else None,
+            "wrench_filter": self.wrench_filter,
+            "rotation_deg": self.rotation_deg,
+            "warnings": list(self.warnings),
+            "notes": list(self.notes),
+        }
+        if self.model == "full":
+            out["inertia_about"] = self.inertia_about_text
+        return out
+
+
+def rotation_angle_deg(quaternion) -> float:
+    """99th percentile of the rotation angle (deg) of each sample from the mean orientation.
+
+    Parameters
+    ----------
+    quaternion : ndarray (n, 4)
+        Unit quaternions (w, x, y, z); signs may flip between samples.
+    """
+    q = np.asarray(quaternion, float)
+    q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
+    qm = q.mean(axis=0)
+    qm = qm / np.linalg.norm(qm)
+    c = np.clip(np.abs(q @ qm), 0.0, 1.0)
+    return float(np.percentile(np.degrees(2.0 * np.arccos(c)), 99))
+
+
+def _choose_model(model: str, sig: AlignedSignals, path) -> tuple[str, float, list]:
+    rot = rotation_angle_deg(sig.quaternion) if sig.has_rotation else 0.0
+    warns = []
+    if model == "full" and not sig.has_rotation:
+        raise ValueError(
+            f"{path}: the full model needs orientations (qw, qx, qy, qz in pose.csv) "
+            "to identify the inertia; this dataset has none."
+        )
+    if model == "auto":
+        model = "full" if rot > ROTATION_WARN_DEG else "translation"
+    elif model == "translation" and rot > ROTATION_WARN_DEG:
+        warns.append(f"the platform rotates by up to {rot:.2g} deg but the translation model "
+                     "ignores rotation (its inertia and rotating first moment bias m s_G): use "
+                     "--model full or auto.")
+    return model, rot, warns
+
+
+def _wrench_filter(robot, differentiator: str, params: dict, dt: float, wrench_filter: str):
+    """The matched filter of ``W tau`` (a callable), its note and warnings.
+
+    The callable filters (n, k) channels; ``scale`` (k,) is each channel's amplitude
+    normalisation (default: the wrench's, mass times 1 for forces and the platform radius for
+    moments).
+    """
+    causal = METHODS[differentiator].causal
+    if wrench_filter == "none":
+        warns = []
+        if causal or differentiator != "euler-filtfilt":
+            warns.append(f"the differentiator {differentiator} lags or attenuates the "
+                         "accelerations but W tau is not filtered the same way "
+                         "(--wrench-filter none): m s_G and the inertia are biased towards zero.")
+        return None, None, warns
+    gnorm = float(np.linalg.norm(np.asarray(robot.gravity)))
+    rows = np.array([1.0] * 3 + [_radius(robot)] * 3)
+
+    def wf(y, scale=None):
+        """Filter (n, 6) wrenches, or (n, k) channels of amplitude ``scale`` (k,)."""
+        if scale is None:
+            m_seen = max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / max(gnorm, 1e-9), 1e-6)
+            scale = m_seen * rows
+        return acceleration_filter(y, dt, differentiator, scale=scale, **params)
+
+    kind = "causal" if causal else "zero-phase"
+    note = (f"matched filtering: W tau passed through the same {kind} filter as the "
+            f"accelerations ({differentiator})")
+    return wf, note, []
+
+
+def _radius(robot) -> float:
+    return max(float(np.max(np.linalg.norm(np.asarray(robot.P_b), axis=1))), 1e-3)
+
+
+def _pose_term_correction(model: str, motion: Motion, robot, wf, y, chunk: int):
+    """The regressor's pose-only part (gravity moment of the rotating m s_G), filtered too.
+
+    ``W tau`` carries ``B_R_P m s_G x g``, which varies with the orientation; once ``W tau`` is
+    filtered, the same term in the regressor must be filtered too, or a causal filter's lag
+    leaves a residual correlated with the rotation (a bias on the inertia and m s_G).
+
+    Returns ``(mask, corr)``: the (6, p) entries of the regressor that depend on the pose alone
+    (found by evaluating it at three rotations with zero motion; the others are constant and pass
+    the filter unchanged) and, per sample, filtered minus raw values of those entries (n, k).
+    Only those k channels are held, not the (n, 6, p) regressor.
+    """
+    q = np.random.default_rng(0).normal(size=(3, 4))
+    Rs = jnp.asarray(np.asarray(jax.vmap(quat_to_matrix)(q / np.linalg.norm(q, axis=1)[:, None])))
+    z3 = jnp.zeros((3, 3))
+    A3 = np.asarray(regressors(model, Rs, z3, z3, z3, robot.gravity))
+    mask = np.any(A3 != A3[0], axis=0)
+    n = len(motion.t)
+    z = np.zeros((n, 3))
+    block = regressor_blocks(model, motion.B_R_P, z, z, z, robot.gravity, chunk)
+    Ag = np.empty((n, int(mask.sum())))
+    for i0 in range(0, n, chunk):
+        Ag[i0:i0 + chunk] = block(i0, min(i0 + chunk, n))[:, mask]
+    gnorm = max(float(np.linalg.norm(np.asarray(robot.gravity))), 1e-9)
+    m_seen = max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / gnorm, 1e-6)
+    r = _radius(robot)
+    p = A3.shape[-1]
+    typical = np.array([m_seen] + [m_seen * r] * 3 + [m_seen * r * r] * 6)[:p]
+    rows = np.array([1.0] * 3 + [r] * 3)
+    scale = (rows[:, None] / typical[None, :])[mask]
+    return mask, np.asarray(wf(Ag, scale)) - Ag
+
+
+def _streamed_regression(robot, motion: Motion, tension, model: str, wf, keep,
+                         chunk: int) -> StreamedRegression:
+    """The kept samples' regression, its regressor evaluated block by block (bounded memory).
+
+    Same numbers as :func:`cdprid.core.build_regression` followed by the matched
+    filtering of the pose-only terms (:func:`_pose_term_correction`), without holding the
+    (n, 6, p) regressor or the (n, 6, m) wrench matrices.
+    """
+    y = cable_wrench(robot, motion.position, motion.B_R_P, tension, chunk)
+    if wf is not None:
+        y = np.asarray(wf(y))
+    mask = corr = None
+    if wf is not None and model == "full":
+        mask, corr = _pose_term_correction(model, motion, robot, wf, y, chunk)
+    idx = np.flatnonzero(keep)
+    sel = slice(idx[0], idx[-1] + 1) if idx[-1] - idx[0] + 1 == len(idx) else idx
+    base = regressor_blocks(model, motion.B_R_P[sel], motion.acceleration[sel],
+                            motion.omega[sel], motion.alpha[sel], robot.gravity, chunk)
+    corr = None if corr is None else corr[sel]
+
+    def block(i0: int, i1: int) -> np.ndarray:
+        A = base(i0, i1)
+        if corr is not None:
+            A[:, mask] += corr[i0:i1]
+        return A
+
+    return StreamedRegression(motion.t[sel], y[sel], model, block)
+
+
+def excitation_warnings(names, column_norms, cond_scaled: float) -> list:
+    """The "too little excitation" guard: near-zero regressor columns or a large condition number.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Parameter names.
+    column_norms : array (p,)
+        Norms of the columns of W_ID.
+    cond_scaled : float
+        Condition number of W_ID with unit-norm columns.
+
+    Returns
+    -------
+    list of str
+        At most one sentence (the batch and the online identification share it).
+    """
+    norms = np.asarray(column_norms, float)
+    small = [n for n, v in zip(names, norms, strict=True) if v < ZERO_COLUMN_REL * norms.max()]
+    warns = []
+    if small:
+        warns.append(f"too little excitation: the regressor columns of {', '.join(small)} are "
+                     "near zero, so these parameters are not identified by this motion.")
+    elif cond_scaled > COND_WARN:
+        warns.append(f"too little excitation: cond(W_ID) scaled = {cond_scaled:.3g} > "
+                     f"{COND_WARN:g}, the estimates are poorly separated (check their std or "
+                     "excite more: cdprid excite).")
+    return warns
+
+
+def identify_dataset(
+    ds: Dataset,
+    model: str = "auto",
+    differentiator: str = "euler-filtfilt",
+    params: dict | None = None,
+    t_start: float | None = None,
+    t_end: float | None = None,
+    trim: float = TRIM_S,
+    weighting: str = "none",
+    matched_filter: bool | None = None,
+    covariance: str = "hac",
+    wrench_filter: str | None = None,
+    inertia_about: str = "P",
+    chunk: int = CHUNK,
+) -> IdentificationReport:
+    """Identify the platform's dynamic parameters from a dataset.
+
+    Parameters
+    ----------
+    ds : Dataset
+    model : {"auto", "translation", "full"}
+        The paper's 4-parameter model, the 10-parameter model with inertia, or ``auto``
+        (default): full when the quaternions show more than :data:`ROTATION_WARN_DEG` of
+        rotation, translation otherwise.
+    differentiator : str
+        Method of :func:`cdprid.differentiate` for velocities and accelerations.
+    params : dict, optional
+        The differentiator's parameters.
+    t_start, t_end : float, optional
+        Time window (s) of the data used.
+    trim : float
+        Seconds dropped at each end of the window after differentiation.
+    weighting : {"none", "groups"}
+        ``groups``: two-step weighted LS with separate force and moment row weights.
+    matched_filter : bool, optional
+        Older switch for ``wrench_filter`` (True = "matched", False = "none").
+    covariance : {"hac", "iid"}
+        Which standard deviation is ``std``: HAC (default, honest on correlated residuals) or
+        the paper's eq. 20. Both are in the JSON (``std`` and ``std_iid``).
+    wrench_filter : {"matched", "none"}, optional
+        ``matched`` (default): ``W tau`` goes through the filter the differentiator applies to
+        the accelerations (:func:`cdprid.signal.acceleration_filter`).
+    inertia_about : {"P", "G"}
+        Reference point of the inertia in the output (platform frame).
+    chunk : int
+        Time samples per block: the regressor is evaluated and reduced block by block
+        (:func:`cdprid.core.least_squares_blocks`), so memory does not grow with
+        ``n x 6 x p``; the result does not depend on it (to rounding).
+
+    Returns
+    -------
+    IdentificationReport
+    """
+    if model not in MODELS:
+        raise ValueError(f"unknown model {model!r}; use one of {', '.join(MODELS)}.")
+    if differentiator not in METHODS:
+        raise ValueError(
+            f"unknown differentiator {differentiator!r}; choose one of {', '.join(METHODS)}."
+        )
+    if weighting not in ("none", "groups"):
+        raise ValueError(f"unknown weighting {weighting!r}; use 'none' or 'groups'.")
+    if wrench_filter is None:
+        wrench_filter = "none" if matched_filter is False else "matched"
+    if wrench_filter not in WRENCH_FILTERS:
+        raise ValueError(f"wrench filter {wrench_filter!r} is not available in batch "
+                         f"identification; use one of {', '.join(WRENCH_FILTERS)}.")
+    if inertia_about not in ("P", "G"):
+        raise ValueError(f"inertia_about must be 'P' or 'G', got {inertia_about!r}.")
+    params = dict(params or {})
+    sig = align(ds, t_start, t_end)
+    notes = list(sig.notes)
+    model, rot, warns = _choose_model(model, sig, ds.path)
+    motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
+    wf, note, w2 = _wrench_filter(ds.robot, differentiator, params, sig.dt, wrench_filter)
+    warns += w2
+    if note:
+        notes.append(note)
+    keep = (motion.t >= motion.t[0] + trim) & (motion.t <= motion.t[-1] - trim)
+    if keep.sum() < 10:
+        raise ValueError(
+            f"{ds.path}: fewer than 10 samples remain after trimming {trim:g} s at each end."
+        )
+    reg = _streamed_regression(ds.robot, motion, sig.tension, model, wf, keep, int(chunk))
+    res = least_squares_blocks(reg.wrench_block, len(reg.t), PARAMETER_NAMES[model],
+                               groups=reg.groups if weighting == "groups" else None,
+                               covariance=covariance, chunk=int(chunk))
+    warns += excitation_warnings(res.names, res.column_norms, res.cond_scaled)
+    w3, n3 = physical_warnings(res.x, model, res.cov)
+    warns += w3
+    notes += n3
+    return IdentificationReport(res, model, differentiator, params, int(keep.sum()), sig, motion,
+                                reg, tuple(notes), tuple(warns), inertia_about, wrench_filter,
+                                rot)
+
+
+def physical_report(rep: IdentificationReport) -> IdentificationReport:
+    """The report with the full model's estimate constrained to a realisable body (--physical).
+
+    Uses :func:`cdprid.core.physical_fit` on the LS estimate and its covariance; equal to the
+    LS estimate when that is already realisable. The i.i.d. covariance is propagated the same way.
+    """
+    if rep.model != "full":
+        raise ValueError("--physical constrains the full model's inertia: use --model full (or "
+                         "auto on data with rotation).")
+    r = rep.result
+    A = r.weights[:, None] * rep.regression.W_ID if r.weights is not None else rep.regression.W_ID
+    R = np.linalg.qr(A, mode="r")
+    x, cov = physical_fit(r.x, R, r.cov)
+    _, cov_iid = physical_fit(r.x, R, r.cov if r.cov_iid is None else r.cov_iid)
+    res = dataclasses.replace(r, x=x, cov=cov, cov_iid=cov_iid,
+                              residual=rep.regression.Y_ID - rep.regression.W_ID @ x)
+    changed = not np.allclose(x, r.x)
+    notes = (*(n for n in rep.notes if not n.startswith("the inertia estimate is not")),
+             "physical: estimate constrained to a realisable body (Cholesky-factored "
+             "pseudo-inertia)" + (" — the constraint is active" if changed else
+                                  ", equal to least squares (already realisable)"))
+    warns = tuple(w for w in rep.warnings if not w.startswith("physically impossible"))
+    return dataclasses.replace(rep, result=res, notes=notes, warnings=warns)
+
+
+def format_table(rep: IdentificationReport) -> str:
+    """A plain-text table like the paper's Table 1 (std as chosen: HAC or eq. 20)."""
+    r = rep.result
+    names, x, cov, _ = rep.estimates()
+    std = np.sqrt(np.clip(np.diag(cov), 0, None))
+    with np.errstate(divide="ignore"):
+        rel = 100.0 * std / np.abs(x)
+    kind = "HAC" if r.covariance == "hac" else "iid, eq. 20"
+    lines = [
+        f"model: {rep.model}   differentiator: {rep.differentiator}   samples: {rep.n_samples}",
+        f"{'parameter':<10} {'estimate':>14} {'sigma':>12} {'%sigma':>9}   (sigma: {kind})",
+    ]
+    for n, v, s, p in zip(names, x, std, rel, strict=True):
+        lines.append(f"{n:<10} {v:>14.6g} {s:>12.4g} {p:>9.3g}")
+    lines.append(f"sigma_rho = {r.sigma_rho:.4g}   cond(W_ID) = {r.cond:.4g}   "
+                 f"cond scaled = {r.cond_scaled:.4g}")
+    if rep.model == "full":
+        lines.append(f"inertia about {rep.inertia_about_text}")
+    for note in rep.notes:
+        lines.append(f"note: {note}")
+    for w in rep.warnings:
+        lines.append(f"warning: {w}")
+    return "\n".join(lines)

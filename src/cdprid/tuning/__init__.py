@@ -1,0 +1,43 @@
+"""Tuning of differentiator parameters against simulated noise."""
+
+# ruff: noqa: F401  (explicit re-exports)
+
+from cdprid.tuning._tuning import BASELINE_GRIDS as BASELINE_GRIDS
+from cdprid.tuning._tuning import CONTINUATION as CONTINUATION
+from cdprid.tuning._tuning import GAIN_MAX_ABOVE as GAIN_MAX_ABOVE
+from cdprid.tuning._tuning import GAIN_MAX_BELOW as GAIN_MAX_BELOW
+from cdprid.tuning._tuning import HELDOUT_FAMILY as HELDOUT_FAMILY
+from cdprid.tuning._tuning import PAPER_PARAMS as PAPER_PARAMS
+from cdprid.tuning._tuning import PENALTY_WEIGHT as PENALTY_WEIGHT
+from cdprid.tuning._tuning import PHASE_MAX_DEG as PHASE_MAX_DEG
+from cdprid.tuning._tuning import RESPONSE_TOL as RESPONSE_TOL
+from cdprid.tuning._tuning import SIHD_METHODS as SIHD_METHODS
+from cdprid.tuning._tuning import TRAIN_FAMILY as TRAIN_FAMILY
+from cdprid.tuning._tuning import FrequencyResponse as FrequencyResponse
+from cdprid.tuning._tuning import ParamProblem as ParamProblem
+from cdprid.tuning._tuning import ResponseBounds as ResponseBounds
+from cdprid.tuning._tuning import TrainingSignal as TrainingSignal
+from cdprid.tuning._tuning import TuneResult as TuneResult
+from cdprid.tuning._tuning import acceleration_response as acceleration_response
+from cdprid.tuning._tuning import any_differentiate as any_differentiate
+from cdprid.tuning._tuning import circle_signal as circle_signal
+from cdprid.tuning._tuning import content_bandwidth as content_bandwidth
+from cdprid.tuning._tuning import dataset_signal as dataset_signal
+from cdprid.tuning._tuning import dense_freqs as dense_freqs
+from cdprid.tuning._tuning import evaluate as evaluate
+from cdprid.tuning._tuning import is_linear as is_linear
+from cdprid.tuning._tuning import lissajous_signal as lissajous_signal
+from cdprid.tuning._tuning import noise_from_dataset as noise_from_dataset
+from cdprid.tuning._tuning import noise_realisations as noise_realisations
+from cdprid.tuning._tuning import penalty_freqs as penalty_freqs
+from cdprid.tuning._tuning import resolve_bounds as resolve_bounds
+from cdprid.tuning._tuning import response_penalty as response_penalty
+from cdprid.tuning._tuning import response_warnings as response_warnings
+from cdprid.tuning._tuning import sihd_linear_response as sihd_linear_response
+from cdprid.tuning._tuning import sihd_loss_fn as sihd_loss_fn
+from cdprid.tuning._tuning import simulated_penalty as simulated_penalty
+from cdprid.tuning._tuning import trajectory_family as trajectory_family
+from cdprid.tuning._tuning import trajectory_signal as trajectory_signal
+from cdprid.tuning._tuning import tune as tune
+from cdprid.tuning._tuning import tune_baseline as tune_baseline
+from cdprid.tuning._tuning import tune_method as tune_method
