@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 
 from cdprid.identify import identify_dataset  # noqa: E402
 from cdprid.io import read_dataset  # noqa: E402
-from cdprid.model import (  # noqa: E402  # noqa: E402
+from cdprid.model import (  # noqa: E402
     EIGHT_REDUNDANT,
     PARAMETER_NAMES,
     SIX_SUSPENDED,

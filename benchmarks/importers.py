@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-CDPRID = [sys.executable, "-m", "cdprid.cli._main"]
+CDPRID = [sys.executable, "-m", "cdprid.cli"]
 
 
 def _long_dataset(minutes: float, rate: float = 100.0):

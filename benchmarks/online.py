@@ -1,6 +1,6 @@
 """Benchmark: online identification (streaming SIHD + recursive least squares).
 
-Measures, for the 4- and 10-parameter models:
+Measures, for the 4- and 10-parameter models:  # noqa: E402
 
 - the per-sample latency of :func:`cdprid.identify.online_step` called one sample at a time
   from Python (jit-compiled, ``block_until_ready`` after every call: what a real-time loop
@@ -41,14 +41,9 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from cdprid.identify._online import (  # noqa: E402
-    OnlineSample,
-    OnlineStepper,
-    _online_scan,
-    online_identify,
-    online_init,
-    online_step,
-)
+from cdprid.identify._online import online_identify  # noqa: E402
+from cdprid.identify._online_step import OnlineStepper, _online_scan, online_init, online_step  # noqa: E402
+from cdprid.identify._online_types import OnlineSample  # noqa: E402
 from cdprid.model import (  # noqa: E402
     InertialParameters,  # noqa: E402
     craft_like_robot,

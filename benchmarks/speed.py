@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-CDPRID = [sys.executable, "-m", "cdprid.cli._main"]
+CDPRID = [sys.executable, "-m", "cdprid.cli"]
 
 
 def timed(args, cwd):

@@ -102,7 +102,7 @@ def test_cli_exit_code_2_and_one_line(small_ds, kind, capsys):
 
 def test_console_script_no_traceback(small_ds):
     _corrupt("text", small_ds)
-    proc = subprocess.run([sys.executable, "-m", "cdprid.cli._main", "identify", str(small_ds)],
+    proc = subprocess.run([sys.executable, "-m", "cdprid.cli", "identify", str(small_ds)],
                           capture_output=True, text=True)
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1

@@ -9,11 +9,14 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import cdprid.tuning as T
 from cdprid.cli._main import build_parser, main, parse_params
 from cdprid.io import write_dataset
 from cdprid.model import robot_from_dict
 from cdprid.signal import METHODS, differentiate, differentiate_high, poly_gains, sihdn_channel
-from cdprid.tuning import _tuning as T
+from cdprid.tuning import _response as T_response
+from cdprid.tuning import _sihd_params as T_sihd_params
+from cdprid.tuning import _tuning as T_tuning
 from conftest import ROBOT_CRAFT
 
 SHORT = T.circle_signal(duration=12.0)
@@ -38,8 +41,8 @@ def test_internal_equations_equal_differentiate():
     for m in ("sihd2-cascade", "sihd3"):
         p = dict(METHODS[m].params)
         th = jnp.asarray(T.theta_from_params(m, p))
-        lams, alpha = T._theta_to_gains(m, th)
-        a = jax.vmap(lambda c, m=m, lams=lams, alpha=alpha: T._acc_channel(m, c, 0.01, lams, alpha),
+        lams, alpha = T_sihd_params._theta_to_gains(m, th)
+        a = jax.vmap(lambda c, m=m, lams=lams, alpha=alpha: T_sihd_params._acc_channel(m, c, 0.01, lams, alpha),
                      1, 1)(jnp.asarray(y))
         _, a_ref = differentiate(y, 0.01, m)
         assert np.max(np.abs(np.asarray(a) - a_ref)) < 1e-8 * max(1, np.abs(a_ref).max())
@@ -61,7 +64,7 @@ def test_sihd5_exact_on_quartics_and_n3_is_sihd3():
 def test_gradient_through_scan_matches_finite_differences():
     sig = T.circle_signal(duration=3.0)
     sig = T.TrainingSignal(sig.t, sig.dt, sig.position, sig.acceleration, "c", t0=1.0)
-    Y, acc = T._stack_train(sig, 5e-4, [0])
+    Y, acc = T_tuning._stack_train(sig, 5e-4, [0])
     args = (jnp.asarray(Y), jnp.asarray(acc), jnp.asarray(sig.mask.astype(float)),
             jnp.asarray(0.01))
     for m in ("sihd3", "sihd2-cascade"):
@@ -224,7 +227,7 @@ def test_noise_gain_is_parseval_of_the_impulse_response():
     y = np.r_[0.0, 1.0, np.zeros(3000)]
     _, a = T.any_differentiate(y, 0.01, "sihd3", **p)
     with jax.enable_x64(True):
-        g = float(T._noise_gain("sihd3", [p["lambda1"], p["lambda2"], p["lambda3"]], 0.01))
+        g = float(T_response._noise_gain("sihd3", [p["lambda1"], p["lambda2"], p["lambda3"]], 0.01))
     assert np.isclose(g, np.sum(a[1:] ** 2), rtol=1e-6)
 
 

@@ -14,8 +14,9 @@ import numpy as np
 
 from cdprid.base._errors import UserError
 from cdprid.base._outputs import atomic_file, write_json
-from cdprid.identify._online import SIHD_METHOD as _SIHD
-from cdprid.identify._online import OnlineResult, online_identify
+from cdprid.identify._online import online_identify
+from cdprid.identify._online_types import SIHD_METHOD as _SIHD
+from cdprid.identify._online_types import OnlineResult
 from cdprid.report.online import plot_online
 from cdprid.signal._differentiators import METHODS
 

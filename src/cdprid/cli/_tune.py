@@ -24,7 +24,7 @@ __all__ = ["add_parser"]
 
 
 def _run(args) -> int:
-    from cdprid.tuning import _tuning as T
+    import cdprid.tuning as T
 
     say = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     if (args.dataset is None) == (args.noise_std is None):

@@ -29,7 +29,8 @@ from cdprid.diagnosis.model import (
 from cdprid.diagnosis.testing import blocks, cv_sse
 from cdprid.io.dataset import Dataset, align
 from cdprid.model._rotations import quat_to_matrix
-from cdprid.signal._differentiators import differentiate, zero_phase_filter
+from cdprid.signal._baselines import zero_phase_filter
+from cdprid.signal._differentiators import differentiate
 
 
 @dataclasses.dataclass(frozen=True)

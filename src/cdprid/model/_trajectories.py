@@ -56,8 +56,6 @@ __all__ = [
     "preset",
     "PRESETS",
     "check_workspace",
-    "save_trajectory_csv",
-    "load_trajectory_csv",
     "smoothstep7",
     "smoothstep7_derivs",
     "POSITION_COLUMNS",

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.identify._online import OnlineResult
+from cdprid.identify._online_types import OnlineResult
 from cdprid.report.figures import pyplot, save_fig
 
 __all__ = ["plot_online"]

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from cdprid.base._outputs import save_figure
-from cdprid.signal._differentiators import zero_phase_filter
+from cdprid.signal._baselines import zero_phase_filter
 
 __all__ = ["fig_nuisance", "fig_residuals", "fig_tensions", "fig_wrench"]
 

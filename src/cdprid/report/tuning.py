@@ -24,7 +24,7 @@ def plot_response(resp, path, method: str = "", force: bool = False) -> Path:
     import matplotlib.pyplot as plt
 
     from cdprid.base._outputs import save_figure
-    from cdprid.tuning._tuning import GAIN_MAX_ABOVE, GAIN_MAX_BELOW
+    from cdprid.tuning._response import GAIN_MAX_ABOVE, GAIN_MAX_BELOW
 
     b = resp.bounds
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6.5, 5.5), sharex=True)

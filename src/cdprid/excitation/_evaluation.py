@@ -1,0 +1,152 @@
+"""Evaluation of an excitation design: the design report and the optimiser's result."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from cdprid.excitation._check import SafetyCertificate, certify_trajectory
+from cdprid.excitation._objective import d_optimality, predicted_sigma, stacked_regressor
+from cdprid.excitation._problem import CERTIFICATE_SCOPE, ExcitationProblem, _objective_value
+from cdprid.model._dynamics import PARAMETER_NAMES
+
+
+@dataclasses.dataclass(frozen=True)
+class DesignReport:
+    """Metrics of one design (with its moves from and back to home) on the 100 Hz grid.
+
+    ``cond``/``cond_scaled`` by numpy SVD of W_ID (:func:`cdprid.core.condition_number`),
+    ``sigma`` the predicted standard deviations at ``sigma_rho`` (N per row) and ``rel_sigma``
+    relative to the nominal parameters (None where the nominal value is 0: not meaningful);
+    ``certificate`` the exact check of every limit (:mod:`cdprid.excitation._check`).
+    """
+
+    params: dict
+    z: np.ndarray
+    cond: float
+    cond_scaled: float
+    dopt: float
+    objective: float
+    sigma: dict
+    rel_sigma: dict
+    certificate: SafetyCertificate
+    t_move: float
+    duration: float
+
+    @property
+    def certified(self) -> bool:
+        return self.certificate.certified
+
+    @property
+    def min_tension_margin_N(self) -> float:
+        """Worst tension margin over the samples and the uncertainty box (N)."""
+        return self.certificate.robust_margin_N
+
+    def as_json(self) -> dict:
+        c = self.certificate
+        return {
+            "cond": self.cond, "cond_scaled": self.cond_scaled, "dopt": self.dopt,
+            "objective": self.objective,
+            "params": {k: np.asarray(v).tolist() for k, v in self.params.items()},
+            "sigma": self.sigma, "rel_sigma": self.rel_sigma,
+            "min_tension_margin_N": c.robust_margin_N,
+            "robust_tension_margin_N": c.robust_margin_N,
+            "nominal_tension_margin_N": c.nominal_margin_N,
+            "max_cable_speed_m_s": c.peaks["cable_speed_m_s"],
+            "workspace_ok": c.peaks["workspace_distance_m"] >= 0.0,
+            "cable_speed_ok": not any(f.startswith("cable_speed") for f in c.failed),
+            "peaks": c.peaks, "failed_checks": list(c.failed),
+            "worst_corner_parameters": dict(zip(PARAMETER_NAMES["full"], c.worst_corner,
+                                                strict=True)),
+            "n_lp_solved": c.n_lp,
+            "move_duration_s": self.t_move, "duration_s": self.duration,
+            "certified": self.certified,
+        }
+
+
+@eqx.filter_jit
+def _homed_W_ID(traj, t, gravity, model: str):
+    states = traj.states(t)
+    return states, stacked_regressor(states, gravity, model)
+
+
+def _meaningful_rel(sig, x):
+    """Relative sigmas, None where the nominal value is 0 (a percentage of 0 means nothing)."""
+    scale = max(abs(float(x[0])), 1e-12)
+    return [float(s / abs(v)) if abs(v) > 1e-9 * scale else None
+            for s, v in zip(sig, x, strict=True)]
+
+
+def evaluate_design(prob: ExcitationProblem, z, rate_hz: float = 100.0,
+                    certify: bool = True, dense_hz: float = 500.0) -> DesignReport:
+    """Metrics of coordinates z (with the home moves) on a ``rate_hz`` grid and the exact
+    certificate (kinematics also on a ``dense_hz`` grid)."""
+    from cdprid.core._identification import condition_number
+
+    z = jnp.asarray(z, float)
+    traj = prob.homed(z)
+    t = np.arange(int(np.floor(traj.t_end * rate_hz + 1e-9)) + 1) / rate_hz
+    states, W_ID = _homed_W_ID(traj, jnp.asarray(t), prob.robot.gravity, prob.model)
+    W_ID = np.asarray(W_ID)
+    obj = float(_objective_value(prob, jnp.asarray(W_ID)))
+    td = np.arange(int(np.floor(traj.t_end * dense_hz + 1e-9)) + 1) / dense_hz
+    dense = traj.evaluate(td)
+    cert = certify_trajectory(prob.robot, states, dense, prob.limits, prob.box)
+    sig = np.asarray(predicted_sigma(jnp.asarray(W_ID), prob.sigma_rho))
+    x = np.asarray(prob.nominal.vector(prob.model))
+    params = {k: np.asarray(v) for k, v in prob.family.to_params(z).items()}
+    return DesignReport(
+        params=params, z=np.asarray(z),
+        cond=condition_number(W_ID), cond_scaled=condition_number(W_ID, scaled=True),
+        dopt=float(d_optimality(jnp.asarray(W_ID))), objective=obj,
+        sigma={n: float(s) for n, s in zip(prob.names, sig, strict=True)},
+        rel_sigma=dict(zip(prob.names, _meaningful_rel(sig, x), strict=True)),
+        certificate=cert, t_move=traj.t_move, duration=traj.t_end,
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class ExcitationResult:
+    """Outcome of :func:`optimise_excitation`.
+
+    ``optimised`` is always certified (or equal to ``initial`` with ``note`` saying why);
+    ``starts`` lists each start's penalised objective, steps and certification.
+    """
+
+    problem: ExcitationProblem
+    initial: DesignReport
+    optimised: DesignReport
+    trajectory: object
+    starts: list
+    wall_time_s: float
+    optimiser_time_s: float
+    note: str
+    initial_rule: str = ""
+
+    def as_json(self) -> dict:
+        prob = self.problem
+        return {
+            "initial": self.initial.as_json(),
+            "optimised": self.optimised.as_json(),
+            "wall_time_s": self.wall_time_s,
+            "optimiser_time_s": self.optimiser_time_s,
+            "family": prob.family.name,
+            "model": prob.model,
+            "objective": prob.objective,
+            "limits": prob.limits.as_json(),
+            "defaults_used": list(prob.limits.defaults_used) + list(
+                prob.box.description.get("defaults_used", [])),
+            "uncertainty": {"source": prob.box.source, **prob.box.description,
+                            "corners": prob.box.corners.tolist(),
+                            "parameter_order": list(PARAMETER_NAMES["full"])},
+            "home": [float(v) for v in prob.home],
+            "safety_fractions": dataclasses.asdict(prob.fractions),
+            "tension_margin_target_N": prob.tension_target,
+            "starts": self.starts,
+            "note": self.note,
+            "initial_design": self.initial_rule,
+            "certificate_scope": CERTIFICATE_SCOPE,
+        }
