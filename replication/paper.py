@@ -47,7 +47,8 @@ from cdprid.core import least_squares
 from cdprid.core import estimate_motion
 from cdprid.core import build_regression
 from cdprid.identify import DEFAULT_TRIM_S, identify_dataset
-from cdprid.io.dataset import Dataset, align
+from cdprid.io.dataset import Dataset
+from cdprid.io.align import align
 from cdprid.model import PARAMETER_NAMES
 from cdprid.signal import METHODS, differentiate
 

@@ -355,3 +355,13 @@ def _stale() -> list[str]:
 
 if __name__ == "__main__":
     print("\n".join(_stale()) or "no stale allow-list entry")
+
+
+def test_architecture_doc_tree_is_current():
+    """docs/architecture.md's tree section is generated from src/ (scripts/architecture_doc.py)."""
+    import subprocess
+    import sys
+
+    script = ROOT / "scripts" / "architecture_doc.py"
+    proc = subprocess.run([sys.executable, str(script), "--check"])
+    assert proc.returncode == 0, "docs/architecture.md is stale: run scripts/architecture_doc.py"

@@ -10,7 +10,8 @@ import scipy.linalg
 
 from cdprid.core import condition_number, least_squares
 from cdprid.identify import identify_dataset
-from cdprid.io.dataset import read_dataset, write_dataset
+from cdprid.io.dataset import read_dataset
+from cdprid.io.writer import write_dataset
 from cdprid.model import (
     InertialParameters,
     platform_wrench,
@@ -244,7 +245,7 @@ def test_streamed_identify_equals_the_materialised_regression(rotating_ds, metho
     import dataclasses
 
     from cdprid.core import build_regression, estimate_motion, regressors
-    from cdprid.io.dataset import align
+    from cdprid.io.align import align
     from cdprid.signal import acceleration_filter
 
     ds, _ = rotating_ds

@@ -154,7 +154,7 @@ def test_full_model_angular_rates_match_batch_motion(robot):
     sig = {"t": sim.pose_t, "position": sim.position, "quaternion": sim.quaternion,
            "tension": sim.tension}
     res = online_identify(sig, robot, model="full")
-    from cdprid.io.dataset import AlignedSignals
+    from cdprid.io.align import AlignedSignals
 
     al = AlignedSignals(sim.pose_t, 0.01, sim.position, sim.quaternion, sim.tension, True, False)
     mot = estimate_motion(al, "sihd2-cascade", angular=True)

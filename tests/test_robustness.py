@@ -19,11 +19,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import cdprid.io.dataset as dsmod
+import cdprid.io.writer as dsmod
 from cdprid.base import OutputError, UserError, atomic_dir, atomic_file, check_output
 from cdprid.cli._main import _is_user_error, main
 from cdprid.core import estimate_motion, segment_mask
-from cdprid.io.dataset import DatasetError, align, read_csv_stream, read_dataset, write_dataset
+from cdprid.io.align import align
+from cdprid.io.dataset import DatasetError, read_csv_stream, read_dataset
+from cdprid.io.writer import write_dataset
 from cdprid.model import robot_from_dict
 from conftest import ROBOT_CRAFT
 

@@ -42,7 +42,8 @@ def test_internal_equations_equal_differentiate():
         p = dict(METHODS[m].params)
         th = jnp.asarray(T.theta_from_params(m, p))
         lams, alpha = T_sihd_params._theta_to_gains(m, th)
-        a = jax.vmap(lambda c, m=m, lams=lams, alpha=alpha: T_sihd_params._acc_channel(m, c, 0.01, lams, alpha),
+        a = jax.vmap(lambda c, m=m, lams=lams, alpha=alpha:
+                     T_sihd_params._acc_channel(m, c, 0.01, lams, alpha),
                      1, 1)(jnp.asarray(y))
         _, a_ref = differentiate(y, 0.01, m)
         assert np.max(np.abs(np.asarray(a) - a_ref)) < 1e-8 * max(1, np.abs(a_ref).max())

@@ -14,7 +14,8 @@ def _run(args) -> int:
     from cdprid.base._outputs import atomic_file, check_output
     from cdprid.base._progress import Progress
     from cdprid.cli._main import parse_params
-    from cdprid.io.dataset import read_csv_stream, sampling_report
+    from cdprid.io.align import sampling_report
+    from cdprid.io.dataset import read_csv_stream
 
     out = check_output(args.out, force=args.force, flag="--out")
     params = parse_params(args.params)

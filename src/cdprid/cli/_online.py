@@ -82,7 +82,7 @@ def run_online_cli(ds, args, params) -> int:
     int
         Exit code 0.
     """
-    from cdprid.io.dataset import align
+    from cdprid.io.align import align
 
     method = getattr(args, "differentiator", None) or _SIHD
     notes = []

@@ -56,8 +56,8 @@ def run(args) -> int:
 
     from cdprid.io.trajectory import load_trajectory_csv
     from cdprid.model._geometry import load_robot
+    from cdprid.model._presets import preset
     from cdprid.model._robots import craft_like_robot
-    from cdprid.model._trajectories import preset
     from cdprid.simulation._simulate import SensorNoise, simulate, write_simulation
 
     start = time.perf_counter()

@@ -21,7 +21,7 @@ import jax
 import numpy as np
 from jaxtyping import Float
 
-from cdprid.io.dataset import AlignedSignals
+from cdprid.io.align import AlignedSignals
 from cdprid.model._rotations import angular_rates_from_quat, quat_to_matrix
 from cdprid.signal._differentiators import differentiate
 

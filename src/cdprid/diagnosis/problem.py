@@ -27,7 +27,8 @@ from cdprid.diagnosis.model import (
     regs_jit,
 )
 from cdprid.diagnosis.testing import blocks, cv_sse
-from cdprid.io.dataset import Dataset, align
+from cdprid.io.align import align
+from cdprid.io.dataset import Dataset
 from cdprid.model._rotations import quat_to_matrix
 from cdprid.signal._baselines import zero_phase_filter
 from cdprid.signal._differentiators import differentiate

@@ -21,12 +21,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.model._rotations import angular_rates_from_quat, rotvec_to_quat
-from cdprid.model._trajectories import (
-    TimedTrajectory,
-    Trajectory,
-    TrajectoryState,
-    smoothstep7_derivs,
-)
+from cdprid.model._smoothstep import smoothstep7_derivs
+from cdprid.model._trajectories import TimedTrajectory, Trajectory, TrajectoryState
 
 __all__ = [
     "FAMILIES",

@@ -36,7 +36,8 @@ from cdprid.core._regression import (
     regressor_blocks,
     regressors,
 )
-from cdprid.io.dataset import AlignedSignals, Dataset, align
+from cdprid.io.align import AlignedSignals, align
+from cdprid.io.dataset import Dataset
 from cdprid.model._dynamics import PARAMETER_NAMES
 from cdprid.model._rotations import quat_to_matrix
 from cdprid.signal._differentiators import METHODS, acceleration_filter

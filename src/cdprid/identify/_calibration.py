@@ -433,7 +433,8 @@ def write_calibrated_dataset(src, result: CalibrationResult, out, overwrite: boo
     out : folder to write
     overwrite : bool
     """
-    from cdprid.io.dataset import Dataset, read_dataset, write_dataset
+    from cdprid.io.dataset import Dataset, read_dataset
+    from cdprid.io.writer import write_dataset
 
     ds = src if isinstance(src, Dataset) else read_dataset(src)
     q = ds.quaternion if ds.quaternion is not None else np.tile([1.0, 0, 0, 0], (len(ds.pose_t), 1))

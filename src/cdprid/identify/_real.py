@@ -46,7 +46,8 @@ from cdprid.core._nuisance import (
 )
 from cdprid.core._nuisance import taut_mask as _stream_taut_mask
 from cdprid.core._regression import regressors, wrench_matrices
-from cdprid.io.dataset import Dataset, align
+from cdprid.io.align import align
+from cdprid.io.dataset import Dataset
 from cdprid.model._dynamics import PARAMETER_NAMES
 from cdprid.model._geometry import CableRobot
 from cdprid.signal._filters import make_zero_phase_filter

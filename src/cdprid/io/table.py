@@ -279,7 +279,7 @@ def write_imported(out: str | Path, robot, pose_t, position, tension_t, tension,
     with :func:`cdprid.io.write_dataset` inside :func:`cdprid.base.atomic_dir`.
     """
     from cdprid.base._outputs import atomic_dir
-    from cdprid.io.dataset import write_dataset
+    from cdprid.io.writer import write_dataset
 
     if pose_t[-1] < tension_t[0] or tension_t[-1] < pose_t[0]:
         raise UserError(f"the pose time range [{pose_t[0]:g}, {pose_t[-1]:g}] s and the tension "

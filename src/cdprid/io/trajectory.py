@@ -10,11 +10,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.io.dataset import read_csv_stream
-from cdprid.model._trajectories import (
-    POSITION_COLUMNS,
-    ROTATION_COLUMNS,
-    SampledTrajectory,
-)
+from cdprid.model._sampled import SampledTrajectory
+from cdprid.model._trajectories import POSITION_COLUMNS, ROTATION_COLUMNS
 
 
 def save_trajectory_csv(

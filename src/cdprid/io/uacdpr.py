@@ -328,7 +328,7 @@ def write_uacdpr(rec: UacdprRecording, out: str | Path, meta: dict, R=None, p=No
         Pose to write at ``rec.pose_t`` (default: the marker frame in the Vicon frame).
     overwrite : bool
     """
-    from cdprid.io.dataset import write_dataset
+    from cdprid.io.writer import write_dataset
     from cdprid.model._rotations import matrix_to_quat
 
     v = rec.valid

@@ -40,13 +40,13 @@ from cdprid.effects._effects import (
 )
 from cdprid.model._dynamics import InertialParameters, platform_wrench
 from cdprid.model._geometry import CableRobot, cable_lengths, cable_vectors, wrench_matrix
+from cdprid.model._presets import check_workspace
 from cdprid.model._rotations import quat_multiply, quat_to_matrix, rotvec_to_quat
 from cdprid.model._tensions import DEFAULT_PRETENSION, distribute_tensions
 from cdprid.model._trajectories import (
     POSITION_COLUMNS,
     ROTATION_COLUMNS,
     TrajectoryState,
-    check_workspace,
     with_rotation,
 )
 
@@ -465,7 +465,7 @@ def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Pat
     -------
     Path
     """
-    from cdprid.io.dataset import write_dataset
+    from cdprid.io.writer import write_dataset
 
     r = result
     p = r.params

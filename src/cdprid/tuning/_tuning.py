@@ -113,7 +113,7 @@ class ParamProblem:
         from cdprid.model._dynamics import regressor_translation
         from cdprid.model._geometry import wrench_matrix
         from cdprid.model._robots import craft_like_robot, craft_like_truth
-        from cdprid.model._trajectories import SampledTrajectory
+        from cdprid.model._sampled import SampledTrajectory
         from cdprid.simulation._simulate import SensorNoise, simulate
 
         robot = craft_like_robot()

@@ -1,0 +1,118 @@
+"""Writing spec-v1 datasets: CSV streams and TOML files, written whole or not at all."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from cdprid.base._errors import OutputError, OutputExistsError
+from cdprid.io.dataset import QUAT_COLS
+
+if TYPE_CHECKING:  # geometry imports JAX
+    from cdprid.model._geometry import CableRobot
+
+
+def _write_csv(path: Path, columns: list[str], values: np.ndarray) -> None:
+    values = np.asarray(values, float)
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(",".join(columns) + "\n")
+        np.savetxt(fh, values, delimiter=",", fmt="%.17g")
+
+
+def write_dataset(
+    path: str | Path,
+    robot: CableRobot,
+    pose_t,
+    position,
+    tension_t,
+    tension,
+    quaternion=None,
+    meta: dict | None = None,
+    extra: dict | None = None,
+    overwrite: bool = False,
+) -> Path:
+    """Write a spec-v1 dataset folder, whole or not at all.
+
+    The folder is built under a temporary name beside ``path`` and renamed into place when
+    every file is complete (:func:`cdprid.base.atomic_dir`): an interrupted or failed write
+    leaves ``path`` as it was and no partial dataset that parses.
+
+    Parameters
+    ----------
+    path : folder to create
+    robot : CableRobot
+    pose_t, position, tension_t, tension, quaternion
+        Streams as in :class:`Dataset`.
+    meta : dict, optional
+        Written to meta.toml.
+    extra : dict, optional
+        ``name -> (columns, values)`` further streams (first column ``t``).
+    overwrite : bool
+        Replace an existing non-empty folder (as a whole); refused otherwise.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputError
+        ``path`` exists (non-empty, without ``overwrite``), is a file, or its folder cannot be
+        written (:class:`~cdprid.base.OutputExistsError`, also a ``FileExistsError``, for the
+        first).
+    """
+    import tomli_w
+
+    from cdprid.base._outputs import atomic_dir
+    from cdprid.model._geometry import robot_to_dict
+
+    root = Path(path)
+    if root.exists() and not root.is_dir():
+        raise OutputError(f"{root}: is a file, expected a dataset folder name.")
+    if root.exists() and not overwrite and any(root.iterdir()):
+        files = ["robot.toml", "pose.csv", "tensions.csv", "meta.toml"]
+        clash = [f for f in files if (root / f).exists()] or ["other files"]
+        raise OutputExistsError(
+            f"{root}: already holds {', '.join(clash)}; refusing to overwrite (use --force)."
+        )
+    with atomic_dir(root, force=True) as tmp:
+        with open(tmp / "robot.toml", "wb") as fh:
+            tomli_w.dump(robot_to_dict(robot), fh)
+        pose_cols = ["t", "x", "y", "z"]
+        pose_vals = [np.asarray(pose_t)[:, None], np.asarray(position)]
+        if quaternion is not None:
+            pose_cols += list(QUAT_COLS)
+            pose_vals.append(np.asarray(quaternion))
+        _write_csv(tmp / "pose.csv", pose_cols, np.hstack(pose_vals))
+        m = np.asarray(tension).shape[1]
+        _write_csv(tmp / "tensions.csv", ["t"] + [f"tau_{i}" for i in range(1, m + 1)],
+                   np.hstack([np.asarray(tension_t)[:, None], np.asarray(tension)]))
+        if meta:
+            with open(tmp / "meta.toml", "wb") as fh:
+                tomli_w.dump(_toml_clean(meta), fh)
+        for name, (cols, vals) in (extra or {}).items():
+            _write_csv(tmp / f"{name}.csv", list(cols), vals)
+        tmp.chmod(0o777 & ~_umask())
+    return root
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _toml_clean(obj):
+    """Convert numpy scalars/arrays to plain Python for tomli_w."""
+    if isinstance(obj, dict):
+        return {str(k): _toml_clean(v) for k, v in obj.items() if v is not None}
+    if isinstance(obj, (list, tuple)):
+        return [_toml_clean(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _toml_clean(obj.tolist())
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
