@@ -40,7 +40,7 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from cdprid.excitation import _optimise as ex  # noqa: E402
+import cdprid.excitation as ex  # noqa: E402
 from cdprid.excitation import safety_series  # noqa: E402
 from cdprid.model import (  # noqa: E402
     CRAFT_LIKE,

@@ -10,8 +10,9 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
+import cdprid.signal as D
 from cdprid.signal import METHODS, differentiate, zero_phase_filter  # noqa: E402
-from cdprid.signal import _differentiators as D  # noqa: E402
+from cdprid.signal import _scan as D_scan  # noqa: E402
 
 H = 0.01
 
@@ -241,7 +242,7 @@ def test_no_recompilation_for_new_data_same_shape():
     for method in ("sihd2-cascade", "sihd3", "kalman"):
         differentiate(rng.standard_normal((300, 3)), H, method)
         n_trace = D.TRACE_COUNTS[method]
-        n_cache = D._jax_kernel._cache_size()
+        n_cache = D_scan._jax_kernel._cache_size()
         for i in range(3):
             # new data, new gains, new dt: all traced, so no new trace/compile
             p = {
@@ -251,7 +252,7 @@ def test_no_recompilation_for_new_data_same_shape():
             }
             differentiate(jnp.asarray(rng.standard_normal((300, 3))), H * (1 + i), method, **p)
         assert D.TRACE_COUNTS[method] == n_trace
-        assert D._jax_kernel._cache_size() == n_cache
+        assert D_scan._jax_kernel._cache_size() == n_cache
 
 
 @pytest.mark.parametrize("method", list(METHODS))
@@ -425,9 +426,9 @@ def test_scan_blocked_equals_lax_scan(block):
 
 
 def test_block_size_keeps_output_blocks_small():
-    assert D._block_size(3) > 1
-    assert D._block_size(3) * 3 * 8 <= D._SMALL_BUFFER_BYTES
-    assert D._block_size(3000) == 0
+    assert D_scan._block_size(3) > 1
+    assert D_scan._block_size(3) * 3 * 8 <= D_scan._SMALL_BUFFER_BYTES
+    assert D_scan._block_size(3000) == 0
 
 
 def test_sharded_batch_equals_single_device(tmp_path):
@@ -445,15 +446,16 @@ def test_sharded_batch_equals_single_device(tmp_path):
         import numpy as np
         import jax.numpy as jnp
         from cdprid.signal import _differentiators as D
+        from cdprid.signal import _scan as D_scan
         assert jax.local_device_count() == 2
         rng = np.random.default_rng(0)
         y = np.cumsum(rng.standard_normal((300, 131)), axis=0) * 1e-3  # odd width: padding
         for m in ("sihd2-cascade", "kalman"):
             d1, d2 = D.differentiate(y, 0.01, m)
             p = jnp.asarray(list(D.METHODS[m].params.values()))
-            r1, r2 = D._jax_kernel(m, jnp.asarray(y), jnp.asarray(0.01), p)
+            r1, r2 = D_scan._jax_kernel(m, jnp.asarray(y), jnp.asarray(0.01), p)
             assert np.array_equal(d1, np.asarray(r1)) and np.array_equal(d2, np.asarray(r2)), m
-        assert ("sihd2-cascade", 2) in D._SHARDED
+        assert ("sihd2-cascade", 2) in D_scan._SHARDED
         print("ok")
         """
     )

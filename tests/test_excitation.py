@@ -11,7 +11,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid.excitation import _optimise as ex
+import cdprid.excitation as ex
+from cdprid.excitation import _constraints as ex_constraints
 from cdprid.model import CRAFT_LIKE, robot_from_dict, wrench_matrix
 
 
@@ -271,6 +272,6 @@ def test_cholesky_solve_equals_numpy_solve(rng):
     A = M @ M.transpose(0, 2, 1)
     b = rng.normal(size=(20, 6))
     ref = np.linalg.solve(A, b[..., None])[..., 0]
-    got = jax.vmap(ex._cholesky_solve)(jnp.asarray(A), jnp.asarray(b))
+    got = jax.vmap(ex_constraints._cholesky_solve)(jnp.asarray(A), jnp.asarray(b))
     np.testing.assert_allclose(np.asarray(got), ref, rtol=1e-10, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(ex._cholesky_solve(A[0], b[0])), ref[0], rtol=1e-10)
+    np.testing.assert_allclose(np.asarray(ex_constraints._cholesky_solve(A[0], b[0])), ref[0], rtol=1e-10)

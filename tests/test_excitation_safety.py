@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid.excitation import _optimise as ex
+import cdprid.excitation as ex
 from cdprid.excitation import corner_parameters, robust_tension_margins, uncertainty_from_prior
 from cdprid.model import FOUR_POINT, SIX_TIGHT, SMALL_EIGHT, robot_from_dict
 from cdprid.model import _clearance as cl

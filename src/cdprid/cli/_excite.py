@@ -105,9 +105,9 @@ def run(args) -> int:
     import jax
 
     jax.config.update("jax_enable_x64", True)
+    import cdprid.excitation as ex
     from cdprid.base._errors import UserError
     from cdprid.base._outputs import atomic_dir, check_output, write_json
-    from cdprid.excitation import _optimise as ex
     from cdprid.model._geometry import load_robot
 
     t_wall = time.perf_counter()

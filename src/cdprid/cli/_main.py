@@ -421,7 +421,7 @@ def _is_user_error(exc: BaseException) -> bool:
         tb = exc.__traceback__
         while tb.tb_next is not None:
             tb = tb.tb_next
-        pkg = str(Path(__file__).resolve().parent)
+        pkg = str(Path(__file__).resolve().parents[1])  # src/cdprid
         return str(Path(tb.tb_frame.f_code.co_filename).resolve()).startswith(pkg)
     return False
 
