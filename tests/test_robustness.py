@@ -339,8 +339,23 @@ def _big_csv(path: Path, n: int) -> None:
                header="t,a,b,c", comments="", fmt="%.10g")
 
 
-@pytest.mark.parametrize("delay", [2.0, 5.0])
-def test_sigint_differentiate_leaves_nothing_that_parses(tmp_path, delay):
+def _wait_for_part_file(proc, folder: Path, timeout: float = 300.0) -> bool:
+    """Wait until the command has started writing (a ``.part`` file exists): deterministic,
+    unlike a sleep, since the interpreter and its signal handlers are up by then. False if the
+    process ended first."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if any(p.name.endswith(".part") for p in folder.iterdir()):
+            return True
+        if proc.poll() is not None:
+            return False
+        time.sleep(0.005)
+    raise AssertionError("the command neither started writing nor ended")
+
+
+@pytest.mark.parametrize("signame, code", [("SIGINT", 130), ("SIGTERM", 143), ("SIGHUP", 129)])
+def test_signal_during_write_leaves_nothing_that_parses(tmp_path, signame, code):
+    """Ctrl-C, kill and a closed terminal: exit 128 + signal, no output, no ``.part`` left."""
     src = tmp_path / "in.csv"
     _big_csv(src, 300_000)
     out = tmp_path / "out.csv"
@@ -348,14 +363,14 @@ def test_sigint_differentiate_leaves_nothing_that_parses(tmp_path, delay):
     proc = subprocess.Popen([sys.executable, "-m", "cdprid", "differentiate", str(src), "--method",
                              "savgol", "--out", str(out)], env=env, stderr=subprocess.PIPE,
                             stdout=subprocess.PIPE, text=True)
-    time.sleep(delay)
-    proc.send_signal(signal.SIGINT)
+    if _wait_for_part_file(proc, tmp_path):
+        proc.send_signal(getattr(signal, signame))
     _, err = proc.communicate(timeout=120)
     assert "Traceback" not in err
-    if proc.returncode == 0:  # finished before the signal: the output is complete
+    if proc.returncode == 0:  # finished between the check and the signal: output complete
         assert np.loadtxt(out, delimiter=",", skiprows=1).shape == (300_000, 7)
     else:
-        assert proc.returncode == 130 and not out.exists()
+        assert proc.returncode == code and not out.exists(), (proc.returncode, err)
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".part")]
 
 

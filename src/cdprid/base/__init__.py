@@ -13,7 +13,9 @@ from cdprid.base._errors import OutputExistsError as OutputExistsError
 from cdprid.base._errors import UserError as UserError
 from cdprid.base._outputs import atomic_dir as atomic_dir
 from cdprid.base._outputs import atomic_file as atomic_file
+from cdprid.base._outputs import check_distinct as check_distinct
 from cdprid.base._outputs import check_output as check_output
+from cdprid.base._outputs import input_clash as input_clash
 from cdprid.base._outputs import save_figure as save_figure
 from cdprid.base._outputs import write_json as write_json
 from cdprid.base._outputs import write_text as write_text

@@ -16,6 +16,7 @@ Every file and folder a command writes goes through this module:
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import shutil
@@ -28,7 +29,9 @@ from cdprid.base._errors import OutputError, OutputExistsError
 __all__ = [
     "atomic_dir",
     "atomic_file",
+    "check_distinct",
     "check_output",
+    "input_clash",
     "save_figure",
     "write_json",
     "write_text",
@@ -36,7 +39,7 @@ __all__ = [
 
 
 def check_output(path: str | os.PathLike, force: bool = False, flag: str = "--out",
-                 kind: str = "file") -> Path:
+                 kind: str = "file", inputs=()) -> Path:
     """Check, before any work, that ``path`` can be written; returns it as a Path.
 
     Parameters
@@ -49,14 +52,21 @@ def check_output(path: str | os.PathLike, force: bool = False, flag: str = "--ou
         The option that named it (used in the message), e.g. ``"--json"``.
     kind : {"file", "dir"}
         What will be written there.
+    inputs : iterable of path-like
+        The files and folders the command reads. An output that is one of them or contains one
+        is refused, with or without ``force`` (``--force`` never replaces an input).
 
     Raises
     ------
     OutputError
-        One sentence naming ``flag`` and the path: it exists (without ``force``), it is a folder
-        where a file is expected (or the reverse), or its parent folder is missing or not writable.
+        One sentence naming ``flag`` and the path: it is or contains an input, it exists (without
+        ``force``), it is a folder where a file is expected (or the reverse), or its parent
+        folder is missing or not writable.
     """
     p = Path(path)
+    clash = input_clash(p, inputs)
+    if clash is not None:
+        raise OutputError(f"{flag} {p}: {clash}; choose another output path.")
     if p.exists():
         if kind == "file" and p.is_dir():
             raise OutputError(f"{flag} {p}: is a folder, expected a file name.")
@@ -71,6 +81,37 @@ def check_output(path: str | os.PathLike, force: bool = False, flag: str = "--ou
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputError(f"{flag} {p}: its folder {parent} is not writable.")
     return p
+
+
+def input_clash(path: str | os.PathLike, inputs) -> str | None:
+    """Why ``path`` may not be written by a command reading ``inputs`` (None if it may).
+
+    An output may not be an input, nor a folder that holds an input (a report written into
+    the dataset it reports on, a table import into the folder of its tables).
+    """
+    out = Path(path).resolve()
+    for item in inputs or ():
+        if item is None:
+            continue
+        src = Path(item).resolve()
+        if out == src:
+            return f"is the input {item}"
+        if out in src.parents:
+            return f"holds the input {item}"
+    return None
+
+
+def check_distinct(outputs: dict) -> None:
+    """Refuse two outputs of one command that are the same file (``{flag: path}``; None skipped)."""
+    seen: dict[Path, str] = {}
+    for flag, path in outputs.items():
+        if path is None:
+            continue
+        key = Path(path).resolve()
+        if key in seen:
+            raise OutputError(f"{flag} {path}: is the same file as {seen[key]}; give each output "
+                              "its own path.")
+        seen[key] = f"{flag} {path}"
 
 
 @contextlib.contextmanager
@@ -140,17 +181,30 @@ def save_figure(fig, path: str | os.PathLike, force: bool = True, **kwargs) -> P
 
 
 @contextlib.contextmanager
-def atomic_dir(path: str | os.PathLike, force: bool = False) -> Iterator[Path]:
+def atomic_dir(path: str | os.PathLike, force: bool = False, owned=()) -> Iterator[Path]:
     """Build a folder under a temporary name beside ``path``; it appears whole or not at all.
 
-    Yields the temporary folder to write into. When the block completes, an existing ``path``
-    (allowed only with ``force``) is replaced by it; when the block fails or is interrupted,
-    the temporary folder is removed and ``path`` is left as it was.
+    Yields the temporary folder to write into. When the block completes:
+
+    * ``path`` did not exist (or was an empty folder): the temporary folder is renamed onto it;
+      if another run created it meanwhile, :class:`~cdprid.base.OutputExistsError` (one run wins,
+      the other exits 2).
+    * ``path`` is a non-empty folder (allowed only with ``force``): each entry this command
+      wrote replaces the entry of the same name, and the entries named in ``owned`` (files
+      this kind of command writes, e.g. a dataset's ``lengths.csv``) that this run did not
+      write are removed. **Nothing else in the folder is touched**: ``--force`` replaces this
+      command's own files, never a folder's other contents.
+
+    When the block fails or is interrupted, the temporary folder is removed and ``path`` is
+    left as it was.
     """
     p = Path(path)
+    if p.name in ("", ".", ".."):  # "." or "..": name the folder itself
+        p = p.resolve()
     if p.exists() and not p.is_dir():
         raise OutputError(f"{p}: is a file, expected a folder name.")
-    if p.exists() and not force and any(p.iterdir()):
+    existed = p.exists() and any(p.iterdir())
+    if existed and not force:
         raise OutputExistsError(f"{p}: already exists; refusing to overwrite it (use --force).")
     parent = p.resolve().parent
     try:
@@ -160,13 +214,46 @@ def atomic_dir(path: str | os.PathLike, force: bool = False) -> Iterator[Path]:
         raise OutputError(f"{p}: cannot write in its folder {parent} ({exc.strerror}).") from None
     try:
         yield tmp
-        if p.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".old", dir=parent))
-            os.replace(p, old / p.name)
-            os.replace(tmp, p)
-            shutil.rmtree(old, ignore_errors=True)
+        if existed:
+            _merge_into(tmp, p, owned)
         else:
-            os.replace(tmp, p)
+            _rename_new(tmp, p)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def _rename_new(tmp: Path, p: Path) -> None:
+    """Rename the finished folder onto a path that was free at the start (re-checked now)."""
+    try:
+        os.rename(tmp, p)  # onto a missing or empty folder only
+    except OSError as exc:
+        if exc.errno in (errno.ENOTEMPTY, errno.EEXIST) or p.exists():
+            raise OutputExistsError(f"{p}: was created by another run meanwhile; refusing to "
+                                    "overwrite it (use --force).") from None
+        raise
+
+
+def _merge_into(tmp: Path, p: Path, owned) -> None:
+    """Move each entry of ``tmp`` into ``p`` (replacing the same names) and retire ``owned``
+    entries this run did not write; on failure the replaced entries are put back."""
+    trash = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".old", dir=p.resolve().parent))
+    moved: list[str] = []
+    try:
+        names = sorted(e.name for e in tmp.iterdir())
+        retire = [n for n in owned if n not in names and (p / n).exists()]
+        for name in names + retire:
+            if (p / name).exists() or (p / name).is_symlink():
+                os.replace(p / name, trash / name)
+                moved.append(name)
+            if name in names:
+                os.replace(tmp / name, p / name)
+    except BaseException:
+        for name in moved:
+            with contextlib.suppress(OSError):
+                if not (p / name).exists():
+                    os.replace(trash / name, p / name)
+        raise
+    finally:
+        shutil.rmtree(trash, ignore_errors=True)
+    shutil.rmtree(tmp, ignore_errors=True)

@@ -8,15 +8,19 @@ __all__ = ["add_parser"]
 
 
 def _run(args) -> int:
-    from cdprid.base._outputs import atomic_dir, check_output, write_json
+    from cdprid.base._outputs import atomic_dir, check_distinct, check_output, write_json
     from cdprid.diagnosis import diagnose
     from cdprid.io import read_dataset
     from cdprid.report.diagnosis import save_report
 
+    from cdprid.io.dataset import dataset_inputs
+
+    check_distinct({"--json": args.json, "--report": args.report})
+    inputs = dataset_inputs(args.dataset)
     if args.json:
-        check_output(args.json, force=args.force, flag="--json")
+        check_output(args.json, force=args.force, flag="--json", inputs=inputs)
     if args.report:
-        check_output(args.report, force=args.force, flag="--report", kind="dir")
+        check_output(args.report, force=args.force, flag="--report", kind="dir", inputs=inputs)
     ds = read_dataset(args.dataset)
 
     def progress(msg):

@@ -17,7 +17,7 @@ def _run(args) -> int:
     from cdprid.io.align import sampling_report
     from cdprid.io.dataset import read_csv_stream
 
-    out = check_output(args.out, force=args.force, flag="--out")
+    out = check_output(args.out, force=args.force, flag="--out", inputs=[args.input])
     params = parse_params(args.params)
     from cdprid.signal._differentiators import METHODS, differentiate
 

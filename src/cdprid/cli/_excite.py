@@ -112,9 +112,12 @@ def run(args) -> int:
 
     t_wall = time.perf_counter()
     robot = load_robot(args.robot)
-    out = check_output(args.out, args.force, "--out", kind="dir")
+    from cdprid.base._outputs import check_distinct
+
+    check_distinct({"--out": args.out, "--json": args.json})
+    out = check_output(args.out, args.force, "--out", kind="dir", inputs=[args.robot])
     if args.json:
-        check_output(args.json, args.force, "--json")
+        check_output(args.json, args.force, "--json", inputs=[args.robot])
     if args.starts < 1:
         raise UserError(f"--starts must be at least 1, got {args.starts}.")
     prob = ex.make_problem(robot, args.family, args.objective, model=args.model,

@@ -5,7 +5,6 @@ Registered by :mod:`cdprid.cli._main` through ``("cdprid.cli._import", "add_pars
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 __all__ = ["add_parser"]
@@ -52,6 +51,7 @@ def _cmd_import_uacdpr(args) -> int:
 
 
 def _cmd_calibrate(args) -> int:
+    from cdprid.base._outputs import check_distinct, check_output
     from cdprid.identify._calibration import (
         calibrate_geometry,
         calibration_data,
@@ -60,6 +60,12 @@ def _cmd_calibrate(args) -> int:
     from cdprid.io.uacdpr import load_uacdpr
     from cdprid.report.calibration import calibration_figures
 
+    inputs = [args.vicon, args.robot_log, args.config, getattr(args, "dataset", None)]
+    check_distinct({"--json": args.json, "--out": args.out})
+    if args.json:  # before the minute of calibration: an existing file needs --force
+        check_output(args.json, force=args.force, flag="--json", inputs=inputs)
+    if args.out:
+        check_output(args.out, force=args.force, flag="--out", kind="dir", inputs=inputs)
     rec = load_uacdpr(args.vicon, args.robot_log, args.config, swivel_axis=args.swivel_axis)
     data = calibration_data(rec).subsample(args.subsample)
     res = calibrate_geometry(rec.robot, data, anchors=args.anchors,
@@ -70,7 +76,9 @@ def _cmd_calibrate(args) -> int:
     print(f"cable lengths, m: {[round(float(v), 4) for v in res.lengths]} "
           f"+- {[round(float(v), 4) for v in res.sigma['length']]}")
     if args.json:
-        Path(args.json).write_text(json.dumps(res.as_dict(), indent=2) + "\n")
+        from cdprid.base._outputs import write_json
+
+        write_json(args.json, res.as_dict(), force=args.force)
         print(f"wrote {args.json}")
     if args.out:
         if not args.dataset:

@@ -16,8 +16,11 @@ Environment variables (checked before any work; a bad value is one sentence and 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
 import json
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -154,17 +157,23 @@ def write_json(path, data: dict, force: bool = True) -> Path:
 
 
 def _cmd_identify(args) -> int:
-    from cdprid.base._outputs import check_output
+    from cdprid.base._outputs import check_distinct, check_output
     from cdprid.identify._batch import format_table, identify_dataset
     from cdprid.io import read_dataset
 
     force = getattr(args, "force", False)
+    from cdprid.io.dataset import dataset_inputs
+
+    inputs = dataset_inputs(args.dataset)
+    png = Path(args.out_csv).with_suffix(".png") if args.out_csv else None
+    check_distinct({"--json": args.json, "--out-csv": args.out_csv,
+                    "--out-csv (its figure)": png if args.online else None})
     if args.json:
-        check_output(args.json, force=force, flag="--json")
+        check_output(args.json, force=force, flag="--json", inputs=inputs)
     if args.online:
         if args.out_csv:
-            check_output(args.out_csv, force=force, flag="--out-csv")
-            check_output(Path(args.out_csv).with_suffix(".png"), force=force, flag="--out-csv")
+            check_output(args.out_csv, force=force, flag="--out-csv", inputs=inputs)
+            check_output(png, force=force, flag="--out-csv", inputs=inputs)
     elif args.out_csv:
         raise UserError("--out-csv is the parameter trajectory of --online; batch identify "
                         "writes --json.")
@@ -417,6 +426,8 @@ def _is_user_error(exc: BaseException) -> bool:
         return True
     if isinstance(exc, OSError) and getattr(exc, "filename", None) is not None:
         return True
+    if isinstance(exc, OSError) and exc.errno in _DISK_ERRNOS:  # full disk, quota, read-only
+        return True
     if isinstance(exc, ValueError) and exc.__traceback__ is not None:
         tb = exc.__traceback__
         while tb.tb_next is not None:
@@ -426,7 +437,14 @@ def _is_user_error(exc: BaseException) -> bool:
     return False
 
 
+_DISK_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS}
+
+
 def _user_message(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.errno in _DISK_ERRNOS \
+            and getattr(exc, "filename", None) is None:
+        return (f"could not write the output: {exc.strerror or os.strerror(exc.errno)} (free "
+                "some space or choose another folder; nothing partial was left).")
     if isinstance(exc, OSError) and getattr(exc, "filename", None) is not None \
             and not isinstance(exc, UserError):
         return f"{exc.filename}: {exc.strerror or type(exc).__name__}."
@@ -461,12 +479,21 @@ def main(argv=None) -> int:
         print(f"cdprid: internal error: {type(exc).__name__}: {exc} "
               "(set CDPRID_DEBUG=1 for a traceback and please report it)", file=sys.stderr)
         return 1
+    previous = _install_termination_handlers()
     try:
         _enable_x64()
         return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        print("cdprid: interrupted; no partial output was left", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        signum = getattr(exc, "signum", signal.SIGINT)
+        print(f"cdprid: {'interrupted' if signum == signal.SIGINT else 'terminated'}; no partial "
+              "output was left", file=sys.stderr)
+        return 128 + int(signum)
+    except BrokenPipeError:  # stdout closed by the reader (``cdprid ... | head``)
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        print("cdprid: error: standard output was closed before the command finished printing.",
+              file=sys.stderr)
+        return 2
     except Exception as exc:  # noqa: BLE001
         if _is_user_error(exc):
             print(f"cdprid: error: {_user_message(exc)}", file=sys.stderr)
@@ -476,6 +503,40 @@ def main(argv=None) -> int:
         print(f"cdprid: internal error: {type(exc).__name__}: {exc} "
               "(set CDPRID_DEBUG=1 for a traceback and please report it)", file=sys.stderr)
         return 1
+    finally:
+        _restore_handlers(previous)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP during a command: unwinds like Ctrl-C, so every output transaction
+    removes its temporary ``.part`` files; the exit code is 128 + the signal number."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated(signum)
+
+
+def _install_termination_handlers() -> dict:
+    """SIGTERM and SIGHUP raise :class:`Terminated` (main thread only); returns the old handlers."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    previous = {}
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is not None:
+            previous[sig] = signal.signal(sig, _raise_terminated)
+    return previous
+
+
+def _restore_handlers(previous: dict) -> None:
+    for sig, handler in previous.items():
+        signal.signal(sig, handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

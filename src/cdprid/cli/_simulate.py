@@ -52,8 +52,12 @@ def run(args) -> int:
     import jax
 
     jax.config.update("jax_enable_x64", True)
+    from pathlib import Path
+
     import numpy as np
 
+    from cdprid.base._errors import UserError
+    from cdprid.base._outputs import input_clash
     from cdprid.io.trajectory import load_trajectory_csv
     from cdprid.model._geometry import load_robot
     from cdprid.model._presets import preset
@@ -62,7 +66,9 @@ def run(args) -> int:
 
     start = time.perf_counter()
     out = args.out
-    from pathlib import Path
+    clash = input_clash(out, [args.robot, args.trajectory])
+    if clash is not None:
+        raise UserError(f"--out {out}: {clash}; choose another output folder.")
 
     if not args.force:
         clash = [

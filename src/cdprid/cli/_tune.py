@@ -43,8 +43,11 @@ def _run(args) -> int:
     if args.json:
         from cdprid.base._outputs import check_output
 
-        check_output(args.json, force=args.force, flag="--json")
-        check_output(_figure_path(args.json), force=args.force, flag="--json")
+        from cdprid.io.dataset import dataset_inputs
+
+        inputs = dataset_inputs(args.dataset) if args.dataset is not None else []
+        check_output(args.json, force=args.force, flag="--json", inputs=inputs)
+        check_output(_figure_path(args.json), force=args.force, flag="--json", inputs=inputs)
     if args.train_signal is None:
         args.train_signal = "dataset" if args.dataset is not None else "family"
     if args.train_signal == "dataset" and args.dataset is None:

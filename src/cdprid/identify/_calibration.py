@@ -510,7 +510,7 @@ def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
     import time
 
     from cdprid.base._outputs import atomic_dir, check_output
-    from cdprid.io.dataset import read_dataset
+    from cdprid.io.dataset import DATASET_FILES, read_dataset
     from cdprid.io.uacdpr import (
         DEFAULT_SWIVEL_AXIS,
         load_uacdpr,
@@ -521,7 +521,7 @@ def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
 
     say = progress or (lambda msg: None)
     swivel_axis = swivel_axis or DEFAULT_SWIVEL_AXIS
-    check_output(out, force=force, kind="dir")
+    check_output(out, force=force, kind="dir", inputs=[vicon, robot_log, config])
     t0 = time.perf_counter()
     rec = load_uacdpr(vicon, robot_log, config, swivel_axis)
     data = calibration_data(rec).subsample(max(1, int(subsample)))
@@ -535,7 +535,7 @@ def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
     R, p = platform_pose(res, rec.fit.V_R_M[v], rec.fit.V_p_M[v])
     meta = _calibrated_meta(uacdpr_meta(rec, sources_of(vicon, robot_log, config), swivel_axis),
                             res, subsample)
-    with atomic_dir(out, force=force) as tmp:
+    with atomic_dir(out, force=force, owned=DATASET_FILES) as tmp:
         write_uacdpr(rec, tmp, meta, R, p, overwrite=True)
         if nuisance:
             from cdprid.base._errors import ConvergenceError

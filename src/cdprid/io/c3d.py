@@ -244,7 +244,7 @@ def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
     from cdprid.io.table import parse_mapping, parse_units, read_tension_table, write_imported
     from cdprid.model._geometry import load_robot
 
-    check_output(out, force, "--out", kind="dir")
+    check_output(out, force, "--out", kind="dir", inputs=[path, robot, layout, tensions])
     rob = load_robot(robot)
     if min_markers < 3:
         raise UserError(f"--min-markers: {min_markers} is below 3, the least a rigid-body pose "

@@ -35,6 +35,14 @@ if TYPE_CHECKING:  # geometry imports JAX: loaded only when a dataset is read or
 
 
 QUAT_COLS = ("qw", "qx", "qy", "qz")
+#: The files of a spec-v1 dataset folder that cdprid writes (``lengths.csv`` optional): the
+#: only files a dataset-writing command replaces or removes in an existing folder with --force.
+DATASET_FILES = ("robot.toml", "pose.csv", "tensions.csv", "meta.toml", "lengths.csv")
+
+
+def dataset_inputs(path) -> list:
+    """A dataset folder and the files of it a reader reads: what no output may be or hold."""
+    return [Path(path)] + [Path(path) / f for f in DATASET_FILES]
 
 
 GAP_FACTOR: float = 2.5

@@ -391,7 +391,7 @@ def import_rosbag(bag: str | Path, robot: str | Path, out: str | Path, pose_topi
     from cdprid.io.table import write_imported
     from cdprid.model._geometry import load_robot
 
-    check_output(out, force, "--out", kind="dir")
+    check_output(out, force, "--out", kind="dir", inputs=[bag, robot])
     rob = load_robot(robot)
     if wrench_component not in ("norm", "x", "y", "z"):
         raise UserError(f"--wrench-component: {wrench_component!r} is not norm, x, y or z.")

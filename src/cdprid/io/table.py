@@ -279,13 +279,14 @@ def write_imported(out: str | Path, robot, pose_t, position, tension_t, tension,
     with :func:`cdprid.io.write_dataset` inside :func:`cdprid.base.atomic_dir`.
     """
     from cdprid.base._outputs import atomic_dir
+    from cdprid.io.dataset import DATASET_FILES
     from cdprid.io.writer import write_dataset
 
     if pose_t[-1] < tension_t[0] or tension_t[-1] < pose_t[0]:
         raise UserError(f"the pose time range [{pose_t[0]:g}, {pose_t[-1]:g}] s and the tension "
                         f"time range [{tension_t[0]:g}, {tension_t[-1]:g}] s do not overlap; "
                         "check the time units and the time offset.")
-    with atomic_dir(out, force=force) as tmp:
+    with atomic_dir(out, force=force, owned=DATASET_FILES) as tmp:
         write_dataset(tmp, robot, pose_t, position, tension_t, tension, quaternion=quaternion,
                       meta=meta, extra=extra, overwrite=True)
     return Path(out)
@@ -329,7 +330,7 @@ def import_table(pose: str | Path, tensions: str | Path, robot: str | Path, out:
     from cdprid.base._outputs import check_output
     from cdprid.model._geometry import load_robot
 
-    check_output(out, force, "--out", kind="dir")
+    check_output(out, force, "--out", kind="dir", inputs=[pose, tensions, robot])
     rob = load_robot(robot)
     pu = parse_units(pose_units, "--pose-units", ("time", "length", "angle"))
     tu = parse_units(tension_units, "--tension-units", ("time", "force"))

@@ -372,10 +372,11 @@ def import_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
         ``out`` exists and ``overwrite`` is False (checked before reading).
     """
     from cdprid.base._outputs import atomic_dir, check_output
+    from cdprid.io.dataset import DATASET_FILES
 
-    check_output(out, force=overwrite, kind="dir")
+    check_output(out, force=overwrite, kind="dir", inputs=[vicon, robot_log, config])
     rec = load_uacdpr(vicon, robot_log, config, swivel_axis)
     meta = uacdpr_meta(rec, sources_of(vicon, robot_log, config), swivel_axis)
-    with atomic_dir(out, force=overwrite) as tmp:
+    with atomic_dir(out, force=overwrite, owned=DATASET_FILES) as tmp:
         write_uacdpr(rec, tmp, meta, overwrite=True)
     return Path(out)

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cdprid.base._errors import OutputError, OutputExistsError
-from cdprid.io.dataset import QUAT_COLS
+from cdprid.io.dataset import DATASET_FILES, QUAT_COLS
 
 if TYPE_CHECKING:  # geometry imports JAX
     from cdprid.model._geometry import CableRobot
@@ -78,7 +78,7 @@ def write_dataset(
         raise OutputExistsError(
             f"{root}: already holds {', '.join(clash)}; refusing to overwrite (use --force)."
         )
-    with atomic_dir(root, force=True) as tmp:
+    with atomic_dir(root, force=True, owned=DATASET_FILES) as tmp:
         with open(tmp / "robot.toml", "wb") as fh:
             tomli_w.dump(robot_to_dict(robot), fh)
         pose_cols = ["t", "x", "y", "z"]
