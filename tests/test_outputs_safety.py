@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import ROBOT_CRAFT
 
 from cdprid.base import OutputError, OutputExistsError, atomic_dir, check_distinct
 from cdprid.cli import main
 from cdprid.io import write_dataset
 from cdprid.model import robot_from_dict
+from conftest import ROBOT_CRAFT
 
 
 @pytest.fixture
