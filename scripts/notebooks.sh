@@ -8,6 +8,12 @@
 # (the real recording) says it has nothing to run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+if [ -z "${PYTHON:-}" ]; then
+  # the notebook runner (nbclient, ipykernel) is the `notebooks` extra: install it if missing
+  if ! { [ -x .venv/bin/python ] && .venv/bin/python -c "import nbclient, ipykernel" 2>/dev/null; }; then
+    bash scripts/setup.sh notebooks
+  fi
+fi
 PY=${PYTHON:-.venv/bin/python}
 [ -x "$PY" ] || PY=python3
 export MPLBACKEND=Agg

@@ -35,7 +35,7 @@ def _err(capsys):
     return capsys.readouterr().err.strip()
 
 
-# ----------------------------------------------------------------------------- outputs that are inputs
+# ---------------------------------------------------------------- outputs that are inputs
 
 
 def test_diagnose_report_into_its_own_dataset_is_refused(small_ds, capsys):
@@ -99,7 +99,7 @@ def test_calibrate_json_needs_force_before_any_work(tmp_path, capsys):
     assert existing.read_text() == '{"keep": true}\n'
 
 
-# ----------------------------------------------------------------------------- --force keeps others' files
+# ---------------------------------------------------------------- --force keeps others' files
 
 
 def test_simulate_force_keeps_the_folders_other_contents(tmp_path):

@@ -180,7 +180,10 @@ def _cmd_identify(args) -> int:
     elif args.wrench_filter == "delay":
         raise UserError("--wrench-filter delay exists only with --online (a fixed delay of W tau "
                         "in the stream); batch identify offers matched or none.")
+    from cdprid.identify._guards import check_geometry
+
     ds = read_dataset(args.dataset)
+    check_geometry(ds.robot, ds.pose_t, ds.position, ds.quaternion)
     params = parse_params(args.params)
     if args.online:
         from cdprid.cli._online import run_online_cli
@@ -207,13 +210,35 @@ def _cmd_identify(args) -> int:
         from cdprid.identify._batch import physical_report
 
         rep = physical_report(rep)
+    rep = _with_guards(ds, rep)
     print(format_table(rep))
-    for w in rep.warnings:
-        print(f"warning: {w}", file=sys.stderr)
+    if not (sys.stdout.isatty() and sys.stderr.isatty()):  # the table holds them: once on a tty
+        for w in rep.warnings:
+            print(f"warning: {w}", file=sys.stderr)
     if args.json:
         write_json(args.json, rep.as_json(), force=force)
         print(f"wrote {args.json}")
     return 0
+
+
+def _with_guards(ds, rep):
+    """The report with the plausibility guards' sentences added to its warnings (issue 25)."""
+    import dataclasses
+
+    import numpy as np
+
+    from cdprid.identify._guards import input_warnings, result_warnings
+
+    names, x, _, _ = rep.estimates()
+    if not np.all(np.isfinite(np.asarray(x, float))):
+        raise UserError("the identification gave non-finite estimates: the data do not "
+                        "determine the parameters (check the geometry, the excitation and "
+                        "--model).")
+    new = input_warnings(ds, rep.signals, rep.differentiator, rep.params)
+    new += result_warnings(ds.robot, rep.result.names, rep.result.x, rep.result.sigma_rho,
+                           ds.tension)
+    new = [w for w in new if w not in rep.warnings]
+    return dataclasses.replace(rep, warnings=tuple(rep.warnings) + tuple(new)) if new else rep
 
 
 def _add_identify(sub) -> None:

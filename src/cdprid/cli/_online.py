@@ -146,12 +146,17 @@ def run_online_cli(ds, args, params) -> int:
     if len(A_used):
         warns += excitation_warnings(res.names, np.linalg.norm(
             A_used.reshape(-1, A_used.shape[-1]), axis=0), res.cond_scaled)
+    from cdprid.identify._guards import input_warnings, result_warnings
+
+    warns += input_warnings(ds, sig, _SIHD, dict(params or {}))
+    warns += result_warnings(ds.robot, res.names, res.x_final, float("nan"), ds.tension)
     print(format_online_table(res))
     for n in (*sig.notes, *notes):
         print(f"note: {n}")
     for w in warns:
         print(f"warning: {w}")
-        print(f"warning: {w}", file=sys.stderr)
+        if not (sys.stdout.isatty() and sys.stderr.isatty()):  # once on a terminal
+            print(f"warning: {w}", file=sys.stderr)
     print(f"wrote {csv_path}")
     print(f"wrote {png_path}")
     if json_path:

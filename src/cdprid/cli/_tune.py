@@ -42,7 +42,6 @@ def _run(args) -> int:
         raise ValueError(f"cannot tune method {args.method!r}; choose one of {', '.join(known)}.")
     if args.json:
         from cdprid.base._outputs import check_output
-
         from cdprid.io.dataset import dataset_inputs
 
         inputs = dataset_inputs(args.dataset) if args.dataset is not None else []
