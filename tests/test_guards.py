@@ -106,3 +106,46 @@ def test_degenerate_geometry_exits_2(sample_dataset, tmp_path, capsys):
     assert main(["identify", str(d)]) == 2
     err = capsys.readouterr().err
     assert "exits" in err and "nan" not in err.lower()
+
+
+def _typo_limit(d):
+    p = d / "robot.toml"
+    text = p.read_text()
+    p.write_text(text.replace("tension_max", "tension_mx", 1) if "tension_max" in text
+                 else text + "\n[limits]\ntension_mx = 400.0\n")
+
+
+def _semicolons(d):
+    p = d / "pose.csv"
+    p.write_text(p.read_text().replace(",", ";"))
+
+
+def _underscore(d):
+    p = d / "pose.csv"
+    lines = p.read_text().splitlines()
+    f = lines[4].split(",")
+    f[1] = "1_" + f[1].lstrip("-")
+    lines[4] = ",".join(f)
+    p.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("edit, words", [
+    (_typo_limit, ["tension_mx", "did you mean 'tension_max'"]),
+    (_semicolons, ["semicolons"]),
+    (_underscore, ["line 5", "is not a number"]),
+], ids=["robot-toml-typo", "semicolon-csv", "underscore-number"])
+def test_input_typos_are_one_sentence_exit_2(sample_dataset, tmp_path, edit, words, capsys):
+    d = tmp_path / "ds"
+    shutil.copytree(sample_dataset, d)
+    edit(d)
+    assert main(["identify", str(d)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and all(w in err for w in words), err
+
+
+def test_robot_toml_with_a_byte_order_mark_is_read(sample_dataset, tmp_path, capsys):
+    d = tmp_path / "ds"
+    shutil.copytree(sample_dataset, d)
+    (d / "robot.toml").write_bytes(b"\xef\xbb\xbf" + (d / "robot.toml").read_bytes())
+    assert main(["identify", str(d)]) == 0
+    capsys.readouterr()

@@ -163,6 +163,8 @@ def _parse_rows_slowly(path: Path, columns: list[str]) -> np.ndarray:
             for col, f in zip(columns, fields, strict=False):
                 f = f.strip().strip('"').strip()
                 try:
+                    if "_" in f:  # Python reads '1_17.27' as 117.27: a typo, not a number
+                        raise ValueError(f)
                     v = float(f)
                 except ValueError:
                     raise DatasetError(
@@ -212,6 +214,11 @@ def read_csv_stream(path: Path, required: tuple[str, ...] = ("t",)) -> tuple[lis
             if not first.strip():
                 raise DatasetError(f"{path}: the file is empty (no header line).")
             columns = _header(path, first)
+            for sep, name in ((";", "semicolons"), ("\t", "tabs")):
+                if len(columns) == 1 and sep in first:
+                    raise DatasetError(f"{path}: line 1 (header) is separated by {name}; spec-v1 "
+                                       "CSV files use commas (`cdprid import table` reads other "
+                                       "separators).")
             for c in required:
                 if c not in columns:
                     raise DatasetError(f"{path}: line 1 (header) lacks the required column '{c}'.")
@@ -247,8 +254,7 @@ def read_csv_stream(path: Path, required: tuple[str, ...] = ("t",)) -> tuple[lis
 
 def _read_toml(path: Path) -> dict:
     try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
+        return tomllib.loads(path.read_bytes().removeprefix(b"\xef\xbb\xbf").decode("utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise DatasetError(f"{path}: not valid TOML ({exc}).") from None
     except UnicodeDecodeError:

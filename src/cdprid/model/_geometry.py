@@ -227,6 +227,38 @@ def _platform(source: str, plat: dict, inertia) -> NominalPlatform:
     )
 
 
+_KNOWN_KEYS = {
+    "the top level": ("name", "gravity", "limits", "cable", "platform"),
+    "[limits]": ("tension_min", "tension_max", "cable_speed_max", "workspace_min",
+                 "workspace_max", *_LIMITS_11),
+    "[[cable]]": ("exit", "anchor", "pulley_radius", "pulley_axis", "pulley_reference"),
+    "[platform]": ("mass", "com", "inertia", "mass_uncertainty", "com_uncertainty",
+                   "inertia_uncertainty", "body_min", "body_max"),
+}
+
+
+def _check_typos(source: str, data: dict) -> None:
+    """Refuse a field that is a near miss of a spec field (``tension_mx``): silently ignoring it
+    would drop the user's limit. Fields unlike any spec field are left alone (extensions)."""
+    import difflib
+
+    tables = [("the top level", data)]
+    if isinstance(data.get("limits"), dict):
+        tables.append(("[limits]", data["limits"]))
+    if isinstance(data.get("platform"), dict):
+        tables.append(("[platform]", data["platform"]))
+    tables += [("[[cable]]", c) for c in data.get("cable") or [] if isinstance(c, dict)]
+    for where, table in tables:
+        known = _KNOWN_KEYS[where]
+        for key in table:
+            if key in known:
+                continue
+            near = difflib.get_close_matches(key, known, n=1, cutoff=0.8)
+            if near:
+                raise RobotFileError(f"{source}: {where} has an unknown field '{key}'; did you "
+                                     f"mean '{near[0]}'?")
+
+
 def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
     """Build a :class:`CableRobot` from the parsed robot.toml mapping (spec v1).
 
@@ -235,6 +267,7 @@ def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
     RobotFileError
         One sentence naming ``source``, the table and field, and what is wrong.
     """
+    _check_typos(source, data)
     cables = data.get("cable")
     if not isinstance(cables, list) or len(cables) == 0:
         raise RobotFileError(f"{source}: no [[cable]] tables found; at least one cable is required.")
@@ -327,8 +360,8 @@ def load_robot(path: str | Path) -> CableRobot:
     if not path.is_file():
         raise RobotFileError(f"{path}: required file is missing.")
     try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
+        raw = path.read_bytes()
+        data = tomllib.loads(raw.removeprefix(b"\xef\xbb\xbf").decode("utf-8"))  # BOM allowed
     except tomllib.TOMLDecodeError as exc:
         raise RobotFileError(f"{path}: not valid TOML ({exc}).") from None
     except UnicodeDecodeError:
