@@ -64,14 +64,15 @@ def check_output(path: str | os.PathLike, force: bool = False, flag: str = "--ou
         folder is missing or not writable.
     """
     p = Path(path)
-    clash = input_clash(p, inputs)
-    if clash is not None:
-        raise OutputError(f"{flag} {p}: {clash}; choose another output path.")
     if p.exists():
         if kind == "file" and p.is_dir():
             raise OutputError(f"{flag} {p}: is a folder, expected a file name.")
         if kind == "dir" and not p.is_dir():
             raise OutputError(f"{flag} {p}: is a file, expected a folder name.")
+    clash = input_clash(p, inputs)
+    if clash is not None:
+        raise OutputError(f"{flag} {p}: {clash}; choose another output path.")
+    if p.exists():
         if not force:
             raise OutputExistsError(f"{flag} {p}: already exists; refusing to overwrite it "
                               "(use --force to replace it).")
