@@ -15,11 +15,13 @@ from cdprid.identify._online_types import (
     WRENCH_FILTERS,
     CascadeState,
     DelayState,
+    IntegralStage,
     MatchedFilterState,
     OnlineConfig,
     OnlineOutput,
     OnlineSample,
     OnlineState,
+    RotationFilterState,
 )
 from cdprid.identify._rls import (
     _check_forgetting,
@@ -137,7 +139,41 @@ def online_init(
         n_rows=jnp.zeros((), f64),
         M=jnp.zeros((p, p), f64),
         m_rows=jnp.zeros((), f64),
+        rot=RotationFilterState(*(_integral_stage_init(n, f64) for n in (9, 9, 4, 4, 4))),
     )
+
+
+def _integral_stage_init(n: int, dtype) -> IntegralStage:
+    z = jnp.zeros(n, dtype)
+    return IntegralStage(z, (z, z), z)
+
+
+def _integral_stage(st: IntegralStage, u, first, g, h):
+    """``(H / s) u``: trapezoidal integral of ``u`` through one SIHD stage, in steady state at
+    the first sample (a constant input passes unchanged, as in the wrench's matched filter)."""
+    u_prev = jnp.where(first, u, st.u_prev)
+    integral = st.integral + 0.5 * h * (u + u_prev)
+    stage = (jnp.where(first, integral, st.stage[0]), jnp.where(first, u, st.stage[1]))
+    stage, out = sihd2_step(stage, integral, g, h)
+    return IntegralStage(integral, stage, u), out
+
+
+def _rotation_terms(rot, B_R_P, q, qd, first, gains, h):
+    """``F[R]``, ``F[q]`` and ``F[dq/dt]`` with F the wrench's matched filter (H2 H1 / s^2).
+
+    The regressor multiplies accelerations (already ``F[a]`` from the cascade) with the pose;
+    filtering W tau by F and the pose terms by nothing leaves, with a causal filter's lag, a
+    residual correlated with the rotation (the inertia and m s_G came out wrong even on
+    noise-free data). With every factor through F, the products carry the same delay.
+    """
+    g1 = (gains[0], gains[1], gains[4], gains[5])
+    g2 = (gains[2], gains[3], gains[4], gains[5])
+    R1, r1 = _integral_stage(rot.R1, B_R_P.reshape(9), first, g1, h)
+    R2, FR = _integral_stage(rot.R2, r1, first, g2, h)
+    q1, f1 = _integral_stage(rot.q1, q, first, g1, h)
+    q2, Fq = _integral_stage(rot.q2, f1, first, g2, h)
+    qd2, Fqd = _integral_stage(rot.qd2, qd, first, g2, h)
+    return RotationFilterState(R1, R2, q1, q2, qd2), FR.reshape(3, 3), Fq, Fqd
 
 
 def _cascade(state, y, first, gains, h):
@@ -191,14 +227,19 @@ def _online_step(state: OnlineState, sample: OnlineSample):
     q_prev = jnp.where(first, q, state.q_prev)
     q = jnp.where(q @ q_prev < 0, -q, q)  # sign continuity
     B_R_P = quat_to_matrix(q)
-    if cfg.model == "full":
-        sihd_q, qd, qdd = _cascade(state.sihd_q, q, first, gains, h)
-        om, al = angular_rates_from_quat(q, qd, qdd)
-        A = regressor_full(B_R_P, a, om, al, robot.gravity)
+    sihd_q, qd, qdd = _cascade(state.sihd_q, q, first, gains, h)
+    if cfg.wrench_filter == "matched":  # every pose term through the wrench's filter F
+        rot, R_f, q_f, qd_f = _rotation_terms(state.rot, B_R_P, q, qd, first, gains, h)
+        q_f = q_f / jnp.linalg.norm(q_f)
     else:
-        sihd_q = state.sihd_q
+        rot, R_f, q_f, qd_f = state.rot, B_R_P, q, qd
+    if cfg.model == "full":
+        om, al = angular_rates_from_quat(q, qd, qdd)  # reported: the cascade's own estimate
+        om_f, al_f = angular_rates_from_quat(q_f, qd_f, qdd)  # in the regressor: through F
+        A = regressor_full(R_f, a, om_f, al_f, robot.gravity)
+    else:
         om = al = jnp.zeros(3, h.dtype)
-        A = regressor_translation(B_R_P, a, robot.gravity)
+        A = regressor_translation(R_f, a, robot.gravity)
 
     # 2.-3. measured wrench and its lag compensation
     y = wrench_matrix(robot, p_meas, B_R_P) @ tau
@@ -225,7 +266,7 @@ def _online_step(state: OnlineState, sample: OnlineSample):
     exc = jnp.sqrt(jnp.maximum(lam_min, 0.0))
     ok = (exc >= cfg.excitation_threshold) & (m_rows > 0)
 
-    new = OnlineState(cfg, state.k + 1, sihd_p, sihd_q, q, wf, S, n_rows, M, m_rows)
+    new = OnlineState(cfg, state.k + 1, sihd_p, sihd_q, q, wf, S, n_rows, M, m_rows, rot)
     return new, OnlineOutput(v, a, om, al, A, y, x, sigma, sigma_rho, exc, ok, use)
 
 

@@ -79,6 +79,29 @@ class CascadeState(NamedTuple):
     stage2: tuple
 
 
+class IntegralStage(NamedTuple):
+    """One SIHD stage fed with a running trapezoidal integral: applies ``H / s`` to its input
+    (``H`` the stage's derivative transfer), any channel shape."""
+
+    integral: jnp.ndarray
+    stage: tuple
+    u_prev: jnp.ndarray
+
+
+class RotationFilterState(NamedTuple):
+    """The matched filter F of the wrench applied to the pose terms of the regressor, so that
+    every term of the regression passes the same filter (issue 24): ``F[R]`` (9 entries of
+    ``B_R_P``), ``F[q]`` and ``F[dq/dt]`` (with ``F[d2q/dt2]`` from the quaternion cascade).
+    ``F = H2 H1 / s^2``: stage 1 of the cascade after one integration, then stage 2 after
+    another."""
+
+    R1: IntegralStage
+    R2: IntegralStage
+    q1: IntegralStage
+    q2: IntegralStage
+    qd2: IntegralStage
+
+
 class MatchedFilterState(NamedTuple):
     """State of the matched wrench filter (``wrench_filter="matched"``), (6,) arrays.
 
@@ -125,6 +148,8 @@ class OnlineState(eqx.Module):
         Short-memory information matrix (excitation monitor).
     m_rows : array ()
         Its weighted number of rows.
+    rot : RotationFilterState
+        The wrench's matched filter applied to the rotation terms of the regressor.
     """
 
     config: OnlineConfig
@@ -137,6 +162,7 @@ class OnlineState(eqx.Module):
     n_rows: jnp.ndarray
     M: jnp.ndarray
     m_rows: jnp.ndarray
+    rot: RotationFilterState
 
 
 class OnlineSample(NamedTuple):
