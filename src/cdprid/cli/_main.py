@@ -177,6 +177,15 @@ def _cmd_identify(args) -> int:
     elif args.out_csv:
         raise UserError("--out-csv is the parameter trajectory of --online; batch identify "
                         "writes --json.")
+    if args.online:  # batch-only options are refused, not silently ignored
+        ignored = [flag for flag, on in (("--physical", getattr(args, "physical", False)),
+                                         ("--weighting groups", args.weighting != "none"),
+                                         ("--std iid", args.std != "hac"))
+                   if on]
+        if ignored:
+            raise UserError(f"{ignored[0]} applies to batch identify only; --online uses "
+                            "recursive least squares with its own (HAC) std: drop it or drop "
+                            "--online.")
     elif args.wrench_filter == "delay":
         raise UserError("--wrench-filter delay exists only with --online (a fixed delay of W tau "
                         "in the stream); batch identify offers matched or none.")
@@ -453,6 +462,8 @@ def _is_user_error(exc: BaseException) -> bool:
         return True
     if isinstance(exc, OSError) and exc.errno in _DISK_ERRNOS:  # full disk, quota, read-only
         return True
+    if type(exc).__name__ == "LinAlgError":  # SVD/QR without convergence: degenerate input
+        return True
     if isinstance(exc, ValueError) and exc.__traceback__ is not None:
         tb = exc.__traceback__
         while tb.tb_next is not None:
@@ -466,6 +477,9 @@ _DISK_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS}
 
 
 def _user_message(exc: BaseException) -> str:
+    if type(exc).__name__ == "LinAlgError":
+        return (f"a linear-algebra step failed on these data ({exc}): the regression is "
+                "degenerate; check the units, the axes (z up?) and the geometry in robot.toml.")
     if isinstance(exc, OSError) and exc.errno in _DISK_ERRNOS \
             and getattr(exc, "filename", None) is None:
         return (f"could not write the output: {exc.strerror or os.strerror(exc.errno)} (free "

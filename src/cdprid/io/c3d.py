@@ -169,6 +169,10 @@ def _analog_tensions(c, path, channels: list[str], m: int, units_override: str |
     return t, data * np.asarray(scales), info
 
 
+#: Marker fit RMS above which the import is refused (a wrong layout unit gave 125,795 mm).
+MAX_FIT_RMS_MM = 20.0
+
+
 def platform_pose(V_m, names: list[str], t, path, layout=None, layout_units: str = "m",
                   origin_marker: str | None = None, min_markers: int = 3):
     """Rigid-body pose of every frame (:mod:`cdprid.io.markers`), NaN where too few markers.
@@ -262,6 +266,12 @@ def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
     good = np.isfinite(p).all(1)
     if good.sum() < 2:
         raise UserError(f"{path}: fewer than 2 frames show {min_markers} of the platform markers.")
+    fit_mm = float(1e3 * np.sqrt(np.nanmean(res[good] ** 2)))
+    if fit_mm > MAX_FIT_RMS_MM:  # a rigid body fits its markers to about a millimetre
+        raise UserError(f"{path}: the markers fit the rigid-body layout with an RMS of "
+                        f"{fit_mm:.4g} mm (more than {MAX_FIT_RMS_MM:g} mm): is the layout in "
+                        f"another unit (--layout-units, now {layout_units!r}) or are the markers "
+                        "misnamed?")
     from scipy.spatial.transform import Rotation
 
     q = Rotation.from_matrix(R[good]).as_quat()

@@ -70,6 +70,10 @@ def parse_mapping(text: str | None, option: str) -> dict[str, str]:
             raise UserError(f"{option}: {item.strip()!r} is not of the form key=COLUMN.")
         if key in out:
             raise UserError(f"{option}: the key {key!r} is given twice.")
+        twice = [k for k, c in out.items() if c == col]
+        if twice:
+            raise UserError(f"{option}: the column {col!r} is mapped to both {twice[0]!r} and "
+                            f"{key!r}; each key needs its own column.")
         out[key] = col
     return out
 
@@ -270,6 +274,33 @@ def read_tension_table(path, cmap: dict, m: int, units: dict, offset: float):
     return tab, t + offset, tau, dropped
 
 
+def _unmapped_notes(ptab, pmap: dict, ttab, tmap: dict, m: int) -> list[str]:
+    """Say what the import leaves out: a tension column past the robot's cables is refused
+    (a 7-cable robot.toml with tau_1..tau_8 is a mistake), unmapped rotation columns noted."""
+    extra_tau = [c for c in ttab.columns if c.startswith("tau_") and c not in tmap.values()]
+    if extra_tau:
+        raise UserError(f"--tensions {ttab.path}: has the column {extra_tau[0]!r} but robot.toml "
+                        f"has {m} cables; check the robot file or map the columns with "
+                        "--tension-columns.")
+    rot = [c for c in ptab.columns if c in QUAT_KEYS + EULER_KEYS and c not in pmap.values()]
+    if rot:
+        return [f"the pose table's columns {', '.join(rot)} were not imported (not in "
+                "--pose-columns): the dataset has no orientation"]
+    return []
+
+
+def _validate_with_reader(tmp: Path, out) -> None:
+    """Read the dataset just written with the reader every command uses: an importer never
+    writes what its reader would reject (NaN from a bag or C3D, a broken time column)."""
+    from cdprid.io.dataset import DatasetError, read_dataset
+
+    try:
+        read_dataset(tmp)
+    except DatasetError as exc:
+        msg = str(exc).replace(str(tmp), str(out))
+        raise UserError(f"the imported data would not be a valid dataset: {msg}") from None
+
+
 def write_imported(out: str | Path, robot, pose_t, position, tension_t, tension,
                    quaternion=None, meta: dict | None = None, force: bool = False,
                    extra: dict | None = None) -> Path:
@@ -289,6 +320,7 @@ def write_imported(out: str | Path, robot, pose_t, position, tension_t, tension,
     with atomic_dir(out, force=force, owned=DATASET_FILES) as tmp:
         write_dataset(tmp, robot, pose_t, position, tension_t, tension, quaternion=quaternion,
                       meta=meta, extra=extra, overwrite=True)
+        _validate_with_reader(tmp, out)
     return Path(out)
 
 
@@ -345,6 +377,7 @@ def import_table(pose: str | Path, tensions: str | Path, robot: str | Path, out:
         {k: k for k in ["t"] + [f"tau_{i}" for i in range(1, m + 1)]}
     ptab, pt, pos, q, convention, pdrop = _read_pose(pose, pmap, euler, pu)
     ttab, tt, tau, tdrop = read_tension_table(tensions, tmap, m, tu, float(tension_time_offset))
+    notes = _unmapped_notes(ptab, pmap, ttab, tmap, m)
     names = {",": "comma", ";": "semicolon", "\t": "tab", "whitespace": "whitespace"}
     meta = {
         "description": f"imported from the tables {ptab.path.name} and {ttab.path.name} by "
@@ -364,6 +397,7 @@ def import_table(pose: str | Path, tensions: str | Path, robot: str | Path, out:
             "tension_time_offset_s": float(tension_time_offset),
             "pose_rows_dropped": pdrop,
             "tension_rows_dropped": tdrop,
+            "notes": notes,
             "assumptions": [
                 "positions are of the platform reference point P in the robot's base frame",
                 "tensions are in robot.toml's cable order",
