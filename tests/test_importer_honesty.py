@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import ROBOT_CRAFT
 
 from cdprid.base import UserError
 from cdprid.cli import main
 from cdprid.io.table import parse_mapping, write_imported
 from cdprid.model import CRAFT_LIKE, robot_from_dict
+from conftest import ROBOT_CRAFT
 
 
 def _robot_toml(path, n_cables=8):
