@@ -143,8 +143,9 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     lines += ["## Extended model", "", "| parameter | estimate | std (HAC) | change vs base |",
               "|---|---|---|---|"]
     for k, v in result.extended_parameters.items():
-        ch = v["value"] - bp[k]["value"] if k in bp else float("nan")
-        lines.append(f"| {k} | {v['value']:.6g} | {v['std']:.3g} | {ch:+.4g} |")
+        ch = (f"{v['value'] - bp[k]['value']:+.4g}" if k in bp
+              else "not in the base model")  # never "+nan" in a report
+        lines.append(f"| {k} | {v['value']:.6g} | {v['std']:.3g} | {ch} |")
     lines += ["", f"Held-out force residual RMS: base {result.base_heldout_rms:.4g} N -> "
               f"extended {result.extended_heldout_rms:.4g} N ({result.info['heldout']}).", ""]
     w = result.info.get("weight_at_rest")
