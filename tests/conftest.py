@@ -114,3 +114,17 @@ def craft_orbits(tmp_path_factory):
 def rng():
     """A seeded numpy generator (no global random state)."""
     return np.random.default_rng(12345)
+
+
+@pytest.fixture
+def small_ds(tmp_path):
+    """A small valid dataset written by the project's writer (5 s, 8 cables, static-ish)."""
+    from cdprid.io import write_dataset
+    from cdprid.model import robot_from_dict
+
+    robot = robot_from_dict(ROBOT_CRAFT)
+    t = np.arange(0, 5, 0.01)
+    pos = np.column_stack([0.1 * np.sin(t), 0.1 * np.cos(t), 1.2 + 0 * t])
+    q = np.tile([1.0, 0, 0, 0], (len(t), 1))
+    tau = 20 + np.random.default_rng(0).normal(0, 0.5, (len(t), 8))
+    return write_dataset(tmp_path / "ds", robot, t, pos, t, tau, quaternion=q)

@@ -19,17 +19,6 @@ from cdprid.model import robot_from_dict
 from conftest import ROBOT_CRAFT
 
 
-@pytest.fixture
-def small_ds(tmp_path):
-    """A small valid dataset written by the project's writer (static platform)."""
-    robot = robot_from_dict(ROBOT_CRAFT)
-    t = np.arange(0, 5, 0.01)
-    pos = np.column_stack([0.1 * np.sin(t), 0.1 * np.cos(t), 1.2 + 0 * t])
-    q = np.tile([1.0, 0, 0, 0], (len(t), 1))
-    tau = 20 + np.random.default_rng(0).normal(0, 0.5, (len(t), 8))
-    return write_dataset(tmp_path / "ds", robot, t, pos, t, tau, quaternion=q)
-
-
 def _edit(path, fn):
     lines = path.read_text().splitlines()
     path.write_text("\n".join(fn(lines)) + "\n")
