@@ -149,3 +149,16 @@ def test_robot_toml_with_a_byte_order_mark_is_read(sample_dataset, tmp_path, cap
     (d / "robot.toml").write_bytes(b"\xef\xbb\xbf" + (d / "robot.toml").read_bytes())
     assert main(["identify", str(d)]) == 0
     capsys.readouterr()
+
+
+@pytest.mark.parametrize("argv", [["excite", "{robot}", "--duration", "1e6"],
+                                  ["tune", "--duration", "1e6"],
+                                  ["simulate", "--out", "{tmp}/s", "--duration", "1e6"]],
+                         ids=["excite", "tune", "simulate"])
+def test_durations_that_cannot_fit_in_memory_are_refused(argv, craft_robot_toml, tmp_path, capsys):
+    """``excite --duration 1e6`` was killed by the OOM killer at 24 GB: now one sentence."""
+    argv = [a.format(robot=craft_robot_toml, tmp=tmp_path) for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "longer than" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "s").exists()

@@ -167,6 +167,8 @@ def run(args) -> int:
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``cdprid excite`` on an argparse subparsers object."""
+    from cdprid.cli import _types as V
+
     p = subparsers.add_parser(
         "excite", help="optimise a safe excitation trajectory (condition number of W_ID)",
         description="Optimise an exciting trajectory for the identification of the platform's "
@@ -179,7 +181,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("robot", help="robot.toml (spec v1.1)")
     p.add_argument("--family", choices=["orbit", "orbits", "fourier"], default="orbit",
                    help="trajectory family (default orbit; fourier rotates, for --model full)")
-    p.add_argument("--duration", type=float, default=None,
+    p.add_argument("--duration", type=V.duration_up_to(
+                       V.EXCITE_MAX_S, "the optimiser differentiates through every 100 Hz "
+                       "sample"), default=None,
                    help="duration of the exciting part, s (default 20 orbit, 52 orbits, 30 "
                    "fourier); the moves from and back to home are added")
     p.add_argument("--objective", choices=["cond", "cond_scaled", "dopt", "sigma"], default="cond",

@@ -209,7 +209,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="tension rate, Hz (default 100)"
     )
     p.add_argument(
-        "--duration", type=V.positive_float, default=None,
+        "--duration", type=V.duration_up_to(
+            V.SIMULATE_MAX_S, "every stream and its tension distribution are held in memory"),
+        default=None,
         help="duration, s (default: the trajectory's)"
     )
     p.add_argument("--force", action="store_true", help="overwrite an existing dataset")

@@ -181,7 +181,9 @@ def add_parser(sub) -> None:
                    help="BFGS iterations (SIHD methods)")
     p.add_argument("--zeta-min", type=V.nonneg_float, default=None,
                    help="damping floor of SIHD-N root pairs (default of cdprid.tuning._tuning)")
-    p.add_argument("--duration", type=V.positive_float, default=None,
+    p.add_argument("--duration", type=V.duration_up_to(
+                       V.TUNE_MAX_S, "every noise realisation of the signal is held in memory"),
+                   default=None,
                    help="length of the training circle (default 52 s) or of each family and "
                    "held-out trajectory (default 25 s), s")
     p.add_argument("--json", help="write the result JSON here (with its acceleration frequency "

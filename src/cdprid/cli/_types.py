@@ -59,6 +59,28 @@ def positive_float(text: str) -> float:
     return v
 
 
+def duration_up_to(limit_s: float, why: str):
+    """A ``type=`` for a duration in s: finite, > 0 and at most ``limit_s`` (memory is bounded:
+    ``why`` says what the command holds per sample)."""
+
+    def check(text: str) -> float:
+        v = positive_float(text)
+        if v > limit_s:
+            raise argparse.ArgumentTypeError(f"{text} s is longer than {limit_s:g} s, the most "
+                                             f"this command takes ({why}).")
+        return v
+
+    return check
+
+
+#: Longest excitation the optimiser takes: it differentiates through every 100 Hz sample.
+EXCITE_MAX_S = 600.0
+#: Longest training signal of ``tune``: every noise realisation is held in memory.
+TUNE_MAX_S = 3600.0
+#: Longest simulated recording (4 h at 100 Hz is about 1.5 million samples per stream).
+SIMULATE_MAX_S = 14400.0
+
+
 def nonneg_float(text: str) -> float:
     """A finite float >= 0."""
     v = _float(text)
