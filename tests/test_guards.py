@@ -162,3 +162,9 @@ def test_durations_that_cannot_fit_in_memory_are_refused(argv, craft_robot_toml,
     err = capsys.readouterr().err.strip()
     assert "longer than" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "s").exists()
+
+
+def test_a_cutoff_that_removes_all_motion_is_one_sentence(sample_dataset, capsys):
+    assert main(["identify", str(sample_dataset), "--params", '{"cutoff_hz": 1e-9}']) == 2
+    err = capsys.readouterr().err.strip()
+    assert "cutoff_hz" in err and "below" in err and len(err.splitlines()) == 1

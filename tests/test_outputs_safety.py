@@ -151,3 +151,19 @@ def test_check_distinct_names_both_flags(tmp_path):
     with pytest.raises(OutputError, match="--json .* same file as --out-csv"):
         check_distinct({"--out-csv": tmp_path / "a.csv", "--json": tmp_path / "a.csv"})
     check_distinct({"--out-csv": tmp_path / "a.csv", "--json": None})
+
+
+def test_interrupted_online_run_leaves_none_of_its_files(sample_dataset, tmp_path, monkeypatch,
+                                                         capsys):
+    """Ctrl-C after the CSV and the PNG were written (during the JSON): all three are gone."""
+    import cdprid.cli._online as online_cli
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(online_cli, "write_json", interrupted)
+    csv = tmp_path / "run.csv"
+    rc = main(["identify", str(sample_dataset), "--online", "--out-csv", str(csv), "--json",
+               str(tmp_path / "run.json")])
+    assert rc == 130 and "no partial output" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

@@ -7,6 +7,7 @@ figure and the JSON, and prints the table.
 
 from __future__ import annotations
 
+import contextlib
 import sys
 from pathlib import Path
 
@@ -126,55 +127,64 @@ def run_online_cli(ds, args, params) -> int:
     else:
         csv_path = _free_path(Path("online.csv"))
     csv_path.parent.mkdir(parents=True, exist_ok=True)
-    write_online_csv(res, csv_path)
-    png_path = csv_path.with_suffix(".png")
-    if not out_csv:
-        png_path = _free_path(png_path)
-    truth = None
-    tr = getattr(ds, "truth", {}) or {}
-    if "mass" in tr and "first_moment" in tr and args.model == "translation":
-        truth = np.r_[tr["mass"], tr["first_moment"]]
-    plot_online(res, png_path, truth=truth)
+    written: list[Path] = []  # one transaction: an interrupted run removes what it wrote
+    try:
+        write_online_csv(res, csv_path)
+        written.append(csv_path)
+        png_path = csv_path.with_suffix(".png")
+        if not out_csv:
+            png_path = _free_path(png_path)
+        truth = None
+        tr = getattr(ds, "truth", {}) or {}
+        if "mass" in tr and "first_moment" in tr and args.model == "translation":
+            truth = np.r_[tr["mass"], tr["first_moment"]]
+        plot_online(res, png_path, truth=truth)
+        written.append(png_path)
 
-    from cdprid.core._physical import physical_warnings
-    from cdprid.identify._batch import excitation_warnings
+        from cdprid.core._physical import physical_warnings
+        from cdprid.identify._batch import excitation_warnings
 
-    w3, n3 = physical_warnings(res.x_final, res.model, res.hac_cov_final()[0])
-    warns += w3
-    notes += n3
-    A_used = np.asarray(res.A)[np.asarray(res.used, bool)]
-    if len(A_used):
-        warns += excitation_warnings(res.names, np.linalg.norm(
-            A_used.reshape(-1, A_used.shape[-1]), axis=0), res.cond_scaled)
-    from cdprid.identify._guards import input_warnings, result_warnings
+        w3, n3 = physical_warnings(res.x_final, res.model, res.hac_cov_final()[0])
+        warns += w3
+        notes += n3
+        A_used = np.asarray(res.A)[np.asarray(res.used, bool)]
+        if len(A_used):
+            warns += excitation_warnings(res.names, np.linalg.norm(
+                A_used.reshape(-1, A_used.shape[-1]), axis=0), res.cond_scaled)
+        from cdprid.identify._guards import input_warnings, result_warnings
 
-    warns += input_warnings(ds, sig, _SIHD, dict(params or {}))
-    warns += result_warnings(ds.robot, res.names, res.x_final, float("nan"), ds.tension)
-    print(format_online_table(res))
-    for n in (*sig.notes, *notes):
-        print(f"note: {n}")
-    for w in warns:
-        print(f"warning: {w}")
-        if not (sys.stdout.isatty() and sys.stderr.isatty()):  # once on a terminal
-            print(f"warning: {w}", file=sys.stderr)
-    print(f"wrote {csv_path}")
-    print(f"wrote {png_path}")
-    if json_path:
-        data = res.as_json()
-        data.update({"differentiator": _SIHD, "differentiator_params": dict(params or {}),
-                     "wrench_filter": res.wrench_filter, "rotation_deg": rot,
-                     "notes": [*sig.notes, *notes], "warnings": warns})
-        if res.model == "full":
-            data["inertia_about"] = "P, platform frame"
-        data["online"] = {
-            "forgetting": forgetting,
-            "csv": str(csv_path),
-            "figure": str(png_path),
-            "wrench_filter": res.wrench_filter,
-            "excitation_ok_final": bool(res.excitation_ok[-1]),
-            "excitation_ok_fraction": float(res.excitation_ok[res.used].mean())
-            if res.used.any() else 0.0,
-        }
-        write_json(json_path, data)
-        print(f"wrote {json_path}")
+        warns += input_warnings(ds, sig, _SIHD, dict(params or {}))
+        warns += result_warnings(ds.robot, res.names, res.x_final, float("nan"), ds.tension)
+        print(format_online_table(res))
+        for n in (*sig.notes, *notes):
+            print(f"note: {n}")
+        for w in warns:
+            print(f"warning: {w}")
+            if not (sys.stdout.isatty() and sys.stderr.isatty()):  # once on a terminal
+                print(f"warning: {w}", file=sys.stderr)
+        print(f"wrote {csv_path}")
+        print(f"wrote {png_path}")
+        if json_path:
+            data = res.as_json()
+            data.update({"differentiator": _SIHD, "differentiator_params": dict(params or {}),
+                         "wrench_filter": res.wrench_filter, "rotation_deg": rot,
+                         "notes": [*sig.notes, *notes], "warnings": warns})
+            if res.model == "full":
+                data["inertia_about"] = "P, platform frame"
+            data["online"] = {
+                "forgetting": forgetting,
+                "csv": str(csv_path),
+                "figure": str(png_path),
+                "wrench_filter": res.wrench_filter,
+                "excitation_ok_final": bool(res.excitation_ok[-1]),
+                "excitation_ok_fraction": float(res.excitation_ok[res.used].mean())
+                if res.used.any() else 0.0,
+            }
+            write_json(json_path, data)
+            print(f"wrote {json_path}")
+    except BaseException:
+        for path in written:
+            with contextlib.suppress(OSError):
+                path.unlink()
+        raise
     return 0

@@ -194,7 +194,15 @@ def _check_params(method, params):
             raise ValueError(f"sihd{_n} needs {(_n - 1) / _n:g} <= alpha <= 1, got {p['alpha']!r}.")
     if method == "levant" and p["lambda0"] <= 1.0:
         raise ValueError(f"levant needs lambda0 > 1, got {p['lambda0']!r}.")
+    if "cutoff_hz" in p and p["cutoff_hz"] < MIN_CUTOFF_HZ:
+        raise ValueError(f"cutoff_hz {p['cutoff_hz']!r} of method {method!r} is below "
+                         f"{MIN_CUTOFF_HZ} Hz: such a filter removes every motion of a "
+                         "recording (and its design is numerically singular).")
     return p
+
+
+#: Lowest filter cut-off a differentiator accepts (a period of 1000 s).
+MIN_CUTOFF_HZ = 1e-3
 
 
 def _x64_scope():
