@@ -352,3 +352,32 @@ def _toml(d: dict) -> str:
         out.append("[[cable]]")
         out += [f"{k} = {val(v)}" for k, v in c.items()]
     return "\n".join(out) + "\n"
+
+
+def test_gentle_margin_is_monotone_in_tension_max(tmp_path, capsys):
+    """Loosening tension_max never loses a certificate (issue 25: the gentle run's margin fell
+    from +2.41 N at 400 N to -4.82 N at 1360 N, then it was refused): the closed-form
+    distributions include fixed levels above tension_min, not only the mid-range."""
+    import json
+
+    import tomli_w
+
+    from cdprid.cli import main
+    from cdprid.model import CRAFT_LIKE
+
+    margins = []
+    for tmax in (400.0, 1360.0):
+        d = dict(CRAFT_LIKE, limits=dict(CRAFT_LIKE["limits"], tension_max=tmax),
+                 platform={"mass": 9.88, "com": [-0.0065, 0.0019, -0.107]})
+        robot = tmp_path / f"robot{int(tmax)}.toml"
+        with open(robot, "wb") as fh:
+            tomli_w.dump(d, fh)
+        out = tmp_path / f"run{int(tmax)}.json"
+        assert main(["excite", str(robot), "--gentle", "--no-dataset", "--json", str(out),
+                     "--out", str(tmp_path / f"e{int(tmax)}")]) == 0
+        res = json.loads(out.read_text())["optimised"]
+        assert res["certified"] and res["peaks"]["tension_nominal_min_N"] >= d["limits"][
+            "tension_min"]
+        margins.append(res["min_tension_margin_N"])
+    capsys.readouterr()
+    assert margins[1] >= margins[0] - 1e-9

@@ -9,10 +9,12 @@ Every limit of :class:`cdprid.excitation.SafetyLimits` is checked on the samples
   acceleration, cable speeds ``|dl_i/dt| = |W_i^T [v; omega]|``;
 - cable-cable and cable-body clearance (:mod:`cdprid.model._clearance`);
 - tension feasibility at the nominal platform and at every corner of the uncertainty box:
-  the closed-form centred distribution ``tau = tau_mid + W^+ (w - W tau_mid)`` certifies a
-  sample when it satisfies ``W tau = w`` within bounds; the samples where it does not, and the
-  ones with the smallest closed-form margins, get the LP ``max s`` (:func:`cdprid.model._tensions.
-  feasibility_margin`). The robust margin is a proven lower bound of the worst-corner LP margin.
+  the best of a few closed-form distributions ``tau = c (1 - W^+ W 1) + W^+ w`` (c the
+  mid-range and fixed levels above tension_min, so the bound is monotone in tension_max)
+  certifies a sample when it satisfies ``W tau = w`` within bounds; the samples where it does
+  not, and the ones with the smallest closed-form margins, get the LP ``max s``
+  (:func:`cdprid.model.feasibility_margin`). The robust margin is a proven lower bound of the
+  worst-corner LP margin.
 """
 
 from __future__ import annotations
@@ -108,16 +110,41 @@ def limit_ratios(robot, states: TrajectoryState, lim: SafetyLimits) -> dict:
             "cable_speed": speed / lim.cable_speed_max}
 
 
+#: Centres of the closed-form distributions, N above tension_min: fixed values, so that a
+#: looser tension_max never loses a distribution a tighter one had (the margin bound is then
+#: monotone in the limits), plus the mid-range centre.
+_CENTRES_ABOVE_MIN_N = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0)
+
+
 def _closed_form_margins(W, w, tmin, tmax):
-    """Margins (k, n) of the centred least-norm distribution; -inf where W tau != w."""
-    mid = 0.5 * (tmin + tmax)
+    """Margins (k, n) of the best of a few least-norm distributions ``tau = c v + W^+ w`` with
+    ``v = 1 - W^+ W 1`` (each exact where ``W tau = w``: a proven lower bound of the LP margin);
+    -inf where ``W tau != w``. The centres c are the mid-range and fixed levels above
+    ``tmin`` (a large ``tmax`` moves the mid-range far from what a suspended robot can hold)."""
     Wp = np.linalg.pinv(W)  # (n, m, 6)
-    base = mid - np.einsum("nmi,ni->nm", Wp, W.sum(axis=2) * mid)  # (n, m)
-    tau = base[None] + np.einsum("nmi,kni->knm", Wp, w)  # (k, n, m)
-    resid = np.einsum("nim,knm->kni", W, tau) - w
+    v = 1.0 - np.einsum("nmi,ni->nm", Wp, W.sum(axis=2))  # (n, m)
+    tau0 = np.einsum("nmi,kni->knm", Wp, w)  # (k, n, m)
+    resid = np.einsum("nim,knm->kni", W, tau0) - w
     ok = np.max(np.abs(resid), axis=-1) <= 1e-6 * (1.0 + np.max(np.abs(w), axis=-1))
-    marg = np.minimum(tau - tmin, tmax - tau).min(axis=-1)
+    centres = [0.5 * (tmin + tmax)] + [tmin + c for c in _CENTRES_ABOVE_MIN_N if tmin + c < tmax]
+    marg = np.full(tau0.shape[:2], -np.inf)
+    for c in centres:
+        tau = tau0 + c * v[None]
+        marg = np.maximum(marg, np.minimum(tau - tmin, tmax - tau).min(axis=-1))
     return np.where(ok, marg, -np.inf)
+
+
+def _nominal_tensions(W, w, tmin: float, tmax: float) -> np.ndarray:
+    """Per sample, the closed-form distribution (of the centres of :func:`_closed_form_margins`)
+    with the largest margin: the nominal tension profile that is shown and written."""
+    Wp = np.linalg.pinv(W)
+    v = 1.0 - np.einsum("nmi,ni->nm", Wp, W.sum(axis=2))
+    tau0 = np.einsum("nmi,ni->nm", Wp, w)
+    centres = [0.5 * (tmin + tmax)] + [tmin + c for c in _CENTRES_ABOVE_MIN_N if tmin + c < tmax]
+    taus = np.stack([tau0 + c * v for c in centres])  # (c, n, m)
+    marg = np.minimum(taus - tmin, tmax - taus).min(axis=-1)  # (c, n)
+    best = np.argmax(marg, axis=0)
+    return taus[best, np.arange(W.shape[0])]
 
 
 def robust_tension_margins(W, A_full, corners, tmin: float, tmax: float,
@@ -183,10 +210,7 @@ def safety_series(robot, states: TrajectoryState, lim: SafetyLimits,
                                            states.alpha))))
     corners = np.vstack([box.x_nominal[None], box.corners])
     marg, n_lp = robust_tension_margins(W, A, corners, lim.tension_min, lim.tension_max)
-    mid = 0.5 * (lim.tension_min + lim.tension_max)
-    Wp = np.linalg.pinv(W)
-    w_nom = A @ box.x_nominal
-    tau = mid + np.einsum("nmi,ni->nm", Wp, w_nom - W.sum(axis=2) * mid)
+    tau = _nominal_tensions(W, A @ box.x_nominal, lim.tension_min, lim.tension_max)
     v, om = np.asarray(states.v), np.asarray(states.omega)
     speeds = np.abs(np.einsum("nim,ni->nm", W, np.hstack([v, om])))
     p = np.asarray(states.p)
