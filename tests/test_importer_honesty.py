@@ -75,3 +75,17 @@ def test_batch_only_options_are_refused_with_online(sample_dataset, capsys):
     rc = main(["identify", str(sample_dataset), "--online", "--physical"])
     err = capsys.readouterr().err
     assert rc == 2 and "--physical" in err and "batch" in err
+
+
+def test_written_robot_toml_keeps_vectors_on_one_line(small_ds):
+    """An import wrote robot.toml one number a line; now as the spec shows it, and it reads
+    back to the same robot."""
+    from cdprid.io import read_dataset
+    from cdprid.model import robot_from_dict, robot_to_dict
+
+    text = (small_ds / "robot.toml").read_text()
+    assert any(line.startswith("exit = [") and line.endswith("]") for line in text.splitlines())
+    robot = read_dataset(small_ds).robot
+    again = robot_from_dict(robot_to_dict(robot))
+    np.testing.assert_array_equal(np.asarray(again.B_A), np.asarray(robot.B_A))
+    np.testing.assert_array_equal(np.asarray(again.P_b), np.asarray(robot.P_b))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -13,6 +14,32 @@ from cdprid.io.dataset import DATASET_FILES, QUAT_COLS
 
 if TYPE_CHECKING:  # geometry imports JAX
     from cdprid.model._geometry import CableRobot
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int | float):
+        return repr(float(v)) if isinstance(v, float) else str(v)
+    if isinstance(v, str):
+        return json.dumps(v)  # a TOML basic string for every character
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"robot.toml cannot hold a {type(v).__name__}")
+
+
+def robot_toml(d: dict) -> str:
+    """``robot.toml`` text in the spec's layout: one field a line, vectors and matrices inline
+    (``exit = [1.065, -1.155, 1.839]``), not one number a line as a generic TOML writer does."""
+    lines = [f"{k} = {_toml_value(v)}" for k, v in d.items() if not isinstance(v, dict | list)
+             or (isinstance(v, list) and not (v and isinstance(v[0], dict)))]
+    for k, v in d.items():
+        if isinstance(v, dict):
+            lines += ["", f"[{k}]"] + [f"{a} = {_toml_value(b)}" for a, b in v.items()]
+        elif isinstance(v, list) and v and isinstance(v[0], dict):
+            for item in v:
+                lines += ["", f"[[{k}]]"] + [f"{a} = {_toml_value(b)}" for a, b in item.items()]
+    return "\n".join(lines) + "\n"
 
 
 def _write_csv(path: Path, columns: list[str], values: np.ndarray) -> None:
@@ -80,7 +107,7 @@ def write_dataset(
         )
     with atomic_dir(root, force=True, owned=DATASET_FILES) as tmp:
         with open(tmp / "robot.toml", "wb") as fh:
-            tomli_w.dump(robot_to_dict(robot), fh)
+            fh.write(robot_toml(robot_to_dict(robot)).encode("utf-8"))
         pose_cols = ["t", "x", "y", "z"]
         pose_vals = [np.asarray(pose_t)[:, None], np.asarray(position)]
         if quaternion is not None:
