@@ -359,3 +359,18 @@ def test_rosbag_joints_reorder_and_extrinsic_euler_table(native, sample_dataset,
     dots = np.abs(np.einsum("ij,ij->i", imp.quaternion, ds.quaternion))
     assert np.all(1 - dots < 1e-12)
     assert "extrinsic" in imp.meta["import"]["orientation"]
+
+
+def test_c3d_cut_in_half_is_refused(native, sample_dataset, tmp_path, capsys):
+    """A C3D truncated in a copy imported 496 of 1001 frames with no note (issue 25)."""
+    f = _write_c3d(native[0], tmp_path / "rec.c3d", {})
+    data = f.read_bytes()
+    cut = tmp_path / "cut.c3d"
+    cut.write_bytes(data[: len(data) // 2])
+    rc = main(["import", "c3d", str(cut), "--robot", str(sample_dataset / "robot.toml"),
+               "--out", str(tmp_path / "o"), "--analog-tensions",
+               ",".join(f"load{i}" for i in range(1, 9))])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1, err
+    assert "truncated" in err or "cannot be read" in err or "not a C3D" in err, err
+    assert not (tmp_path / "o").exists()

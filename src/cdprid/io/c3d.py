@@ -72,6 +72,26 @@ def _select(names: list[str], wanted: list[str] | None, path, option: str, what:
     return idx
 
 
+def _declared_frames(path) -> int | None:
+    """Frames the file's own header declares (ezc3d rewrites its copy of the header to what it
+    could read, so a truncated file looks whole): words 4-5 of the 512-byte header, read only
+    for Intel (little-endian) files; None when it cannot be told."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(512)
+            fh.seek(max(head[0] - 1, 0) * 512)
+            param = fh.read(4)
+    except OSError:
+        return None
+    if len(head) < 10 or len(param) < 4 or param[3] != 84:  # 84: Intel processor type
+        return None
+    first = int.from_bytes(head[6:8], "little")
+    last = int.from_bytes(head[8:10], "little")
+    if last == 0xFFFF or last < first:  # long files keep the count in a parameter only
+        return None
+    return last - first + 1
+
+
 def read_c3d_markers(c, path, markers: list[str] | None):
     """Marker names, positions (n, k, 3) in m with NaN where unseen, rate (Hz), unit."""
     names = _labels(c, "POINT")
@@ -87,6 +107,11 @@ def read_c3d_markers(c, path, markers: list[str] | None):
     V_m[res < 0] = np.nan
     V_m[np.all(V_m == 0.0, axis=2)] = np.nan  # some exporters write zeros for unseen markers
     rate = float(_param(c, "POINT", "RATE", [c["header"]["points"]["frame_rate"]])[0])
+    declared = _declared_frames(path)
+    if declared is not None and declared > V_m.shape[0]:  # truncated: never import a part
+        raise UserError(f"{path}: the header declares {declared} frames but the file holds "
+                        f"{V_m.shape[0]}: the file is truncated (copy it again from the "
+                        "capture system).")
     return [names[i] for i in idx], V_m, rate, unit
 
 
