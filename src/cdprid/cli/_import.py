@@ -68,8 +68,14 @@ def _cmd_calibrate(args) -> int:
         check_output(args.out, force=args.force, flag="--out", kind="dir", inputs=inputs)
     rec = load_uacdpr(args.vicon, args.robot_log, args.config, swivel_axis=args.swivel_axis)
     data = calibration_data(rec).subsample(args.subsample)
+    from cdprid.base._progress import Progress
+
+    prog = Progress("calibrate")
+    prog.say(f"geometric calibration on {len(data.t)} Vicon frames (about a minute) ...")
     res = calibrate_geometry(rec.robot, data, anchors=args.anchors,
-                             swivel_sign=args.swivel_sign, yaw_starts=args.yaw_starts)
+                             swivel_sign=args.swivel_sign, yaw_starts=args.yaw_starts,
+                             progress=prog.say)
+    prog.say("calibration done")
     print(f"samples {res.n_samples}, condition {res.condition:.3g}")
     print(f"RMS before: {res.rms_before}")
     print(f"RMS after:  {res.rms_after}")

@@ -114,8 +114,13 @@ def run_online_cli(ds, args, params) -> int:
     if args.model == "full" and not sig.has_rotation:
         raise UserError(f"{ds.path}: the full model needs orientations (qw, qx, qy, qz in "
                          "pose.csv) to identify the inertia; this dataset has none.")
+    from cdprid.base._progress import Progress
+
+    prog = Progress("identify --online")
+    prog.say(f"recursive identification of {len(sig.t)} samples ({args.model} model) ...")
     res = online_identify(sig, ds.robot, model=args.model, forgetting=forgetting,
                           gains=dict(params or {}), wrench_filter=wfilt)
+    prog.say("done; writing the outputs")
 
     out_csv = getattr(args, "out_csv", None)
     json_path = getattr(args, "json", None)
