@@ -365,3 +365,15 @@ def test_architecture_doc_tree_is_current():
     script = ROOT / "scripts" / "architecture_doc.py"
     proc = subprocess.run([sys.executable, str(script), "--check"])
     assert proc.returncode == 0, "docs/architecture.md is stale: run scripts/architecture_doc.py"
+
+
+def test_validation_raises_typed_user_errors():
+    """User mistakes are raised as ``InputError`` (a ``UserError``), so the CLI decides exit 2
+    vs 1 by type: no ``raise ValueError`` in src (issue 22)."""
+    found = {}
+    for m, (path, tree) in MODULES.items():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Raise) and isinstance(node.exc, ast.Call) \
+                    and getattr(node.exc.func, "id", None) == "ValueError":
+                found[f"{m}:{node.lineno}"] = "raise ValueError"
+    assert not found, f"raise InputError (cdprid.base) instead: {sorted(found)}"

@@ -7,11 +7,20 @@ as such ("please report it"), never as bad input.
 
 from __future__ import annotations
 
-__all__ = ["ConvergenceError", "OutputError", "OutputExistsError", "UserError"]
+__all__ = ["ConvergenceError", "InputError", "OutputError", "OutputExistsError", "UserError"]
 
 
 class UserError(Exception):
     """A problem in what the user gave; the CLI prints it as one sentence and exits with 2."""
+
+
+class InputError(UserError, ValueError):
+    """An invalid value the user gave (an option, a parameter, a field of a file).
+
+    Also a :class:`ValueError`, so that callers catching that keep working. Every validation in
+    the library raises it (or another :class:`UserError`): the CLI decides exit 2 vs 1 by type,
+    never by where the exception was raised.
+    """
 
 
 class OutputError(UserError):

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from cdprid.base._errors import InputError
+
 __all__ = ["add_parser"]
 
 
@@ -88,7 +90,7 @@ def _cmd_calibrate(args) -> int:
         print(f"wrote {args.json}")
     if args.out:
         if not args.dataset:
-            raise ValueError("--out needs --dataset, the folder written by `cdprid import uacdpr`.")
+            raise InputError("--out needs --dataset, the folder written by `cdprid import uacdpr`.")
         write_calibrated_dataset(args.dataset, res, args.out, overwrite=args.force)
         print(f"wrote {args.out}")
     if args.figures:

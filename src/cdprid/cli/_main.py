@@ -445,11 +445,13 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
 def _is_user_error(exc: BaseException) -> bool:
     """Whether ``exc`` reports a problem in the user's input (exit 2) rather than a bug (exit 1).
 
-    User errors: :class:`~cdprid.base.UserError` and its subclasses (``DatasetError``,
-    ``OutputError``), ``RobotFileError``, OS errors on a named path (read-only or missing
-    folder, a folder given as a file, ...), and -- until every module raises ``UserError`` --
-    a ``ValueError`` raised by cdprid's own validation code (its last frame is in cdprid).
-    A ``ValueError`` from inside NumPy, SciPy or JAX is an internal error.
+    By type: :class:`~cdprid.base.UserError` and its subclasses (``InputError``, which every
+    validation in the library raises, ``DatasetError``, ``RobotFileError``, ``OutputError``),
+    OS errors on a named path (read-only or missing folder, a folder given as a file, ...), a
+    full disk, and a ``LinAlgError`` (degenerate input). One safety net remains: a plain
+    ``ValueError`` whose last frame is in cdprid's own code (a builtin conversion such as
+    ``float(text)`` on user input); ``tests/test_architecture.py`` keeps ``raise ValueError``
+    out of src. A ``ValueError`` from inside NumPy, SciPy or JAX is an internal error.
     """
     if isinstance(exc, UserError):
         return True

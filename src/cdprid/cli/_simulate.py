@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 import time
 
+from cdprid.base._errors import InputError
+
 __all__ = ["add_parser", "run"]
 
 
@@ -39,7 +41,7 @@ def _group_effects(items):
             groups.append((value, []))
         else:
             if not groups:
-                raise ValueError(
+                raise InputError(
                     f"--param {value} comes before any --effect; put it after the "
                     "--effect it belongs to."
                 )
@@ -83,16 +85,16 @@ def run(args) -> int:
     effects = _group_effects(args.effect_items)
     robot = load_robot(args.robot) if args.robot else craft_like_robot()
     if args.trajectory and args.preset:
-        raise ValueError("give either --trajectory or --preset, not both.")
+        raise InputError("give either --trajectory or --preset, not both.")
     if args.duration is not None and not args.duration > 0:
-        raise ValueError(f"--duration must be a positive number of seconds, got {args.duration}.")
+        raise InputError(f"--duration must be a positive number of seconds, got {args.duration}.")
     if args.trajectory:
         traj = load_trajectory_csv(args.trajectory)
         if args.duration is not None:
             if args.duration < traj.t_end - traj.t_start:
                 keep = np.asarray(traj.t) <= traj.t_start + args.duration + 1e-9
                 if keep.sum() < 2:
-                    raise ValueError(
+                    raise InputError(
                         f"--duration {args.duration} s keeps fewer than 2 trajectory samples."
                     )
                 traj = type(traj)(

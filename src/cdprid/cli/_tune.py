@@ -20,6 +20,8 @@ import json
 import math
 import sys
 
+from cdprid.base._errors import InputError
+
 __all__ = ["add_parser"]
 
 
@@ -28,18 +30,18 @@ def _run(args) -> int:
 
     say = (lambda s: None) if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
     if (args.dataset is None) == (args.noise_std is None):
-        raise ValueError("give exactly one of --dataset DIR or --noise-std M.")
+        raise InputError("give exactly one of --dataset DIR or --noise-std M.")
     if args.seeds < 1 or args.seeds > 64:
-        raise ValueError(f"--seeds must be between 1 and 64, got {args.seeds}.")
+        raise InputError(f"--seeds must be between 1 and 64, got {args.seeds}.")
     if args.max_steps < 0:
-        raise ValueError(f"--max-steps must be >= 0, got {args.max_steps}.")
+        raise InputError(f"--max-steps must be >= 0, got {args.max_steps}.")
     if not (0.0 <= args.weight <= 1.0):
-        raise ValueError(f"--weight must lie in [0, 1], got {args.weight}.")
+        raise InputError(f"--weight must lie in [0, 1], got {args.weight}.")
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration >= 5.0):
-        raise ValueError(f"--duration must be at least 5 s, got {args.duration}.")
+        raise InputError(f"--duration must be at least 5 s, got {args.duration}.")
     known = (*T.SIHD_METHODS, *T.BASELINE_GRIDS)
     if args.method not in known:
-        raise ValueError(f"cannot tune method {args.method!r}; choose one of {', '.join(known)}.")
+        raise InputError(f"cannot tune method {args.method!r}; choose one of {', '.join(known)}.")
     if args.json:
         from cdprid.base._outputs import check_output
         from cdprid.io.dataset import dataset_inputs
@@ -50,7 +52,7 @@ def _run(args) -> int:
     if args.train_signal is None:
         args.train_signal = "dataset" if args.dataset is not None else "family"
     if args.train_signal == "dataset" and args.dataset is None:
-        raise ValueError("--train-signal dataset needs --dataset DIR.")
+        raise InputError("--train-signal dataset needs --dataset DIR.")
     _check_bounds_options(args)
     dt = 0.01
     signals = None
@@ -66,12 +68,12 @@ def _run(args) -> int:
     else:
         noise = float(args.noise_std)
         if not (math.isfinite(noise) and noise > 0):
-            raise ValueError(
+            raise InputError(
                 f"--noise-std must be a positive number of metres, got {args.noise_std}.")
         if noise > 0.05:
-            raise ValueError(f"--noise-std is in metres; {noise:g} m is implausibly large.")
+            raise InputError(f"--noise-std is in metres; {noise:g} m is implausibly large.")
     if args.bandwidth is not None and args.bandwidth > 0.45 / dt:
-        raise ValueError(f"--bandwidth {args.bandwidth:g} Hz is above 0.45 x the sampling rate "
+        raise InputError(f"--bandwidth {args.bandwidth:g} Hz is above 0.45 x the sampling rate "
                          f"({0.45 / dt:g} Hz).")
     if signals is None:
         signals = ([T.circle_signal(dt=dt, duration=args.duration or 52.0)]
@@ -94,7 +96,7 @@ def _run(args) -> int:
                      max_steps=args.max_steps, zeta_min=args.zeta_min, **kw)
     else:
         if args.objective != "accel":
-            raise ValueError("baselines are tuned on the acceleration objective only.")
+            raise InputError("baselines are tuned on the acceleration objective only.")
         res = T.tune_baseline(args.method, noise, **kw)
     out = res.as_json()
     out["bandwidth_source"] = ("--bandwidth" if args.bandwidth is not None else
@@ -123,13 +125,13 @@ def _check_bounds_options(args) -> None:
     """One-sentence errors for the response-bound options, before any work."""
     if args.bandwidth is not None and not (math.isfinite(args.bandwidth)
                                            and args.bandwidth >= 0.05):
-        raise ValueError(f"--bandwidth must be at least 0.05 Hz, got {args.bandwidth:g}.")
+        raise InputError(f"--bandwidth must be at least 0.05 Hz, got {args.bandwidth:g}.")
     if not (0 < args.gain_tol < 0.5):
-        raise ValueError(f"--gain-tol must lie in (0, 0.5), got {args.gain_tol:g}.")
+        raise InputError(f"--gain-tol must lie in (0, 0.5), got {args.gain_tol:g}.")
     if not (0 < args.phase_max <= 90):
-        raise ValueError(f"--phase-max must lie in (0, 90] deg, got {args.phase_max:g}.")
+        raise InputError(f"--phase-max must lie in (0, 90] deg, got {args.phase_max:g}.")
     if not (args.gain_max_above >= 1.0):
-        raise ValueError(f"--gain-max-above must be at least 1, got {args.gain_max_above:g}.")
+        raise InputError(f"--gain-max-above must be at least 1, got {args.gain_max_above:g}.")
 
 
 def _figure_path(json_path):

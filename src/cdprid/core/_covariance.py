@@ -53,6 +53,8 @@ from __future__ import annotations
 import numpy as np
 from jaxtyping import Float
 
+from cdprid.base._errors import InputError
+
 __all__ = [
     "andrews_bandwidth",
     "hac_covariance",
@@ -94,7 +96,7 @@ def _grouped(Z, e):
     if e.ndim == 1:
         e = e.reshape(Z.shape[0], -1)
     if Z.ndim != 3 or e.shape != Z.shape[:2]:
-        raise ValueError(f"design {Z.shape} and residual {e.shape} do not match: expected "
+        raise InputError(f"design {Z.shape} and residual {e.shape} do not match: expected "
                          "(n, k, p) and (n, k), or (N, p) and (N,).")
     return Z, e
 

@@ -14,6 +14,7 @@ import dataclasses
 
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.core._covariance import hac_covariance_blocks, iid_covariance, std_from_cov
 
 __all__ = ["LSResult", "condition_number", "group_weights", "least_squares",
@@ -135,7 +136,7 @@ def _check_rank(R, names, tol: float = 1e-10) -> None:
     if zero or s[-1] < tol * s[0]:
         v = np.abs(Vt[-1])
         culprits = zero or [n for n, c in zip(names, v, strict=False) if c > 0.3 * v.max()]
-        raise ValueError(
+        raise InputError(
             f"the regressor W_ID is rank deficient: {', '.join(culprits)} not identifiable from "
             "this motion (excite it, or use a smaller model)."
         )
@@ -155,7 +156,7 @@ def _block_rows(block, i0, i1, p_check=None):
     Z = np.asarray(Z, float)
     y = np.asarray(y, float)
     if Z.ndim != 3 or y.shape != Z.shape[:2] or (p_check is not None and Z.shape[2] != p_check):
-        raise ValueError(f"block({i0}, {i1}) gave a design {Z.shape} and wrenches {y.shape}; "
+        raise InputError(f"block({i0}, {i1}) gave a design {Z.shape} and wrenches {y.shape}; "
                          "expected (c, k, p) and (c, k).")
     return Z, y
 
@@ -205,7 +206,7 @@ def least_squares_blocks(block, n: int, names=None, weights=None, groups=None,
     LSResult
     """
     if covariance not in ("hac", "iid"):
-        raise ValueError(f"unknown covariance {covariance!r}; use 'hac' or 'iid'.")
+        raise InputError(f"unknown covariance {covariance!r}; use 'hac' or 'iid'.")
     n, chunk = int(n), max(1, int(chunk))
     w = None if weights is None else np.asarray(weights, float).reshape(-1)
     if w is None and groups is not None:
@@ -214,7 +215,7 @@ def least_squares_blocks(block, n: int, names=None, weights=None, groups=None,
     Ra, Ru, k, p = _factor_blocks(block, n, w, chunk)
     N = n * k
     if N <= p:
-        raise ValueError(f"need more equations than parameters, got {N} rows for {p} parameters.")
+        raise InputError(f"need more equations than parameters, got {N} rows for {p} parameters.")
     if names is None:
         names = tuple(f"x{i}" for i in range(p))
     R = Ra[:p, :p]
@@ -299,17 +300,17 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None, rows_per_sa
     (:func:`least_squares_blocks`), so no copy of W_ID is made.
     """
     if covariance not in ("hac", "iid"):
-        raise ValueError(f"unknown covariance {covariance!r}; use 'hac' or 'iid'.")
+        raise InputError(f"unknown covariance {covariance!r}; use 'hac' or 'iid'.")
     A = np.asarray(W_ID, float)
     y = np.asarray(Y_ID, float).reshape(-1)
     if A.ndim != 2 or A.shape[0] != y.shape[0]:
-        raise ValueError(f"W_ID {A.shape} and Y_ID {y.shape} do not have the same number of rows.")
+        raise InputError(f"W_ID {A.shape} and Y_ID {y.shape} do not have the same number of rows.")
     N, p = A.shape
     if N <= p:
-        raise ValueError(f"need more equations than parameters, got {N} rows for {p} parameters.")
+        raise InputError(f"need more equations than parameters, got {N} rows for {p} parameters.")
     k = int(rows_per_sample)
     if k < 1 or N % k:
-        raise ValueError(f"rows_per_sample={k} does not divide the {N} rows.")
+        raise InputError(f"rows_per_sample={k} does not divide the {N} rows.")
     A3, y2 = A.reshape(N // k, k, p), y.reshape(N // k, k)
     return least_squares_blocks(lambda i0, i1: (A3[i0:i1], y2[i0:i1]), N // k, names,
                                 weights=weights, groups=groups, covariance=covariance,

@@ -71,7 +71,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from cdprid.base._defaults import REST_SPEED_M_S, TAUT_THRESHOLD_N
-from cdprid.base._errors import ConvergenceError
+from cdprid.base._errors import ConvergenceError, InputError
 from cdprid.core._covariance import hac_covariance, std_from_cov
 
 __all__ = [
@@ -237,12 +237,12 @@ class TensionStream(eqx.Module):
         t = np.asarray(t, float)
         values = np.asarray(values, float)
         if t.ndim != 1 or values.ndim != 2 or values.shape[0] != t.size or t.size < 4:
-            raise ValueError(f"tension stream: times {t.shape} and values {values.shape} do "
+            raise InputError(f"tension stream: times {t.shape} and values {values.shape} do "
                              "not match (expected (k,) and (k, m), k >= 4).")
         d = np.diff(t)
         dt = float(np.median(d))
         if np.max(np.abs(d - dt)) > rel_tol * dt:
-            raise ValueError(f"tension stream: the step varies from {d.min():g} to {d.max():g} s "
+            raise InputError(f"tension stream: the step varies from {d.min():g} to {d.max():g} s "
                              f"(median {dt:g} s); a gap cannot be interpolated across.")
         return cls(jnp.asarray(t), jnp.asarray(values), float(t[0]), dt)
 
@@ -293,7 +293,7 @@ def tension_at(stream: TensionStream, s: Float[Array, " n"], method: str = INTER
             stream.values)
     if method == "catmull-rom":
         return _catmull_rom(stream, s)
-    raise ValueError(f"unknown interpolation {method!r}; use one of {', '.join(_METHODS)}.")
+    raise InputError(f"unknown interpolation {method!r}; use one of {', '.join(_METHODS)}.")
 
 
 # --------------------------------------------------------------------------- joint fit
@@ -332,9 +332,9 @@ class NuisanceSpec:
 
     def __post_init__(self):
         if self.offsets not in (True, False, "zero_sum"):
-            raise ValueError(f"offsets must be True, False or 'zero_sum', got {self.offsets!r}.")
+            raise InputError(f"offsets must be True, False or 'zero_sum', got {self.offsets!r}.")
         if self.interpolation not in _METHODS:
-            raise ValueError(f"interpolation must be one of {_METHODS}, got "
+            raise InputError(f"interpolation must be one of {_METHODS}, got "
                              f"{self.interpolation!r}.")
 
 

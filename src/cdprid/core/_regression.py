@@ -20,6 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
+from cdprid.base._errors import InputError
 from cdprid.core._motion import BLOCK, Motion, blockwise
 from cdprid.model._dynamics import regressor
 from cdprid.model._geometry import CableRobot, wrench_matrix
@@ -104,7 +105,7 @@ def regressors(model: str, B_R_P, B_a, B_omega, B_alpha, gravity):
     vmapped over time: every feature calls this.
     """
     if model not in ("translation", "full"):
-        raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+        raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")
     return jax.vmap(lambda R, a, w, al: regressor(model, R, a, w, al, gravity))(
         B_R_P, B_a, B_omega, B_alpha)
 
@@ -150,7 +151,7 @@ def regressor_blocks(model: str, B_R_P: Float[np.ndarray, "n 3 3"], B_a: Float[n
         Samples per jitted call.
     """
     if model not in ("translation", "full"):
-        raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+        raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")
     p = 4 if model == "translation" else 10
     arrays = (B_R_P, B_a, B_omega, B_alpha)
     c = max(1, min(int(chunk), len(B_a)))
@@ -221,7 +222,7 @@ def build_regression(robot: CableRobot, motion: Motion, tension, model: str = "t
         Applied to the (n, 6) measured wrench (matched filtering).
     """
     if model not in ("translation", "full"):
-        raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+        raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")
     y = cable_wrench(robot, motion.position, motion.B_R_P, tension)
     if wrench_filter is not None:
         y = np.asarray(wrench_filter(y))

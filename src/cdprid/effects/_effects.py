@@ -75,6 +75,8 @@ import json
 
 import numpy as np
 
+from cdprid.base._errors import InputError
+
 __all__ = [
     "VOCABULARY",
     "Effect",
@@ -122,14 +124,14 @@ def _convert(effect: str, key: str, kind: str, value):
                     else [float(v) for v in text.split(",")]
                 )
             except (ValueError, json.JSONDecodeError):
-                raise ValueError(
+                raise InputError(
                     f"{where} must be a list of numbers like 0.01,0,-0.02, got {text!r}."
                 ) from None
         else:
             try:
                 value = float(text)
             except ValueError:
-                raise ValueError(f"{where} must be a number, got {text!r}.") from None
+                raise InputError(f"{where} must be a number, got {text!r}.") from None
     if kind in ("vec3", "vec2"):
         n = 3 if kind == "vec3" else 2
         try:
@@ -137,19 +139,19 @@ def _convert(effect: str, key: str, kind: str, value):
         except (TypeError, ValueError):
             arr = []
         if len(arr) != n or not all(np.isfinite(arr)):
-            raise ValueError(f"{where} must be a list of {n} finite numbers, got {value!r}.")
+            raise InputError(f"{where} must be a list of {n} finite numbers, got {value!r}.")
         return arr
     if isinstance(value, bool):
-        raise ValueError(f"{where} must be a number, got {value!r}.")
+        raise InputError(f"{where} must be a number, got {value!r}.")
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{where} must be a number, got {value!r}.") from None
+        raise InputError(f"{where} must be a number, got {value!r}.") from None
     if not np.isfinite(v):
-        raise ValueError(f"{where} must be finite, got {value!r}.")
+        raise InputError(f"{where} must be finite, got {value!r}.")
     if kind == "cable":
         if v != int(v) or v < 1:
-            raise ValueError(f"{where} must be a cable number 1, 2, ..., got {value!r}.")
+            raise InputError(f"{where} must be a cable number 1, 2, ..., got {value!r}.")
         return int(v)
     return v
 
@@ -178,27 +180,27 @@ class Effect:
 
     def __post_init__(self):
         if self.name not in VOCABULARY:
-            raise ValueError(
+            raise InputError(
                 f"unknown effect {self.name!r}; valid effects: {', '.join(VOCABULARY)}."
             )
         spec = VOCABULARY[self.name]
         valid = ", ".join(spec) if spec else "none"
         unknown = [k for k in self.params if k not in spec]
         if unknown:
-            raise ValueError(
+            raise InputError(
                 f"unknown parameter {unknown[0]!r} for effect '{self.name}'; "
                 f"valid parameters: {valid}."
             )
         missing = [k for k in spec if k not in self.params]
         if missing:
-            raise ValueError(
+            raise InputError(
                 f"effect '{self.name}' needs the parameter(s) {', '.join(missing)} "
                 f"(e.g. --param {missing[0]}=...); valid parameters: {valid}."
             )
         clean = {k: _convert(self.name, k, spec[k], v) for k, v in self.params.items()}
         for key in ("gain", "EA_N"):
             if key in clean and clean[key] <= 0:
-                raise ValueError(
+                raise InputError(
                     f"effect '{self.name}' parameter '{key}' must be > 0, got {clean[key]}."
                 )
         for key in (
@@ -211,7 +213,7 @@ class Effect:
             "viscous_Ns_per_m",
         ):
             if key in clean and clean[key] < 0:
-                raise ValueError(
+                raise InputError(
                     f"effect '{self.name}' parameter '{key}' must be >= 0, got {clean[key]}."
                 )
         object.__setattr__(self, "params", clean)
@@ -229,7 +231,7 @@ def parse_effect(name: str, pairs) -> Effect:
     params = {}
     for text in pairs:
         if "=" not in text:
-            raise ValueError(f"--param {text!r} must have the form key=value (effect '{name}').")
+            raise InputError(f"--param {text!r} must have the form key=value (effect '{name}').")
         k, v = text.split("=", 1)
         params[k.strip()] = v
     return Effect(name, params)
@@ -247,7 +249,7 @@ def validate_effects(effects, n_cables: int) -> list[Effect]:
         e = e if isinstance(e, Effect) else Effect(*e)
         c = e.params.get("cable")
         if c is not None and c > n_cables:
-            raise ValueError(
+            raise InputError(
                 f"effect '{e.name}' refers to cable {c} but the robot has {n_cables} cables "
                 f"(numbered 1 to {n_cables})."
             )
@@ -261,7 +263,7 @@ def validate_effects(effects, n_cables: int) -> list[Effect]:
         "rotational_dynamics",
     ):
         if sum(e.name == single for e in out) > 1:
-            raise ValueError(f"effect '{single}' is given more than once; give it once.")
+            raise InputError(f"effect '{single}' is given more than once; give it once.")
     return out
 
 

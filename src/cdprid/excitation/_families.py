@@ -20,6 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.model._rotations import angular_rates_from_quat, rotvec_to_quat
 from cdprid.model._smoothstep import smoothstep7_derivs
 from cdprid.model._trajectories import TimedTrajectory, Trajectory, TrajectoryState
@@ -378,10 +379,10 @@ def make_family(name: str, box_lo, box_hi, duration: float | None = None,
         d = 30.0 if duration is None else float(duration)
         fam = FourierFamily(int(harmonics), float(f0), d, lo, hi)
     else:
-        raise ValueError(f"unknown excitation family {name!r}; use one of {', '.join(FAMILIES)}.")
+        raise InputError(f"unknown excitation family {name!r}; use one of {', '.join(FAMILIES)}.")
     min_d = (5.0 * (n_orbits if name == "orbits" else 1) + 2 * _REST)
     if not np.isfinite(d) or d < min_d:
-        raise ValueError(f"the duration of the {name!r} family must be at least {min_d:g} s, "
+        raise InputError(f"the duration of the {name!r} family must be at least {min_d:g} s, "
                          f"got {d:g} s.")
     return fam
 

@@ -9,7 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import UserError
+from cdprid.base._errors import InputError, UserError
 from cdprid.core._regression import regressors, wrench_matrices
 from cdprid.excitation._constraints import _constraint_margins, robust_tension_margin_smooth
 from cdprid.excitation._families import (
@@ -162,15 +162,15 @@ def make_problem(robot: CableRobot, family: str = "orbit", objective: str = "con
     for ``fourier``.
     """
     if objective not in OBJECTIVES:
-        raise ValueError(f"unknown objective {objective!r}; use one of {', '.join(OBJECTIVES)}.")
+        raise InputError(f"unknown objective {objective!r}; use one of {', '.join(OBJECTIVES)}.")
     if family not in FAMILIES:
-        raise ValueError(f"unknown excitation family {family!r}; use one of {', '.join(FAMILIES)}.")
+        raise InputError(f"unknown excitation family {family!r}; use one of {', '.join(FAMILIES)}.")
     model = model or ("full" if family == "fourier" else "translation")
     if model not in PARAMETER_NAMES:
-        raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+        raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")
     rotates = family == "fourier"
     if model == "full" and not rotates:
-        raise ValueError(f"the 10-parameter model needs rotations; the {family!r} family does not "
+        raise InputError(f"the 10-parameter model needs rotations; the {family!r} family does not "
                          "rotate (use --family fourier).")
     box = (uncertainty_from_prior(prior, robot, rotates) if prior is not None
            else uncertainty_from_robot(robot, rotates))

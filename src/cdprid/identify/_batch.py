@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base._defaults import TRIM_S
+from cdprid.base._errors import InputError
 from cdprid.core._identification import LSResult, least_squares_blocks
 from cdprid.core._motion import Motion, estimate_motion
 from cdprid.core._physical import inertia_about_com, physical_fit, physical_warnings
@@ -187,7 +188,7 @@ def _choose_model(model: str, sig: AlignedSignals, path) -> tuple[str, float, li
     rot = rotation_angle_deg(sig.quaternion) if sig.has_rotation else 0.0
     warns = []
     if model == "full" and not sig.has_rotation:
-        raise ValueError(
+        raise InputError(
             f"{path}: the full model needs orientations (qw, qx, qy, qz in pose.csv) "
             "to identify the inertia; this dataset has none."
         )
@@ -381,20 +382,20 @@ def identify_dataset(
     IdentificationReport
     """
     if model not in MODELS:
-        raise ValueError(f"unknown model {model!r}; use one of {', '.join(MODELS)}.")
+        raise InputError(f"unknown model {model!r}; use one of {', '.join(MODELS)}.")
     if differentiator not in METHODS:
-        raise ValueError(
+        raise InputError(
             f"unknown differentiator {differentiator!r}; choose one of {', '.join(METHODS)}."
         )
     if weighting not in ("none", "groups"):
-        raise ValueError(f"unknown weighting {weighting!r}; use 'none' or 'groups'.")
+        raise InputError(f"unknown weighting {weighting!r}; use 'none' or 'groups'.")
     if wrench_filter is None:
         wrench_filter = "none" if matched_filter is False else "matched"
     if wrench_filter not in WRENCH_FILTERS:
-        raise ValueError(f"wrench filter {wrench_filter!r} is not available in batch "
+        raise InputError(f"wrench filter {wrench_filter!r} is not available in batch "
                          f"identification; use one of {', '.join(WRENCH_FILTERS)}.")
     if inertia_about not in ("P", "G"):
-        raise ValueError(f"inertia_about must be 'P' or 'G', got {inertia_about!r}.")
+        raise InputError(f"inertia_about must be 'P' or 'G', got {inertia_about!r}.")
     params = dict(params or {})
     sig = align(ds, t_start, t_end)
     notes = list(sig.notes)
@@ -406,7 +407,7 @@ def identify_dataset(
         notes.append(note)
     keep = (motion.t >= motion.t[0] + trim) & (motion.t <= motion.t[-1] - trim)
     if keep.sum() < 10:
-        raise ValueError(
+        raise InputError(
             f"{ds.path}: fewer than 10 samples remain after trimming {trim:g} s at each end."
         )
     reg = _streamed_regression(ds.robot, motion, sig.tension, model, wf, keep, int(chunk))
@@ -429,7 +430,7 @@ def physical_report(rep: IdentificationReport) -> IdentificationReport:
     LS estimate when that is already realisable. The i.i.d. covariance is propagated the same way.
     """
     if rep.model != "full":
-        raise ValueError("--physical constrains the full model's inertia: use --model full (or "
+        raise InputError("--physical constrains the full model's inertia: use --model full (or "
                          "auto on data with rotation).")
     r = rep.result
     A = r.weights[:, None] * rep.regression.W_ID if r.weights is not None else rep.regression.W_ID

@@ -40,7 +40,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from cdprid.base._errors import ConvergenceError
+from cdprid.base._errors import ConvergenceError, InputError
 from cdprid.model._geometry import CableRobot, cable_lengths, swivel_angles
 from cdprid.model._rotations import matrix_to_quat, quat_to_matrix, rotvec_to_quat
 
@@ -319,9 +319,9 @@ def calibrate_geometry(
     CalibrationResult
     """
     if anchors not in ("config", "free"):
-        raise ValueError(f"anchors must be 'config' or 'free', got {anchors!r}.")
+        raise InputError(f"anchors must be 'config' or 'free', got {anchors!r}.")
     if use_swivel and data.swivel is None:
-        raise ValueError("use_swivel=True needs measured swivel angles in the data.")
+        raise InputError("use_swivel=True needs measured swivel angles in the data.")
     m = robot.n_cables
     sizes = _names(anchors, m)
     yaws = [2 * np.pi * k / yaw_starts for k in range(yaw_starts)]

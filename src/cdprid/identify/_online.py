@@ -62,6 +62,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.core._identification import condition_number
 from cdprid.identify._online_step import _online_scan, _x64_scope, online_init, online_step
 from cdprid.identify._online_types import OnlineOutput, OnlineResult, OnlineSample
@@ -111,10 +112,10 @@ def _as_arrays(signals):
     n = t.shape[0]
     q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)) if q is None else np.asarray(q, np.float64)
     if pos.shape != (n, 3) or q.shape != (n, 4) or tau.ndim != 2 or tau.shape[0] != n:
-        raise ValueError(f"signals must hold t (n,), position (n, 3), quaternion (n, 4) and "
+        raise InputError(f"signals must hold t (n,), position (n, 3), quaternion (n, 4) and "
                          f"tension (n, m); got {t.shape}, {pos.shape}, {q.shape}, {tau.shape}.")
     if n < 3:
-        raise ValueError(f"online identification needs at least 3 samples, got {n}.")
+        raise InputError(f"online identification needs at least 3 samples, got {n}.")
     return t, pos, q, tau
 
 
@@ -143,7 +144,7 @@ def online_identify(signals, robot: CableRobot, model: str = "translation",
     """
     t, pos, q, tau = _as_arrays(signals)
     if tau.shape[1] != robot.n_cables:
-        raise ValueError(f"the tensions have {tau.shape[1]} columns but the robot has "
+        raise InputError(f"the tensions have {tau.shape[1]} columns but the robot has "
                          f"{robot.n_cables} cables.")
     dt = float(np.median(np.diff(t)))
     with _x64_scope():

@@ -10,6 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.identify._online_types import (
     _SIHD,
     WRENCH_FILTERS,
@@ -86,23 +87,23 @@ def online_init(
     OnlineState
     """
     if model not in PARAMETER_NAMES:
-        raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+        raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")
     if wrench_filter not in WRENCH_FILTERS:
-        raise ValueError(f"unknown wrench filter {wrench_filter!r}; use one of "
+        raise InputError(f"unknown wrench filter {wrench_filter!r}; use one of "
                          f"{', '.join(WRENCH_FILTERS)}.")
     _check_forgetting(forgetting)
     if not (math.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be a positive number of seconds, got {dt!r}.")
+        raise InputError(f"dt must be a positive number of seconds, got {dt!r}.")
     g = dict(METHODS[_SIHD].params)
     bad = sorted(set(gains or {}) - set(g))
     if bad:
-        raise ValueError(f"unknown SIHD gain(s) {', '.join(bad)}; valid: {', '.join(g)}.")
+        raise InputError(f"unknown SIHD gain(s) {', '.join(bad)}; valid: {', '.join(g)}.")
     g.update({k: float(v) for k, v in (gains or {}).items()})
     if not all(math.isfinite(v) and v > 0 for v in g.values()) or not 0.5 <= g["alpha"] <= 1:
-        raise ValueError(f"SIHD gains must be finite and > 0 with 0.5 <= alpha <= 1, got {g}.")
+        raise InputError(f"SIHD gains must be finite and > 0 with 0.5 <= alpha <= 1, got {g}.")
     delay = int(wrench_delay) if wrench_filter == "delay" else 0
     if wrench_filter == "delay" and delay < 1:
-        raise ValueError(f"wrench_delay must be >= 1 sample, got {wrench_delay!r}.")
+        raise InputError(f"wrench_delay must be >= 1 sample, got {wrench_delay!r}.")
     p = len(PARAMETER_NAMES[model])
     f64 = jnp.float64
     x0 = jnp.zeros(p, f64) if x0 is None else jnp.asarray(x0, f64).reshape(p)
@@ -392,7 +393,7 @@ class OnlineStepper:
         for name, v, size in zip(("position", "quaternion", "tension"), parts,
                                  (3, 4, self._m), strict=True):
             if v.size != size:
-                raise ValueError(f"OnlineStepper.step: {name} must have {size} values, "
+                raise InputError(f"OnlineStepper.step: {name} must have {size} values, "
                                  f"got {v.size}.")
         sample = np.concatenate(parts)
         self._flat, out = self._compiled(self._flat, sample, self._one)

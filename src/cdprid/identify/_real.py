@@ -32,6 +32,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base._defaults import CUTOFF_HZ, FILTER_ORDER, TAUT_THRESHOLD_N, TRIM_S
+from cdprid.base._errors import InputError
 from cdprid.core._motion import estimate_motion
 from cdprid.core._nuisance import (
     INTERPOLATION,
@@ -219,7 +220,7 @@ def weight_at_rest(data: RealData, offset=None, gain=None, windows=None) -> dict
     """
     windows = rest_windows(data) if windows is None else windows
     if not windows:
-        raise ValueError("no rest window found (the platform never stays still for 0.5 s).")
+        raise InputError("no rest window found (the platform never stays still for 0.5 s).")
     g = np.asarray(data.robot.gravity)
     k = np.ones(data.W.shape[2]) if gain is None else np.asarray(gain)
     per, allm = [], []

@@ -9,6 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.identify._online_types import RLSResult
 
 
@@ -20,7 +21,7 @@ def _x64_scope():
 
 def _check_forgetting(f):
     if not (isinstance(f, (int, float)) and math.isfinite(f) and 0.0 < f <= 1.0):
-        raise ValueError(f"the forgetting factor must be a number in (0, 1], got {f!r}.")
+        raise InputError(f"the forgetting factor must be a number in (0, 1], got {f!r}.")
 
 
 def _rls_init(x0, prior_weight):
@@ -91,7 +92,7 @@ def recursive_least_squares(A, y, forgetting: float = 1.0, x0=None,
     A = np.asarray(A, np.float64)
     y = np.asarray(y, np.float64)
     if A.ndim != 3 or y.shape != A.shape[:2]:
-        raise ValueError(f"A must be (n, r, p) and y (n, r); got {A.shape} and {y.shape}.")
+        raise InputError(f"A must be (n, r, p) and y (n, r); got {A.shape} and {y.shape}.")
     _check_forgetting(forgetting)
     p = A.shape[2]
     x0 = np.zeros(p) if x0 is None else np.asarray(x0, np.float64).reshape(p)

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import tomllib
 
-from cdprid.base._errors import UserError
+from cdprid.base._errors import InputError, UserError
 
 if TYPE_CHECKING:  # geometry imports JAX: loaded only when a dataset is read or written
     from cdprid.model._geometry import CableRobot
@@ -164,7 +164,7 @@ def _parse_rows_slowly(path: Path, columns: list[str]) -> np.ndarray:
                 f = f.strip().strip('"').strip()
                 try:
                     if "_" in f:  # Python reads '1_17.27' as 117.27: a typo, not a number
-                        raise ValueError(f)
+                        raise InputError(f)
                     v = float(f)
                 except ValueError:
                     raise DatasetError(

@@ -25,6 +25,8 @@ import dataclasses
 import numpy as np
 from jaxtyping import Float
 
+from cdprid.base._errors import InputError
+
 __all__ = ["MarkerFit", "kabsch", "fit_rigid_body", "estimate_layout"]
 
 
@@ -56,7 +58,7 @@ def kabsch(M_m: Float[np.ndarray, "k 3"], V_m: Float[np.ndarray, "*batch k 3"],
     V = np.where(ok[..., None], V_m, 0.0)
     sw = W.sum(-1, keepdims=True)
     if np.any(sw <= 0):
-        raise ValueError("kabsch: a frame has no valid marker.")
+        raise InputError("kabsch: a frame has no valid marker.")
     cM = np.einsum("...j,jd->...d", W, M_m) / sw
     cV = np.einsum("...j,...jd->...d", W, V) / sw
     A = M_m - cM[..., None, :]
@@ -174,16 +176,16 @@ def estimate_layout(V_m: Float[np.ndarray, "n k 3"], origin_marker: int = 0,
     n, k, _ = V_m.shape
     ok = np.all(np.isfinite(V_m), axis=2)
     if not 0 <= origin_marker < k:
-        raise ValueError(f"origin_marker {origin_marker} is out of range for {k} markers.")
+        raise InputError(f"origin_marker {origin_marker} is out of range for {k} markers.")
     if np.any(ok.sum(0) == 0):
-        raise ValueError(f"marker {int(np.argmin(ok.sum(0))) + 1} is never seen in the data.")
+        raise InputError(f"marker {int(np.argmin(ok.sum(0))) + 1} is never seen in the data.")
     full = np.nonzero(ok.all(1))[0]
     if reference_frame is None:
         if full.size == 0:
-            raise ValueError("no frame shows all markers, so no initial layout can be formed.")
+            raise InputError("no frame shows all markers, so no initial layout can be formed.")
         reference_frame = int(full[0])
     if not ok[reference_frame].all():
-        raise ValueError(f"reference frame {reference_frame} does not show all markers.")
+        raise InputError(f"reference frame {reference_frame} does not show all markers.")
     # initial layout: the reference frame (median of the next frames where all markers show)
     near = full[(full >= reference_frame) & (full < reference_frame + 10)]
     M_m = np.median(V_m[near], axis=0)

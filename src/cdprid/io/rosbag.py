@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.base._errors import UserError
+from cdprid.base._errors import InputError, UserError
 
 __all__ = ["POSE_TYPES", "TENSION_TYPES", "import_rosbag", "list_topics", "read_pose_topic",
            "read_tension_topics", "write_rosbag", "open_bag", "pose_values", "fast_decode",
@@ -105,7 +105,7 @@ def _layout(raw, ros1: bool, kind: str):
     CDR encapsulation (ROS 2).
     """
     if not ros1 and raw[1] != 1:
-        raise ValueError("big-endian CDR")
+        raise InputError("big-endian CDR")
     (n,) = struct.unpack_from("<I", raw, 12)
     off = 16 + n
     fixed = [(12, off)]
@@ -150,7 +150,7 @@ def fast_decode(raws: list, ros1: bool, kind: str):
         fixed, off, n = _layout(raws[idx[0]], ros1, kind)
         for a, b in fixed:
             if not np.all(buf[:, a:b] == buf[0, a:b]):
-                raise ValueError("message layouts differ")
+                raise InputError("message layouts differ")
         sec = buf[:, 4:8].copy().view("<u4" if ros1 else "<i4")[:, 0].astype(np.int64)
         nsec = buf[:, 8:12].copy().view("<u4")[:, 0].astype(np.int64)
         stamps[idx] = sec * 1_000_000_000 + nsec
@@ -158,7 +158,7 @@ def fast_decode(raws: list, ros1: bool, kind: str):
         if vals is None:
             vals = np.empty((len(raws), n))
         if v.shape[1] != vals.shape[1]:
-            raise ValueError("value counts differ")
+            raise InputError("value counts differ")
         vals[idx] = v
     if kind == "pose":  # x, y, z, qx, qy, qz, qw -> x, y, z, qw, qx, qy, qz
         vals = vals[:, [0, 1, 2, 6, 3, 4, 5]]

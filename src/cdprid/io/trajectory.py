@@ -9,6 +9,7 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.io.dataset import read_csv_stream
 from cdprid.model._sampled import SampledTrajectory
 from cdprid.model._trajectories import POSITION_COLUMNS, ROTATION_COLUMNS
@@ -64,7 +65,7 @@ def load_trajectory_csv(path) -> SampledTrajectory:
     path = Path(path)
     cols, vals = read_csv_stream(path, required=POSITION_COLUMNS)
     if vals.shape[0] < 2:
-        raise ValueError(f"{path}: a trajectory needs at least 2 samples, found {vals.shape[0]}.")
+        raise InputError(f"{path}: a trajectory needs at least 2 samples, found {vals.shape[0]}.")
     idx = {c: i for i, c in enumerate(cols)}
 
     def block(names):
@@ -73,7 +74,7 @@ def load_trajectory_csv(path) -> SampledTrajectory:
     present = [c in idx for c in ROTATION_COLUMNS]
     if any(present) and not all(present):
         missing = [c for c, h in zip(ROTATION_COLUMNS, present, strict=True) if not h]
-        raise ValueError(
+        raise InputError(
             f"{path}: line 1 (header) has some rotation columns but lacks {', '.join(missing)} "
             f"(the columns {', '.join(ROTATION_COLUMNS)} go together)."
         )
@@ -83,7 +84,7 @@ def load_trajectory_csv(path) -> SampledTrajectory:
         nrm = np.linalg.norm(q, axis=1)
         if np.any(np.abs(nrm - 1) > 1e-3):
             k = int(np.nonzero(np.abs(nrm - 1) > 1e-3)[0][0])
-            raise ValueError(
+            raise InputError(
                 f"{path}: data row {k + 1} has a quaternion of norm {nrm[k]:.6g}, not 1."
             )
         q = jnp.asarray(q / nrm[:, None])

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.io.vicon import MarkerFit, ViconTrajectories, estimate_layout, read_vicon_trajectories
 from cdprid.model._geometry import CableRobot, robot_from_dict
 
@@ -84,20 +85,20 @@ def _loadmat(path: Path, what: str) -> dict:
     import scipy.io
 
     if not path.is_file():
-        raise ValueError(f"{path}: {what} file is missing.")
+        raise InputError(f"{path}: {what} file is missing.")
     try:
         return scipy.io.loadmat(str(path), squeeze_me=True, struct_as_record=False)
     except NotImplementedError:
-        raise ValueError(f"{path}: MATLAB v7.3 (HDF5) files are not supported; save with "
+        raise InputError(f"{path}: MATLAB v7.3 (HDF5) files are not supported; save with "
                          "-v7 instead.") from None
     except Exception as exc:  # noqa: BLE001  (scipy raises several types for non-MAT input)
-        raise ValueError(f"{path}: not a readable MATLAB .mat file ({type(exc).__name__}).") \
+        raise InputError(f"{path}: not a readable MATLAB .mat file ({type(exc).__name__}).") \
             from None
 
 
 def _field(obj, name: str, path: Path, where: str):
     if not hasattr(obj, name) or (hasattr(obj, "_fieldnames") and name not in obj._fieldnames):
-        raise ValueError(f"{path}: struct {where} has no field '{name}'.")
+        raise InputError(f"{path}: struct {where} has no field '{name}'.")
     return getattr(obj, name)
 
 
@@ -105,11 +106,11 @@ def _numeric(val, path: Path, where: str, shape=None) -> np.ndarray:
     try:
         arr = np.asarray(val, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{path}: {where} is not numeric.") from None
+        raise InputError(f"{path}: {where} is not numeric.") from None
     if shape is not None and arr.shape != shape:
-        raise ValueError(f"{path}: {where} has shape {arr.shape}, expected {shape}.")
+        raise InputError(f"{path}: {where} has shape {arr.shape}, expected {shape}.")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{path}: {where} holds non-finite values.")
+        raise InputError(f"{path}: {where} holds non-finite values.")
     return arr
 
 
@@ -125,12 +126,12 @@ def read_robot_log(path: str | Path, n_cables: int = 4) -> RobotLog:
     path = Path(path)
     d = _loadmat(path, "robot log")
     if "st_out" not in d:
-        raise ValueError(f"{path}: holds no struct 'st_out' (a UACDPR _exp.mat log was expected).")
+        raise InputError(f"{path}: holds no struct 'st_out' (a UACDPR _exp.mat log was expected).")
     st = d["st_out"]
     t = _numeric(_field(st, "t", path, "st_out"), path, "st_out.t").ravel()
     n = t.size
     if n < 2 or np.any(np.diff(t) <= 0):
-        raise ValueError(f"{path}: st_out.t is not a strictly increasing time vector.")
+        raise InputError(f"{path}: st_out.t is not a strictly increasing time vector.")
 
     def rows(name, k):
         a = _numeric(_field(st, name, path, "st_out"), path, f"st_out.{name}")
@@ -138,7 +139,7 @@ def read_robot_log(path: str | Path, n_cables: int = 4) -> RobotLog:
         if a.shape == (n, k):
             return a
         if a.shape != (k, n):
-            raise ValueError(f"{path}: st_out.{name} has shape {a.shape}, expected ({k}, {n}) "
+            raise InputError(f"{path}: st_out.{name} has shape {a.shape}, expected ({k}, {n}) "
                              "like st_out.t.")
         return a.T
 
@@ -159,11 +160,11 @@ def config_to_dict(path: str | Path, swivel_axis: str = DEFAULT_SWIVEL_AXIS,
         Robot name (default: the file stem).
     """
     if swivel_axis not in ("first", "third"):
-        raise ValueError(f"swivel_axis must be 'first' or 'third', got {swivel_axis!r}.")
+        raise InputError(f"swivel_axis must be 'first' or 'third', got {swivel_axis!r}.")
     path = Path(path)
     d = _loadmat(path, "configuration")
     if "s" not in d:
-        raise ValueError(f"{path}: holds no struct 's' (a UACDPR configuration was expected).")
+        raise InputError(f"{path}: holds no struct 's' (a UACDPR configuration was expected).")
     s = d["s"]
     tr = _field(s, "Trasmission", path, "s")
     pulleys = np.atleast_1d(_field(tr, "Pulley", path, "s.Trasmission"))
@@ -173,7 +174,7 @@ def config_to_dict(path: str | Path, swivel_axis: str = DEFAULT_SWIVEL_AXIS,
     if points.dtype != object:  # stored as a numeric m x 3 matrix instead of a cell
         points = list(np.atleast_2d(points))
     if len(points) != len(pulleys):
-        raise ValueError(f"{path}: s.EndEffector.Platform.points has {len(points)} entries but "
+        raise InputError(f"{path}: s.EndEffector.Platform.points has {len(points)} entries but "
                          f"s.Trasmission.Pulley has {len(pulleys)}.")
     cables = []
     for i, (p, b) in enumerate(zip(pulleys, points, strict=True), start=1):
@@ -183,7 +184,7 @@ def config_to_dict(path: str | Path, swivel_axis: str = DEFAULT_SWIVEL_AXIS,
                      f"{where}.CableEnterPosition", (3,))
         ff = list(np.atleast_1d(_field(p, "FixedFrame", path, where)))
         if len(ff) != 3:
-            raise ValueError(f"{path}: {where}.FixedFrame has {len(ff)} vectors, expected 3.")
+            raise InputError(f"{path}: {where}.FixedFrame has {len(ff)} vectors, expected 3.")
         ff = [_numeric(v, path, f"{where}.FixedFrame{{{j + 1}}}", (3,)) for j, v in enumerate(ff)]
         k, ref = (ff[0], ff[1]) if swivel_axis == "first" else (ff[2], ff[0])
         cables.append({
@@ -257,7 +258,7 @@ def load_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
     fit = estimate_layout(vt.V_m, origin_marker=origin)
     t = vt.t[np.all(np.isfinite(fit.V_p_M), axis=1)]
     if t[-1] < log.t[0] or log.t[-1] < t[0]:
-        raise ValueError(f"{vicon}: Vicon time range [{t[0]:g}, {t[-1]:g}] s does not overlap "
+        raise InputError(f"{vicon}: Vicon time range [{t[0]:g}, {t[-1]:g}] s does not overlap "
                          f"the robot log's [{log.t[0]:g}, {log.t[-1]:g}] s.")
     return UacdprRecording(robot, vt, fit, log, t)
 

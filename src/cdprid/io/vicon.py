@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.io.markers import MarkerFit as MarkerFit
 from cdprid.io.markers import estimate_layout as estimate_layout
 from cdprid.io.markers import fit_rigid_body as fit_rigid_body
@@ -92,32 +93,32 @@ def read_vicon_trajectories(path: str | Path, units: str | None = None) -> Vicon
     """
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"{path}: Vicon file is missing.")
+        raise InputError(f"{path}: Vicon file is missing.")
     try:
         lines = path.read_text(encoding="utf-8", errors="strict").splitlines()
     except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a text file (a Vicon trajectories export was expected).") \
+        raise InputError(f"{path}: not a text file (a Vicon trajectories export was expected).") \
             from None
     if len(lines) < 6:
-        raise ValueError(f"{path}: has {len(lines)} lines, fewer than the 5 header lines and one "
+        raise InputError(f"{path}: has {len(lines)} lines, fewer than the 5 header lines and one "
                          "data row of a Vicon trajectories export.")
     if not lines[0].strip().lower().startswith("trajectories"):
-        raise ValueError(f"{path}: line 1 is {lines[0].strip()[:40]!r}, not 'Trajectories' "
+        raise InputError(f"{path}: line 1 is {lines[0].strip()[:40]!r}, not 'Trajectories' "
                          "(expected a Vicon Nexus trajectories export).")
     try:
         rate = float(_split(lines[1])[0])
     except ValueError:
         rate = float("nan")
     if not np.isfinite(rate) or rate <= 0:
-        raise ValueError(f"{path}: line 2 should hold the frame rate in Hz, got "
+        raise InputError(f"{path}: line 2 should hold the frame rate in Hz, got "
                          f"{lines[1].strip()[:40]!r}.")
     head = _split(lines[3])
     if len(head) < 5 or head[0].lower() != "frame" or head[1].lower() != "sub frame":
-        raise ValueError(f"{path}: line 4 should start with 'Frame', 'Sub Frame', 'X', 'Y', 'Z', "
+        raise InputError(f"{path}: line 4 should start with 'Frame', 'Sub Frame', 'X', 'Y', 'Z', "
                          f"got {', '.join(head[:5])!r}.")
     coord = [h for h in head[2:] if h]
     if len(coord) % 3 != 0 or any(c.upper() != "XYZ"[j % 3] for j, c in enumerate(coord)):
-        raise ValueError(f"{path}: line 4 should list X, Y, Z columns after 'Sub Frame'.")
+        raise InputError(f"{path}: line 4 should list X, Y, Z columns after 'Sub Frame'.")
     k = len(coord) // 3
     ncol = 2 + 3 * k
     name_fields = _split(lines[2])
@@ -129,7 +130,7 @@ def read_vicon_trajectories(path: str | Path, units: str | None = None) -> Vicon
         units = unit_fields[0] if unit_fields else "mm"
     scale = {"mm": 1e-3, "m": 1.0}.get(units.lower())
     if scale is None:
-        raise ValueError(f"{path}: line 5 gives the unit {units!r}; only 'mm' and 'm' are known.")
+        raise InputError(f"{path}: line 5 gives the unit {units!r}; only 'mm' and 'm' are known.")
     rows = []
     for lineno, line in enumerate(lines[5:], start=6):
         if not line.strip():
@@ -138,10 +139,10 @@ def read_vicon_trajectories(path: str | Path, units: str | None = None) -> Vicon
         while len(fields) > ncol and fields[-1] == "":
             fields.pop()
         if len(fields) < ncol:
-            raise ValueError(f"{path}: line {lineno} is truncated ({len(fields)} fields, "
+            raise InputError(f"{path}: line {lineno} is truncated ({len(fields)} fields, "
                              f"{ncol} expected).")
         if len(fields) > ncol:
-            raise ValueError(f"{path}: line {lineno} has {len(fields)} fields, {ncol} expected.")
+            raise InputError(f"{path}: line {lineno} has {len(fields)} fields, {ncol} expected.")
         row = []
         for j, f in enumerate(fields):
             if f == "" and j >= 2:
@@ -150,15 +151,15 @@ def read_vicon_trajectories(path: str | Path, units: str | None = None) -> Vicon
             try:
                 row.append(float(f))
             except ValueError:
-                raise ValueError(f"{path}: line {lineno}, field {j + 1}: {f[:20]!r} is not a "
+                raise InputError(f"{path}: line {lineno}, field {j + 1}: {f[:20]!r} is not a "
                                  "number.") from None
         rows.append(row)
     if not rows:
-        raise ValueError(f"{path}: no data rows after the 5 header lines.")
+        raise InputError(f"{path}: no data rows after the 5 header lines.")
     data = np.asarray(rows, float)
     frame = data[:, 0]
     if not np.all(np.isfinite(frame)) or np.any(np.diff(frame) <= 0):
-        raise ValueError(f"{path}: the Frame column is not strictly increasing.")
+        raise InputError(f"{path}: the Frame column is not strictly increasing.")
     V_m = data[:, 2:].reshape(len(data), k, 3) * scale
     zero = np.all(V_m == 0.0, axis=2)
     V_m[zero] = np.nan

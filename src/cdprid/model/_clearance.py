@@ -29,6 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from cdprid.base._errors import InputError
 from cdprid.model._geometry import CableRobot, leave_points
 
 __all__ = [
@@ -164,7 +165,7 @@ def cable_body_distances(robot: CableRobot, B_p, B_R_P, n_iter: int = 80) -> np.
     """
     pl = robot.platform
     if pl.body_min is None:
-        raise ValueError("the robot has no [platform] body_min/body_max box.")
+        raise InputError("the robot has no [platform] body_min/body_max box.")
     lo, hi = np.asarray(pl.body_min), np.asarray(pl.body_max)
     d, L = (np.asarray(x) for x in _cable_frame(robot, jnp.asarray(B_p), jnp.asarray(B_R_P)))
     b = np.asarray(robot.P_b)[None]

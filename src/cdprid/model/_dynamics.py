@@ -24,6 +24,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.model._rotations import skew
 
 __all__ = [
@@ -87,7 +88,7 @@ class InertialParameters(eqx.Module):
             return jnp.concatenate(
                 [x4, jnp.array([I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2]])]
             )
-        raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+        raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")
 
     @classmethod
     def from_vector(cls, x, model: str = "translation") -> InertialParameters:
@@ -164,4 +165,4 @@ def regressor(model: str, B_R_P, B_a, B_omega, B_alpha, gravity):
         return regressor_translation(B_R_P, B_a, gravity)
     if model == "full":
         return regressor_full(B_R_P, B_a, B_omega, B_alpha, gravity)
-    raise ValueError(f"unknown model {model!r}; use 'translation' or 'full'.")
+    raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")

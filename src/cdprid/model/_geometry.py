@@ -34,6 +34,8 @@ import jax.numpy as jnp
 import numpy as np
 import tomllib
 
+from cdprid.base._errors import InputError
+
 __all__ = [
     "CableRobot",
     "Limits",
@@ -51,7 +53,7 @@ __all__ = [
 ]
 
 
-class RobotFileError(ValueError):
+class RobotFileError(InputError):
     """A robot.toml that cannot be used; the message is one sentence naming file and field."""
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.model._trajectories import PRESETS, Orbit, Trajectory, TrajectoryState, orbit_sequence
 
 
@@ -67,7 +68,7 @@ def preset(
             (0.20, 0.35, np.pi / 3, np.pi / 6, 2.5),
         ]
     else:
-        raise ValueError(
+        raise InputError(
             f"unknown trajectory preset {name!r}; valid presets: {', '.join(PRESETS)}."
         )
     total = 52.0 if duration is None else float(duration)
@@ -75,7 +76,7 @@ def preset(
     n = len(spec)
     seg = (total - (n + 1) * rests) / n
     if not np.isfinite(seg) or seg < 2.0:
-        raise ValueError(
+        raise InputError(
             f"duration {total:g} s is too short for the {name!r} preset (needs at least "
             f"{n * 2.0 + (n + 1) * rests:g} s)."
         )
@@ -115,7 +116,7 @@ def check_workspace(
     bad = np.nonzero(np.any((p < np.asarray(lo) - 1e-9) | (p > np.asarray(hi) + 1e-9), axis=1))[0]
     if bad.size:
         k = int(bad[0])
-        raise ValueError(
+        raise InputError(
             f"the trajectory leaves the workspace box {list(lo)}..{list(hi)} m at t = {t[k]:.3g} s "
             f"(P = [{p[k, 0]:.3f}, {p[k, 1]:.3f}, {p[k, 2]:.3f}] m)."
         )

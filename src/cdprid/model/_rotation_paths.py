@@ -6,6 +6,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.model._rotations import angular_rates_from_quat, rotvec_to_quat
 from cdprid.model._smoothstep import _derivs, smoothstep7
 
@@ -64,7 +65,7 @@ def small_rotation(
     """
     a = float(amplitude_rad)
     if not np.isfinite(a) or a < 0:
-        raise ValueError(
+        raise InputError(
             f"the rotation amplitude must be a finite number >= 0 rad, got {amplitude_rad}."
         )
     ramp = min(ramp, 0.5 * (t_end - t_start))

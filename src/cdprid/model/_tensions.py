@@ -25,6 +25,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
+
 __all__ = [
     "InfeasibleTensionsError",
     "closed_form_tensions",
@@ -323,7 +325,7 @@ def distribute_tensions(
     w = np.asarray(w, float)
     n, _, m = W.shape
     if not tension_min < tension_max:
-        raise ValueError(
+        raise InputError(
             f"tension_min ({tension_min} N) must be below tension_max ({tension_max} N)."
         )
     ref = np.broadcast_to(np.asarray(tau_ref, float), (m,))

@@ -41,6 +41,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.model._rotation_paths import _IDENTITY, Rotation, _rotation_state, small_rotation
 from cdprid.model._smoothstep import _binom, smoothstep7_derivs
 
@@ -115,9 +116,9 @@ class Orbit:
         for name in ("radius", "frequency", "duration", "ramp"):
             v = getattr(self, name)
             if not np.isfinite(v) or v < 0:
-                raise ValueError(f"Orbit {name} must be a finite number >= 0, got {v}.")
+                raise InputError(f"Orbit {name} must be a finite number >= 0, got {v}.")
         if self.duration <= 0 or self.ramp <= 0 or 2 * self.ramp > self.duration + 1e-12:
-            raise ValueError(
+            raise InputError(
                 f"Orbit ramp ({self.ramp} s) must be positive and at most half the duration "
                 f"({self.duration} s)."
             )
@@ -277,9 +278,9 @@ def orbit_sequence(
     """
     orbits = list(orbits)
     if not orbits:
-        raise ValueError("orbit_sequence needs at least one Orbit.")
+        raise InputError("orbit_sequence needs at least one Orbit.")
     if min(rest_before, rest_between, rest_after) < 0:
-        raise ValueError("rest times must be >= 0 s.")
+        raise InputError("rest times must be >= 0 s.")
     rest = np.asarray(rest, float).reshape(3)
     t0, t = [], rest_before
     for k, o in enumerate(orbits):
@@ -325,6 +326,6 @@ def with_rotation(traj, amplitude_rad: float, ramp: float = 2.0):
     same type as ``traj``
     """
     if traj.has_rotation:
-        raise ValueError("the trajectory already rotates; cannot add another rotation to it.")
+        raise InputError("the trajectory already rotates; cannot add another rotation to it.")
     rot = small_rotation(amplitude_rad, traj.t_start, traj.t_end, ramp)
     return eqx.tree_at(lambda tr: tr.rotation, traj, rot, is_leaf=lambda x: x is None)

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.signal import _sihd_high as _sihd_high
 from cdprid.signal._filters import butter_sos, sosfilt, sosfilt_zi, sosfiltfilt
 
@@ -15,7 +16,7 @@ def _butter(order, cutoff_hz, dt):
     """Second-order sections of the Butterworth low-pass (:func:`cdprid.signal.butter_sos`)."""
     fs = 1.0 / dt
     if not 0.0 < cutoff_hz < 0.5 * fs:
-        raise ValueError(
+        raise InputError(
             f"cutoff_hz must lie in (0, Nyquist = {0.5 * fs:g} Hz), got {cutoff_hz!r}."
         )
     return butter_sos(int(order), cutoff_hz, fs)
@@ -93,12 +94,12 @@ def _savgol(y, dt, window_s, polyorder):
     w += 1 - w % 2  # odd
     polyorder = int(polyorder)
     if w <= polyorder or polyorder < 2:
-        raise ValueError(
+        raise InputError(
             f"savgol needs polyorder >= 2 and an odd window of more than polyorder samples "
             f"(window_s={window_s!r} -> {w} samples, polyorder={polyorder!r})."
         )
     if w > n:
-        raise ValueError(f"savgol window ({w} samples) is longer than the signal ({n} samples).")
+        raise InputError(f"savgol window ({w} samples) is longer than the signal ({n} samples).")
     from scipy.signal import savgol_filter  # lazy: scipy.signal costs ~1 s of start-up
 
     kw = dict(window_length=w, polyorder=polyorder, delta=dt, axis=0, mode="interp")

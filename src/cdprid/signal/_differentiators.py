@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 import jax
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.signal import _sihd_high as _sihd_high
 from cdprid.signal._baselines import (
     _euler_butter_causal,
@@ -156,13 +157,13 @@ for _n in (4, 5):
 
 def _check_params(method, params):
     if method not in METHODS:
-        raise ValueError(
+        raise InputError(
             f"Unknown differentiation method {method!r}; valid names are: {', '.join(METHODS)}."
         )
     info = METHODS[method]
     bad = sorted(set(params) - set(info.params))
     if bad:
-        raise ValueError(
+        raise InputError(
             f"Unknown parameter(s) {', '.join(bad)} for method {method!r}; valid "
             f"parameters are: {', '.join(info.params)}."
         )
@@ -171,31 +172,31 @@ def _check_params(method, params):
         try:
             fv = float(v)
         except (TypeError, ValueError):
-            raise ValueError(
+            raise InputError(
                 f"Parameter {k!r} of method {method!r} must be a number, got {v!r}."
             ) from None
         if not (math.isfinite(fv) and fv > 0.0):
-            raise ValueError(
+            raise InputError(
                 f"Parameter {k!r} of method {method!r} must be finite and > 0, got {v!r}."
             )
         if k in ("order", "polyorder"):
             if fv != int(fv):
-                raise ValueError(
+                raise InputError(
                     f"Parameter {k!r} of method {method!r} must be an integer, got {v!r}."
                 )
             fv = int(fv)
         p[k] = fv
     if method == "sihd2-cascade" and not 0.5 <= p["alpha"] <= 1.0:
-        raise ValueError(f"sihd2-cascade needs 0.5 <= alpha <= 1, got {p['alpha']!r}.")
+        raise InputError(f"sihd2-cascade needs 0.5 <= alpha <= 1, got {p['alpha']!r}.")
     if method == "sihd3" and not 2.0 / 3.0 <= p["alpha"] <= 1.0:
-        raise ValueError(f"sihd3 needs 2/3 <= alpha <= 1, got {p['alpha']!r}.")
+        raise InputError(f"sihd3 needs 2/3 <= alpha <= 1, got {p['alpha']!r}.")
     for _n in (4, 5):
         if method == f"sihd{_n}" and not (_n - 1) / _n <= p["alpha"] <= 1.0:
-            raise ValueError(f"sihd{_n} needs {(_n - 1) / _n:g} <= alpha <= 1, got {p['alpha']!r}.")
+            raise InputError(f"sihd{_n} needs {(_n - 1) / _n:g} <= alpha <= 1, got {p['alpha']!r}.")
     if method == "levant" and p["lambda0"] <= 1.0:
-        raise ValueError(f"levant needs lambda0 > 1, got {p['lambda0']!r}.")
+        raise InputError(f"levant needs lambda0 > 1, got {p['lambda0']!r}.")
     if "cutoff_hz" in p and p["cutoff_hz"] < MIN_CUTOFF_HZ:
-        raise ValueError(f"cutoff_hz {p['cutoff_hz']!r} of method {method!r} is below "
+        raise InputError(f"cutoff_hz {p['cutoff_hz']!r} of method {method!r} is below "
                          f"{MIN_CUTOFF_HZ} Hz: such a filter removes every motion of a "
                          "recording (and its design is numerically singular).")
     return p
@@ -246,13 +247,13 @@ def differentiate(y, dt, method="sihd2-cascade", **params) -> tuple[np.ndarray, 
     p = _check_params(method, params)
     arr = np.asarray(y, dtype=np.float64)
     if arr.ndim not in (1, 2) or arr.shape[0] < 3:
-        raise ValueError(f"y must have shape (n,) or (n, k) with n >= 3, got shape {arr.shape}.")
+        raise InputError(f"y must have shape (n,) or (n, k) with n >= 3, got shape {arr.shape}.")
     try:
         dt = float(dt)
     except (TypeError, ValueError):
-        raise ValueError(f"dt must be a positive number, got {dt!r}.") from None
+        raise InputError(f"dt must be a positive number, got {dt!r}.") from None
     if not (math.isfinite(dt) and dt > 0.0):
-        raise ValueError(f"dt must be a positive number, got {dt!r}.")
+        raise InputError(f"dt must be a positive number, got {dt!r}.")
     squeeze = arr.ndim == 1
     y2 = arr[:, None] if squeeze else arr
 

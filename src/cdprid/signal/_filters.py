@@ -27,6 +27,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
+from cdprid.base._errors import InputError
+
 __all__ = ["ZeroPhaseFilter", "butter_lowpass", "butter_sos", "lfilter", "lfilter_zi",
            "make_zero_phase_filter", "sosfilt", "sosfilt_zi", "sosfiltfilt"]
 
@@ -52,9 +54,9 @@ def butter_lowpass(order: int, cutoff_hz: float, fs: float
     """
     n = int(order)
     if n < 1:
-        raise ValueError(f"Butterworth order must be >= 1, got {order!r}.")
+        raise InputError(f"Butterworth order must be >= 1, got {order!r}.")
     if not 0.0 < cutoff_hz < 0.5 * fs:
-        raise ValueError(f"cutoff_hz must lie in (0, Nyquist = {0.5 * fs:g} Hz), got "
+        raise InputError(f"cutoff_hz must lie in (0, Nyquist = {0.5 * fs:g} Hz), got "
                          f"{cutoff_hz!r}.")
     m = np.arange(-n + 1, n, 2)
     p = -np.exp(1j * np.pi * m / (2 * n))  # analog prototype poles, unit cut-off
@@ -136,7 +138,7 @@ def lfilter(b: Float[np.ndarray, " o"], a: Float[np.ndarray, " o"],
     b = np.asarray(b, float) / a[0]
     a = np.asarray(a, float) / a[0]
     if len(a) != len(b):
-        raise ValueError("lfilter needs b and a of equal length.")
+        raise InputError("lfilter needs b and a of equal length.")
     x = np.asarray(x, float)
     x2 = x.reshape(x.shape[0], -1)
     n, k = x2.shape
@@ -247,7 +249,7 @@ def sosfiltfilt(sos: Float[np.ndarray, "s 6"], x: Float[np.ndarray, "n ..."], pa
     n = x.shape[0]
     padlen = int(padlen)
     if not 0 <= padlen < n:
-        raise ValueError(f"padlen must be in [0, {n - 1}], got {padlen}.")
+        raise InputError(f"padlen must be in [0, {n - 1}], got {padlen}.")
     if padlen > 0:
         ext = np.concatenate([2 * x[:1] - x[padlen:0:-1], x,
                               2 * x[-1:] - x[-2:-padlen - 2:-1]], axis=0)

@@ -36,6 +36,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
+
 __all__ = [
     "sihdn_step",
     "sihdn_channel",
@@ -161,7 +163,7 @@ METHOD_INFO = {
 
 def _order_of(method: str) -> int:
     if method not in METHOD_INFO:
-        raise ValueError(
+        raise InputError(
             f"unknown higher-order SIHD {method!r}; use one of {', '.join(METHOD_INFO)}.")
     return int(method[4:])
 
@@ -184,13 +186,13 @@ def differentiate_high(y, dt, method="sihd5", **params):
     info = METHOD_INFO[method]
     bad = sorted(set(params) - set(info["params"]))
     if bad:
-        raise ValueError(f"unknown parameter(s) {', '.join(bad)} for method {method!r}.")
+        raise InputError(f"unknown parameter(s) {', '.join(bad)} for method {method!r}.")
     p = {**info["params"], **{k: float(v) for k, v in params.items()}}
     if not all(math.isfinite(v) and v > 0 for v in p.values()):
-        raise ValueError(f"parameters of {method!r} must be finite and > 0.")
+        raise InputError(f"parameters of {method!r} must be finite and > 0.")
     lo, hi = info["alpha_range"]
     if not lo <= p["alpha"] <= hi:
-        raise ValueError(f"{method} needs {lo:g} <= alpha <= 1, got {p['alpha']!r}.")
+        raise InputError(f"{method} needs {lo:g} <= alpha <= 1, got {p['alpha']!r}.")
     arr = np.asarray(y, np.float64)
     sq = arr.ndim == 1
     y2 = arr[:, None] if sq else arr

@@ -30,6 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.effects._effects import (
     effect_parameters_table,
     encoder_lengths,
@@ -83,7 +84,7 @@ class SensorNoise:
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
             if not np.isfinite(v) or v < 0:
-                raise ValueError(f"sensor noise {f.name} must be a finite number >= 0, got {v}.")
+                raise InputError(f"sensor noise {f.name} must be a finite number >= 0, got {v}.")
 
     @classmethod
     def off(cls) -> SensorNoise:
@@ -160,7 +161,7 @@ class SimResult:
 
 def _time_base(t0: float, t1: float, rate: float) -> np.ndarray:
     if not np.isfinite(rate) or rate <= 0:
-        raise ValueError(f"sampling rates must be positive numbers of Hz, got {rate}.")
+        raise InputError(f"sampling rates must be positive numbers of Hz, got {rate}.")
     n = int(np.floor((t1 - t0) * rate + 1e-9)) + 1
     return t0 + np.arange(n) / rate
 

@@ -10,6 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.tuning._sihd_params import SIHD_METHODS, default_params
 from cdprid.tuning._training import any_differentiate
 
@@ -56,7 +57,7 @@ class ResponseBounds:
         for k in ("bandwidth_hz", "gain_tol", "phase_max_deg", "gain_max_below", "gain_max_above"):
             v = getattr(self, k)
             if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"response bound {k} must be a positive number, got {v!r}.")
+                raise InputError(f"response bound {k} must be a positive number, got {v!r}.")
 
     def as_json(self) -> dict:
         """The bounds as JSON numbers."""
@@ -361,7 +362,7 @@ def _checked(f, gain, phase, amp, bw, ph_bw, b: ResponseBounds, lin) -> Frequenc
     """FrequencyResponse with the verification against the stated bounds ``b``."""
     below = f <= b.bandwidth_hz
     if not below.any():
-        raise ValueError(f"the stated bandwidth {b.bandwidth_hz:g} Hz is below the lowest "
+        raise InputError(f"the stated bandwidth {b.bandwidth_hz:g} Hz is below the lowest "
                          f"verified frequency {f[0]:g} Hz.")
     gerr = float(np.max(np.abs(gain[below] - 1.0)))
     phmax = float(np.max(np.abs(phase[below])))

@@ -9,6 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.signal._differentiators import METHODS
 from cdprid.signal._sihd_high import METHOD_INFO as HIGH_INFO
 from cdprid.signal._sihd_high import sihdn_channel
@@ -88,7 +89,7 @@ def _roots_theta(lams, zeta_min=None):
     n = len(lams)
     r = np.roots(np.r_[1.0, np.asarray(lams, float)])
     if np.any(r.real >= 0):
-        raise ValueError("initial gains give an unstable linear part.")
+        raise InputError("initial gains give an unstable linear part.")
     real = sorted([x.real for x in r if abs(x.imag) < 1e-9 * max(1, abs(x))])
     cplx = sorted([x for x in r if x.imag > 1e-9 * max(1, abs(x))], key=lambda z: abs(z))
     th = []

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.signal._differentiators import METHODS, differentiate
 from cdprid.signal._sihd_high import METHOD_INFO as HIGH_INFO
 from cdprid.signal._sihd_high import differentiate_high
@@ -71,7 +72,7 @@ def noise_from_dataset(ds) -> float:
     s = np.asarray(estimate_noise(sig.position), float)
     v = float(np.sqrt(np.mean(s**2)))
     if not (math.isfinite(v) and v > 0):
-        raise ValueError("could not estimate a positive position noise from the dataset.")
+        raise InputError("could not estimate a positive position noise from the dataset.")
     return v
 
 
@@ -91,7 +92,7 @@ def dataset_signal(ds, window_s: float = 1.5) -> TrainingSignal:
     w = int(round(window_s / dt)) | 1
     n = sig.position.shape[0]
     if n < max(w, 5 * int(round(2.0 / dt))):
-        raise ValueError(f"the dataset is too short to tune on ({n} pose samples).")
+        raise InputError(f"the dataset is too short to tune on ({n} pose samples).")
     kw = dict(window_length=w, polyorder=5, axis=0, mode="interp", delta=dt)
     pos = savgol_filter(sig.position, deriv=0, **kw)
     acc = savgol_filter(sig.position, deriv=2, **kw)
@@ -111,7 +112,7 @@ def any_differentiate(y, dt, method, **params):
         return differentiate(y, dt, method, **params)
     if method in HIGH_INFO:
         return differentiate_high(y, dt, method, **params)
-    raise ValueError(
+    raise InputError(
         f"unknown method {method!r}; use one of {', '.join([*METHODS, *HIGH_INFO])}."
     )
 
@@ -205,9 +206,9 @@ def trajectory_family(which: str = "train", dt: float = 0.01, duration: float = 
     list of TrainingSignal
     """
     if which not in ("train", "heldout"):
-        raise ValueError(f"unknown family {which!r}; use train or heldout.")
+        raise InputError(f"unknown family {which!r}; use train or heldout.")
     if not duration >= 5.0:
-        raise ValueError(f"family members must last at least 5 s, got {duration!r}.")
+        raise InputError(f"family members must last at least 5 s, got {duration!r}.")
     rows = TRAIN_FAMILY if which == "train" else HELDOUT_FAMILY
     out = [_orbit_member(*row, dt, duration) for row in rows]
     if which == "heldout":

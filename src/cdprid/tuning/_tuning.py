@@ -62,6 +62,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._errors import InputError
 from cdprid.tuning._response import (
     PENALTY_WEIGHT,
     FrequencyResponse,
@@ -238,9 +239,9 @@ def _as_signals(signal, signals, dt: float = 0.01) -> list:
     if signals is not None:
         sigs = list(signals)
         if not sigs:
-            raise ValueError("give at least one training signal.")
+            raise InputError("give at least one training signal.")
         if len({float(s.dt) for s in sigs}) != 1:
-            raise ValueError("all training signals must share one sampling period.")
+            raise InputError("all training signals must share one sampling period.")
         return sigs
     return [signal] if signal is not None else trajectory_family("train", dt)
 
@@ -400,11 +401,11 @@ def tune(
     """
 
     if method not in SIHD_METHODS:
-        raise ValueError(f"gradient tuning supports {', '.join(SIHD_METHODS)}; got {method!r}.")
+        raise InputError(f"gradient tuning supports {', '.join(SIHD_METHODS)}; got {method!r}.")
     if objective not in ("accel", "params", "mix"):
-        raise ValueError(f"unknown objective {objective!r}; use accel, params or mix.")
+        raise InputError(f"unknown objective {objective!r}; use accel, params or mix.")
     if not (math.isfinite(noise_std) and noise_std > 0):
-        raise ValueError(f"noise std must be a positive number of metres, got {noise_std!r}.")
+        raise InputError(f"noise std must be a positive number of metres, got {noise_std!r}.")
     say = progress or (lambda s: None)
     sigs = _as_signals(signal, signals)
     bounds = resolve_bounds(bounds, sigs)
@@ -587,7 +588,7 @@ def tune_baseline(
     ``kalman``/``rts`` use the measurement variance ``r = noise_std^2``.
     """
     if method not in BASELINE_GRIDS:
-        raise ValueError(f"grid tuning supports {', '.join(BASELINE_GRIDS)}; got {method!r}.")
+        raise InputError(f"grid tuning supports {', '.join(BASELINE_GRIDS)}; got {method!r}.")
     say = progress or (lambda s: None)
     sigs = _as_signals(signal, signals)
     bounds = resolve_bounds(bounds, sigs)
