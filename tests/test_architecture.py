@@ -371,7 +371,7 @@ def test_validation_raises_typed_user_errors():
     """User mistakes are raised as ``InputError`` (a ``UserError``), so the CLI decides exit 2
     vs 1 by type: no ``raise ValueError`` in src (issue 22)."""
     found = {}
-    for m, (path, tree) in MODULES.items():
+    for m, (_path, tree) in MODULES.items():
         for node in ast.walk(tree):
             if isinstance(node, ast.Raise) and isinstance(node.exc, ast.Call) \
                     and getattr(node.exc.func, "id", None) == "ValueError":
