@@ -44,6 +44,10 @@ def _late(d):
     _csv_edit(d / "tensions.csv", lambda a: np.column_stack([a[:, 0] + 1.0, a[:, 1:]]))
 
 
+def _swap12(d):
+    _csv_edit(d / "tensions.csv", lambda a: a[:, [0, 2, 1] + list(range(3, a.shape[1]))])
+
+
 def _ms(d):
     _csv_edit(d / "tensions.csv", lambda a: np.column_stack([a[:, 0] * 1000, a[:, 1:]]))
 
@@ -55,7 +59,8 @@ def _ms(d):
     (_gravity, ["|gravity| is 98.1"]),
     (_late, ["residual", "clock"]),
     (_ms, ["ms vs s"]),
-], ids=["kN", "mm", "z-down", "gravity", "clock-1s-late", "time-in-ms"])
+    (_swap12, ["tau_1 and tau_2 look swapped"]),
+], ids=["kN", "mm", "z-down", "gravity", "clock-1s-late", "time-in-ms", "swapped-columns"])
 def test_mistaken_input_is_named(sample_dataset, tmp_path, edit, words, capsys):
     d = tmp_path / "ds"
     shutil.copytree(sample_dataset, d)
@@ -74,7 +79,7 @@ def test_clean_data_raise_no_guard(sample_dataset, tmp_path, capsys):
     assert main(["identify", str(sample_dataset), "--json", str(out)]) == 0
     capsys.readouterr()
     guards = ("outside the box", "far from robot.toml", "|gravity|", "too small for the position",
-              "ms vs s", "times what the tension noise")
+              "ms vs s", "times what the tension noise", "look swapped")
     warnings = json.loads(out.read_text())["warnings"]
     assert not [w for w in warnings if any(g in w for g in guards)], warnings
 

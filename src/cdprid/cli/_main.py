@@ -236,7 +236,11 @@ def _with_guards(ds, rep):
 
     import numpy as np
 
-    from cdprid.identify._guards import input_warnings, result_warnings
+    from cdprid.identify._guards import (
+        input_warnings,
+        result_warnings,
+        swapped_columns_warning,
+    )
 
     names, x, _, _ = rep.estimates()
     if not np.all(np.isfinite(np.asarray(x, float))):
@@ -246,6 +250,9 @@ def _with_guards(ds, rep):
     new = input_warnings(ds, rep.signals, rep.differentiator, rep.params)
     new += result_warnings(ds.robot, rep.result.names, rep.result.x, rep.result.sigma_rho,
                            ds.tension)
+    swap = swapped_columns_warning(ds.robot, rep, ds.tension)
+    if swap:
+        new.append(swap)
     new = [w for w in new if w not in rep.warnings]
     return dataclasses.replace(rep, warnings=tuple(rep.warnings) + tuple(new)) if new else rep
 

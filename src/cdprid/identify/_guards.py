@@ -177,3 +177,53 @@ def result_warnings(robot, names, x, sigma_rho: float, tension) -> list[str]:
     if not np.all(np.isfinite(np.asarray(x, float))):
         out.append("some estimates are not finite: the data do not determine them.")
     return out
+
+
+#: Residual ratio (best swap / as given) below which two columns are named as swapped: clean
+#: recordings give 1.0 (no swap helps), a swapped pair 0.36-0.51 (8-cable, 4- and 10-parameter).
+SWAP_RESIDUAL_RATIO = 0.7
+#: Longest recording (pose samples) on which the column-order check runs (it refits once per
+#: pair of cables).
+SWAP_CHECK_MAX_SAMPLES = 30_000
+
+
+def swapped_columns_warning(robot, report, tension) -> str | None:
+    """Name two tension columns that look swapped: exchanging them lowers the residual of the
+    same least-squares fit below :data:`SWAP_RESIDUAL_RATIO` of what it is (tensions in the wrong cable order gave a
+    confident mzG off by 4 sigma with no warning)."""
+    from cdprid.core._regression import cable_wrench
+    from cdprid.identify._batch import _wrench_filter
+
+    motion, reg = report.motion, report.regression
+    n, m = len(motion.t), np.asarray(tension).shape[1]
+    if n > SWAP_CHECK_MAX_SAMPLES or m < 2 or len(reg.t) < 10:
+        return None
+    wf, _, _ = _wrench_filter(robot, report.differentiator, report.params,
+                              float(np.median(np.diff(motion.t))), report.wrench_filter)
+    idx = np.searchsorted(motion.t, reg.t)
+    A = np.asarray(reg.A).reshape(-1, np.asarray(reg.A).shape[-1])
+    tau = np.asarray(report.signals.tension, float)
+    if tau.shape[0] != n:
+        return None
+
+    def residual(t):
+        y = cable_wrench(robot, motion.position, motion.B_R_P, t)
+        y = np.asarray(wf(y) if wf is not None else y)[idx].reshape(-1)
+        x, *_ = np.linalg.lstsq(A, y, rcond=None)
+        return float(np.sqrt(np.mean((y - A @ x) ** 2)))
+
+    base = residual(tau)
+    best = (base, None)
+    for i in range(m):
+        for j in range(i + 1, m):
+            t2 = tau.copy()
+            t2[:, [i, j]] = t2[:, [j, i]]
+            r = residual(t2)
+            if r < best[0]:
+                best = (r, (i, j))
+    if best[1] is not None and best[0] < SWAP_RESIDUAL_RATIO * base:
+        i, j = best[1]
+        return (f"tension columns tau_{i + 1} and tau_{j + 1} look swapped: exchanging them "
+                f"lowers the residual from {base:.3g} to {best[0]:.3g} (check the column order "
+                "against robot.toml's cable order).")
+    return None
