@@ -221,9 +221,9 @@ def _cmd_identify(args) -> int:
         rep = physical_report(rep)
     rep = _with_guards(ds, rep)
     print(format_table(rep))
-    if not (sys.stdout.isatty() and sys.stderr.isatty()):  # the table holds them: once on a tty
-        for w in rep.warnings:
-            print(f"warning: {w}", file=sys.stderr)
+    from cdprid.cli._echo import echo_warnings
+
+    echo_warnings(rep.warnings)
     if args.json:
         write_json(args.json, rep.as_json(), force=force)
         print(f"wrote {args.json}")
@@ -247,7 +247,9 @@ def _with_guards(ds, rep):
         raise UserError("the identification gave non-finite estimates: the data do not "
                         "determine the parameters (check the geometry, the excitation and "
                         "--model).")
-    new = input_warnings(ds, rep.signals, rep.differentiator, rep.params)
+    acc = np.asarray(rep.motion.acceleration)
+    acc = acc if len(acc) == len(rep.signals.t) else None  # reuse, do not differentiate again
+    new = input_warnings(ds, rep.signals, rep.differentiator, rep.params, acc)
     new += result_warnings(ds.robot, rep.result.names, rep.result.x, rep.result.sigma_rho,
                            ds.tension)
     swap = swapped_columns_warning(ds.robot, rep, ds.tension)

@@ -8,7 +8,6 @@ figure and the JSON, and prints the table.
 from __future__ import annotations
 
 import contextlib
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -156,17 +155,17 @@ def run_online_cli(ds, args, params) -> int:
         if len(A_used):
             warns += excitation_warnings(res.names, np.linalg.norm(
                 A_used.reshape(-1, A_used.shape[-1]), axis=0), res.cond_scaled)
+        from cdprid.cli._echo import echo_warnings
         from cdprid.identify._guards import input_warnings, result_warnings
 
-        warns += input_warnings(ds, sig, _SIHD, dict(params or {}))
+        warns += input_warnings(ds, sig, _SIHD, dict(params or {}), res.acceleration)
         warns += result_warnings(ds.robot, res.names, res.x_final, float("nan"), ds.tension)
         print(format_online_table(res))
         for n in (*sig.notes, *notes):
             print(f"note: {n}")
         for w in warns:
             print(f"warning: {w}")
-            if not (sys.stdout.isatty() and sys.stderr.isatty()):  # once on a terminal
-                print(f"warning: {w}", file=sys.stderr)
+        echo_warnings(warns)
         print(f"wrote {csv_path}")
         print(f"wrote {png_path}")
         if json_path:

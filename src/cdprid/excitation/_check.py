@@ -116,19 +116,29 @@ def limit_ratios(robot, states: TrajectoryState, lim: SafetyLimits) -> dict:
 _CENTRES_ABOVE_MIN_N = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0)
 
 
+def _centres(tmin: float, tmax: float) -> list[float]:
+    """Centres c of the closed-form distributions: the mid-range and fixed levels above tmin."""
+    return [0.5 * (tmin + tmax)] + [tmin + c for c in _CENTRES_ABOVE_MIN_N if tmin + c < tmax]
+
+
+def _least_norm(W, w):
+    """``v = 1 - W^+ W 1`` (n, m) and ``W^+ w`` (..., n, m): the distributions
+    ``tau = c v + W^+ w`` of every centre c share them."""
+    Wp = np.linalg.pinv(W)  # (n, m, 6)
+    v = 1.0 - np.einsum("nmi,ni->nm", Wp, W.sum(axis=2))
+    return v, np.einsum("nmi,...ni->...nm", Wp, w)
+
+
 def _closed_form_margins(W, w, tmin, tmax):
     """Margins (k, n) of the best of a few least-norm distributions ``tau = c v + W^+ w`` with
     ``v = 1 - W^+ W 1`` (each exact where ``W tau = w``: a proven lower bound of the LP margin);
     -inf where ``W tau != w``. The centres c are the mid-range and fixed levels above
     ``tmin`` (a large ``tmax`` moves the mid-range far from what a suspended robot can hold)."""
-    Wp = np.linalg.pinv(W)  # (n, m, 6)
-    v = 1.0 - np.einsum("nmi,ni->nm", Wp, W.sum(axis=2))  # (n, m)
-    tau0 = np.einsum("nmi,kni->knm", Wp, w)  # (k, n, m)
+    v, tau0 = _least_norm(W, w)  # (n, m), (k, n, m)
     resid = np.einsum("nim,knm->kni", W, tau0) - w
     ok = np.max(np.abs(resid), axis=-1) <= 1e-6 * (1.0 + np.max(np.abs(w), axis=-1))
-    centres = [0.5 * (tmin + tmax)] + [tmin + c for c in _CENTRES_ABOVE_MIN_N if tmin + c < tmax]
     marg = np.full(tau0.shape[:2], -np.inf)
-    for c in centres:
+    for c in _centres(tmin, tmax):
         tau = tau0 + c * v[None]
         marg = np.maximum(marg, np.minimum(tau - tmin, tmax - tau).min(axis=-1))
     return np.where(ok, marg, -np.inf)
@@ -137,14 +147,10 @@ def _closed_form_margins(W, w, tmin, tmax):
 def _nominal_tensions(W, w, tmin: float, tmax: float) -> np.ndarray:
     """Per sample, the closed-form distribution (of the centres of :func:`_closed_form_margins`)
     with the largest margin: the nominal tension profile that is shown and written."""
-    Wp = np.linalg.pinv(W)
-    v = 1.0 - np.einsum("nmi,ni->nm", Wp, W.sum(axis=2))
-    tau0 = np.einsum("nmi,ni->nm", Wp, w)
-    centres = [0.5 * (tmin + tmax)] + [tmin + c for c in _CENTRES_ABOVE_MIN_N if tmin + c < tmax]
-    taus = np.stack([tau0 + c * v for c in centres])  # (c, n, m)
+    v, tau0 = _least_norm(W, w)  # (n, m), (n, m)
+    taus = np.stack([tau0 + c * v for c in _centres(tmin, tmax)])  # (c, n, m)
     marg = np.minimum(taus - tmin, tmax - taus).min(axis=-1)  # (c, n)
-    best = np.argmax(marg, axis=0)
-    return taus[best, np.arange(W.shape[0])]
+    return taus[np.argmax(marg, axis=0), np.arange(W.shape[0])]
 
 
 def robust_tension_margins(W, A_full, corners, tmin: float, tmax: float,

@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from cdprid.base._errors import UserError
+from cdprid.core._motion import rotation_matrices
 from cdprid.core._noise import estimate_noise
 
 #: Relative gap between the identified and the stated mass above which identify warns.
@@ -32,15 +33,6 @@ RESIDUAL_WARN_FACTOR = 1.5
 #: Acceleration signal-to-noise ratio below which the excitation is called too weak.
 ACCEL_SNR_MIN = 3.0
 EARTH_G = 9.81
-
-
-def _quat_to_R(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = (q[:, i] for i in range(4))
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
 
 
 def check_geometry(robot, t, position, quaternion=None) -> None:
@@ -58,7 +50,7 @@ def check_geometry(robot, t, position, quaternion=None) -> None:
     pos = np.asarray(position, float)
     step = max(1, len(pos) // 20000)  # a bounded check on long recordings
     idx = np.arange(0, len(pos), step)
-    R = (_quat_to_R(np.asarray(quaternion, float)[idx]) if quaternion is not None
+    R = (rotation_matrices(np.asarray(quaternion, float)[idx]) if quaternion is not None
          else np.broadcast_to(np.eye(3), (len(idx), 3, 3)))
     B = pos[idx, None, :] + np.einsum("nij,mj->nmi", R, P_b)
     L = np.linalg.norm(B_A[None] - B, axis=2)
@@ -115,8 +107,9 @@ def _clock_warning(pose_t, tension_t) -> str | None:
     return None
 
 
-def _snr_warning(signals, differentiator: str, params: dict) -> str | None:
-    """Accelerations of the motion against those the differentiator makes of pure noise."""
+def _snr_warning(signals, differentiator: str, params: dict, acceleration=None) -> str | None:
+    """Accelerations of the motion against those the differentiator makes of pure noise
+    (``acceleration``: the ones the identification already estimated, else computed here)."""
     from cdprid.signal._differentiators import differentiate
 
     pos = np.asarray(signals.position, float)
@@ -128,7 +121,8 @@ def _snr_warning(signals, differentiator: str, params: dict) -> str | None:
     n = min(len(pos), 4000)
     noise = np.random.default_rng(0).normal(0.0, s, (n, 1))
     _, a_noise = differentiate(noise, signals.dt, differentiator, **params)
-    _, a = differentiate(pos, signals.dt, differentiator, **params)
+    a = (np.asarray(acceleration, float) if acceleration is not None
+         else differentiate(pos, signals.dt, differentiator, **params)[1])
     trim = max(1, int(1.0 / signals.dt))
     rms = lambda x: float(np.sqrt(np.mean(np.square(x[trim:-trim]))))  # noqa: E731
     a_sig = rms(a - a.mean(0)) * math.sqrt(pos.shape[1])  # vector RMS of the motion
@@ -142,11 +136,15 @@ def _snr_warning(signals, differentiator: str, params: dict) -> str | None:
     return None
 
 
-def input_warnings(ds, signals, differentiator: str, params: dict) -> list[str]:
-    """Problems of a dataset that make any identification of it doubtful (one sentence each)."""
+def input_warnings(ds, signals, differentiator: str, params: dict,
+                   acceleration=None) -> list[str]:
+    """Problems of a dataset that make any identification of it doubtful (one sentence each).
+
+    ``acceleration`` (n, 3): the differentiator's accelerations at ``signals.t`` when the caller
+    has them (identify), so the motion is not differentiated twice."""
     out = [_gravity_warning(ds.robot), _workspace_warning(ds.robot, signals.position),
            _clock_warning(ds.pose_t, ds.tension_t),
-           _snr_warning(signals, differentiator, params)]
+           _snr_warning(signals, differentiator, params, acceleration)]
     return [w for w in out if w]
 
 
@@ -189,8 +187,8 @@ SWAP_CHECK_MAX_SAMPLES = 30_000
 
 def swapped_columns_warning(robot, report, tension) -> str | None:
     """Name two tension columns that look swapped: exchanging them lowers the residual of the
-    same least-squares fit below :data:`SWAP_RESIDUAL_RATIO` of what it is (tensions in the wrong cable order gave a
-    confident mzG off by 4 sigma with no warning)."""
+    same least-squares fit below :data:`SWAP_RESIDUAL_RATIO` of what it is (tensions in the
+    wrong cable order gave a confident mzG off by 4 sigma with no warning)."""
     from cdprid.core._regression import cable_wrench
     from cdprid.identify._batch import _wrench_filter
 
