@@ -73,7 +73,7 @@ def test_per_cable_jacobian_equals_full_jacobian():
     ldot = jnp.asarray(rng.normal(size=(n, 8)) * 0.1)
     d = M.DiagData(robot, jnp.asarray(t), jnp.asarray(p), jnp.asarray(R), jnp.zeros((n, 3)),
                    jnp.zeros((n, 3)), jnp.zeros((n, 3)), jnp.zeros((n, 3)), jnp.asarray(tau),
-                   ldot, -0.1, 0.01)
+                   ldot, jnp.asarray(3.0 + t), -0.1, 0.01)
     L = M.ThetaLayout(8)
     th = rng.normal(size=L.size) * 0.01
     th[L.slices["pulley_flip"]] = 0.0  # measured_side has no flipped pulley: tested below
@@ -109,7 +109,8 @@ def test_flipped_pulley_is_a_pulley_with_the_opposite_arrival():
     def data(rob):
         return M.DiagData(rob, jnp.asarray(t), jnp.asarray(p), jnp.asarray(R),
                           jnp.zeros((n, 3)), jnp.zeros((n, 3)), jnp.zeros((n, 3)),
-                          jnp.zeros((n, 3)), jnp.asarray(tau), jnp.zeros((n, 8)), -0.1, 0.01)
+                          jnp.zeros((n, 3)), jnp.asarray(tau), jnp.zeros((n, 8)),
+                          jnp.asarray(t), -0.1, 0.01)
 
     L = M.ThetaLayout(8)
     th = np.zeros(L.size)

@@ -5,7 +5,9 @@ sample, measured on a 10 min 100 Hz recording: 3.55 GB peak for 60 000 samples).
 :data:`MAX_SAMPLES` pose samples it analyses a documented subset: ``n_blocks`` evenly spaced
 contiguous time blocks that together hold :data:`MAX_SAMPLES` samples and span the whole
 recording. The blocks are put end to end on a continuous time axis (each block keeps its own
-pose and tension samples, shifted in time; nothing is interpolated across a join), and the
+pose and tension samples, shifted in time; nothing is interpolated across a join; the
+recording's own clock, on which time-dependent effects are evaluated, is kept:
+:meth:`Subset.clock`), and the
 samples within ``margin_s`` of a join are excluded from every fit and test (filter and
 differentiator transients), like the trimmed ends of a recording. :func:`subset` returns the
 shortened dataset, the join times and a note that the CLI, the JSON and the report print.
@@ -35,6 +37,21 @@ class Subset:
     n_samples_total: int
     n_samples_used: int
     note: str
+    #: the original recording's first tension time stamp (the clock's zero), s
+    t0: float = 0.0
+    #: per block: the shift added to its time stamps on the joined axis, s
+    shifts: tuple = ()
+
+    def clock(self, t_joined) -> np.ndarray:
+        """The recording's own clock at joined-axis times, s from its first tension stamp.
+
+        Each block keeps its real time stamps: a joined time inside block k is the original
+        time ``t - shift_k`` (one clock for every time-dependent effect and the delay).
+        """
+        t = np.asarray(t_joined, float)
+        starts = np.array([a + sh for (a, _), sh in zip(self.windows, self.shifts)])
+        k = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(starts) - 1)
+        return t - np.asarray(self.shifts)[k] - self.t0
 
     def as_json(self) -> dict:
         """The ``info["subset"]`` entry of the diagnosis JSON."""
@@ -75,7 +92,7 @@ def subset(ds: Dataset, max_samples: int = MAX_SAMPLES, n_blocks: int = N_BLOCKS
     n_blocks = max(1, min(n_blocks, int(max_samples * dt // min_block_s)))
     per = max(1, max_samples // n_blocks)
     starts = np.round(np.linspace(0, n - per, n_blocks)).astype(int)
-    pos, quat, ptn, tau, ttn, windows, joins = [], [], [], [], [], [], []
+    pos, quat, ptn, tau, ttn, windows, joins, shifts = [], [], [], [], [], [], [], []
     t_new = float(pt[0])
     for k, s in enumerate(starts):
         a, b = float(pt[s]), float(pt[s + per - 1])
@@ -91,6 +108,7 @@ def subset(ds: Dataset, max_samples: int = MAX_SAMPLES, n_blocks: int = N_BLOCKS
         ttn.append(ds.tension_t[ti] + shift)
         tau.append(ds.tension[ti])
         windows.append((a, b))
+        shifts.append(shift)
         t_new = b + shift + dt
     sub = dataclasses.replace(
         ds, pose_t=np.concatenate(ptn), position=np.concatenate(pos),
@@ -102,8 +120,10 @@ def subset(ds: Dataset, max_samples: int = MAX_SAMPLES, n_blocks: int = N_BLOCKS
             f"({used} samples, {100 * used / n:.1f} % of the recording, from t = "
             f"{windows[0][0]:.4g} s to {windows[-1][1]:.4g} s), put end to end; samples within "
             f"{margin_s:g} s of a join are excluded; times in the arrays and figures are on the "
-            "joined axis; held-out blocks are contiguous in the joined record")
-    return Subset(sub, tuple(joins), tuple(windows), n, used, note)
+            "joined axis (time-dependent effects are evaluated on the real time stamps); "
+            "held-out blocks are contiguous in the joined record")
+    return Subset(sub, tuple(joins), tuple(windows), n, used, note,
+                  float(ds.tension_t[0]), tuple(shifts))
 
 
 def joined_time(sub: Subset, t_original: float) -> float:

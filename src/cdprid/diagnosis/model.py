@@ -82,6 +82,9 @@ class DiagData(eqx.Module):
     al: jnp.ndarray
     tau_grid: jnp.ndarray  # raw tension stream (uniform grid), (k, m)
     ldot: jnp.ndarray  # cable length rates dl/dt of the nominal geometry, (n, m)
+    #: the recording's own clock at each sample, s from the tension stream's first time
+    #: stamp (equal to ``t - t0`` except on a budgeted subset, whose blocks are joined on ``t``)
+    clock: jnp.ndarray
     tau_t0: float = eqx.field(static=True)
     tau_dt: float = eqx.field(static=True)
 
@@ -116,7 +119,7 @@ def measured_side(d: DiagData, th):
     oracle the tests compare :func:`meas_and_jac` (built from the hooks) with.
     """
     tau = tension_at(d, d.t + th["delay"])
-    tau = (tau - th["offset"]) / (1.0 + th["gain"])
+    tau = (tau - th["offset"] - th["drift"] * d.clock[:, None]) / (1.0 + th["gain"])
     tau = tau + th["coulomb"] * jnp.sign(d.ldot) + th["pvisc"] * d.ldot
     rob = shifted_robot(d.robot, th)
     g = tilt_gravity(d.robot.gravity, th["tilt"])
@@ -179,20 +182,21 @@ def local_blocks(local) -> dict:
     return out
 
 
-def cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c, ldot_c):
+def cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c, ldot_c,
+                       t_c=0.0):
     """Wrench (6,) of one cable on the platform, with its own effect parameters.
 
     ``local``: every theta block for this cable (:data:`LOCAL_BLOCKS`; per-cable blocks hold
     this cable's values, global blocks the common ones); ``local_c`` the same at the
     linearisation point. The effects act through the hooks of
     :data:`cdprid.effects.DIAGNOSIS`, in table order: ``tension`` on the reading ``tau_c``
-    (its rate ``taud_c``, the cable rate ``ldot_c``), ``geometry`` on the exit point, the
+    (its rate ``taud_c``, the cable rate ``ldot_c``, the clock ``t_c``), ``geometry`` on the exit point, the
     attachment and the pulley radius, ``leave`` on the leave point, ``gravity`` and ``load``
     (a force at the attachment).
     """
     q = local_blocks(local)
     c = {"at": local_blocks(local_c), "taud": taud_c, "ldot": ldot_c, "R": R, "p": p, "k": k,
-         "ref": ref}
+         "ref": ref, "t": t_c}
     forms = DIAGNOSIS.values()
     tau = tau_c
     for form in forms:
@@ -249,17 +253,18 @@ def meas_and_jac(d, theta, layout):
     taud_c = tension_rate_at(d, d.t + th["delay"])
     rob = d.robot
 
-    def per_sample(p, R, tc, tdc, ld):
+    def per_sample(p, R, tc, tdc, ld, clk):
         def per_cable(lc, A, b, r, k, ref, ti, tdi, li):
             f = functools.partial(cable_contribution, A=A, b=b, r=r, k=k, ref=ref, p=p, R=R,
-                                  tau_c=ti, taud_c=tdi, g0=rob.gravity, local_c=lc, ldot_c=li)
+                                  tau_c=ti, taud_c=tdi, g0=rob.gravity, local_c=lc, ldot_c=li,
+                                  t_c=clk)
             return f(lc), jax.jacfwd(f)(lc)
 
         w, J = jax.vmap(per_cable)(loc, rob.B_A, rob.P_b, rob.pulley_radius, rob.pulley_axis,
                                    rob.pulley_reference, tc, tdc, ld)
         return w.sum(0), J  # (6,), (m, 6, len)
 
-    y, Jl = jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot)
+    y, Jl = jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot, d.clock)
     n = y.shape[0]
     J = jnp.zeros((n, 6, layout.size))
     Jl = jnp.moveaxis(Jl, 1, 3)  # (n, 6, len, m)

@@ -173,7 +173,8 @@ def diagnose(
         if train_until is not None:
             train_until = joined_time(sub, train_until)
     prob = prepare(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
-                   joins=sub.joins if sub is not None else ())
+                   joins=sub.joins if sub is not None else (),
+                   clock=sub.clock if sub is not None else None)
     say(f"aligned {prob.n} samples at {1 / prob.dt:.4g} Hz; {int(prob.train.sum())} used for "
         "fitting" + (f" ({prob.n_slack} samples with a cable below {taut_N:g} N excluded)"
                      if prob.n_slack else ""))
@@ -203,7 +204,8 @@ def diagnose(
         s = nxt
     s = swap_stage(prob, s, candidates, min_gain, extra, say)
     feats = {k: prob.filt(F) * prob.wrow[None, :, None] for k, F in structure_features(
-        prob.W_all, prob.v, prob.om, prob.tension, prob.position, prob.t, prob.use).items()}
+        prob.W_all, prob.v, prob.om, prob.tension, prob.position, np.asarray(prob.d.clock),
+        prob.use).items()}
     s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
     Z, y, _, _ = linear_model(prob, s)
     unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)

@@ -110,7 +110,7 @@ def _tension_grid(ds: Dataset, m: int):
 
 def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CUTOFF_HZ,
             trim: float = TRIM_S, n_folds: int = 5, taut_N: float = TAUT_THRESHOLD_N,
-            joins: tuple = ()) -> Problem:
+            joins: tuple = (), clock=None) -> Problem:
     """Align the streams, differentiate, build the forward-model data and the masks.
 
     Samples are used when inside the trimmed recording (and the delay margin of the tension
@@ -119,7 +119,10 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     are outside every model here). With ``train_until``, t < train_until is fitted and the
     rest held out; otherwise held-out figures are blocked cross-validation over ``n_folds``
     time blocks. ``joins`` (times where blocks of a budgeted subset meet, see
-    :mod:`cdprid.diagnosis.budget`) exclude the samples within the trim margin of each join.
+    :mod:`cdprid.diagnosis.budget`) exclude the samples within the trim margin of each join;
+    ``clock`` maps the dataset's times to the recording's own clock, in s from its tension
+    stream's first time stamp (:meth:`cdprid.diagnosis.budget.Subset.clock`; by default
+    ``t - tension_t[0]``): time-dependent effects are evaluated on it.
 
     Raises
     ------
@@ -135,9 +138,12 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     W_all = np.asarray(jax.jit(wrench_matrices)(robot, jnp.asarray(sig.position),
                                                  jnp.asarray(R)))
     ldot = -np.einsum("nim,ni->nm", W_all, np.concatenate([v, om], axis=1))
+    clk = (np.asarray(sig.t) - float(ds.tension_t[0]) if clock is None
+           else np.asarray(clock(np.asarray(sig.t)), float))
     d = DiagData(robot, jnp.asarray(sig.t), jnp.asarray(sig.position), jnp.asarray(R),
                  jnp.asarray(v), jnp.asarray(a), jnp.asarray(om), jnp.asarray(al),
-                 jnp.asarray(tau_grid), jnp.asarray(ldot), float(grid_t[0]), tdt)
+                 jnp.asarray(tau_grid), jnp.asarray(ldot), jnp.asarray(clk), float(grid_t[0]),
+                 tdt)
     margin = max(trim, 0.1)
     use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
            & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))

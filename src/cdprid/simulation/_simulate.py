@@ -34,11 +34,11 @@ from cdprid.base._errors import InputError
 from cdprid.effects._effects import (
     effect_parameters_table,
     encoder_lengths,
-    load_cell_friction,
     true_gravity,
     true_robot,
     validate_effects,
 )
+from cdprid.effects._sensor import load_cell_reading
 from cdprid.model._dynamics import InertialParameters, platform_wrench
 from cdprid.model._geometry import CableRobot, cable_lengths, cable_vectors, wrench_matrix
 from cdprid.model._presets import check_workspace
@@ -276,11 +276,11 @@ def _describe(robot, trajectory, effects, noise, seed, rate_pose, rate_tension, 
     return description, settings
 
 
-def _measure(motion, tau_true, W, mt, effects, noise, seed, has_rotation, m):
+def _measure(motion, tau_true, W, mt, tension_t, effects, noise, seed, has_rotation):
     """Sensor streams: noisy (quantised) position and quaternion, load-cell readings.
 
-    The load cells read ``gain * (tau + friction) + offset`` plus noise
-    (:func:`cdprid.effects.load_cell_friction` for ``pulley_friction``).
+    The load cells read what :func:`cdprid.effects.load_cell_reading` says (the sensor
+    chain in physical order: ``gain * (tau + friction) + offset + drift``) plus noise.
     """
     n_pose = np.asarray(motion.p).shape[0]
     k = tau_true.shape[0]
@@ -298,15 +298,8 @@ def _measure(motion, tau_true, W, mt, effects, noise, seed, has_rotation, m):
         q = _quantise(q, noise.orientation_quantum)
         q = q / np.linalg.norm(q, axis=1, keepdims=True)
         quaternion = np.where(q[:, :1] < 0, -q, q)
-    gain = np.ones(m)
-    offset = np.zeros(m)
-    for e in effects:
-        if e.name == "tension_gain":
-            gain[e.params["cable"] - 1] *= e.params["gain"]
-        elif e.name == "tension_offset":
-            offset[e.params["cable"] - 1] += e.params["offset_N"]
-    friction = load_cell_friction(effects, W, np.asarray(mt.v)[:k], np.asarray(mt.omega)[:k])
-    tension = gain * (tau_true + friction) + offset
+    tension = load_cell_reading(effects, tau_true, W, np.asarray(mt.v)[:k],
+                                np.asarray(mt.omega)[:k], tension_t)
     tension = tension + noise.tension_N * rng_tau.standard_normal(tension.shape)
     return position, quaternion, _quantise(tension, noise.tension_quantum_N)
 
@@ -424,7 +417,7 @@ def simulate(
     # sensors
     has_rotation = bool(trajectory.has_rotation)
     position, quaternion, tension = _measure(
-        motion, tau_true, W, mt, effects, noise, seed, has_rotation, robot.n_cables
+        motion, tau_true, W, mt, tension_t, effects, noise, seed, has_rotation
     )
 
     enc = None

@@ -1,0 +1,87 @@
+"""How the diagnosis represents one effect: :class:`DiagnosisForm` (one per effect).
+
+A leaf module: each effect's module declares its form here without importing the vocabulary.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+__all__ = ["DiagnosisForm"]
+
+
+@dataclasses.dataclass(frozen=True)
+class DiagnosisForm:
+    """How the diagnosis represents one effect (its candidates, theta blocks, JSON form).
+
+    The diagnosis reads only this table (:mod:`cdprid.diagnosis.candidates` and the theta
+    layout of :mod:`cdprid.diagnosis.model` contain no effect name): adding an effect that
+    acts through existing theta blocks touches this module only.
+
+    Attributes
+    ----------
+    blocks : tuple of (block, size)
+        Theta blocks of :func:`cdprid.diagnosis.model.cable_contribution` /
+        :func:`~cdprid.diagnosis.model.model_side` the effect uses, ``size`` numbers per
+        cable when ``per_cable`` else in all. The theta vector is laid out in the order of
+        :data:`DIAGNOSIS` and of each effect's blocks.
+    per_cable : bool
+        One candidate per cable (parameters carry ``cable``).
+    group : int
+        Candidates are listed by group, then in the table's order.
+    when : str
+        ``"always"``, ``"no_pulley"`` (robot.toml gives no pulley) or ``"rotation"``
+        (the pose stream rotates).
+    keys : tuple of str
+        JSON parameter names of the block values, in order (a key of ``size`` 3 or 2 takes
+        that many values as one list).
+    params : callable, optional
+        ``(values, extra) -> dict`` instead of ``keys`` (e.g. a gain is ``1 + theta``).
+    interval : callable, optional
+        ``(lo, hi, extra) -> dict`` instead of ``keys``.
+    vocabulary : str, optional
+        The vocabulary name the finding reports (default: the table key).
+    alias : str, optional
+        Its label in ``aliases`` (default ``effect`` or ``effect:cable=i``).
+    displacement : bool
+        Shrink poorly determined directions of its 3-vector (weakly observable components).
+    bounds : dict
+        Plausibility bound of a refitted parameter's magnitude (degenerate linearisation).
+    nonneg : tuple of str
+        Parameters that must be >= 0 after a refit.
+    ranges : dict
+        Parameters that must lie in an open interval after a refit.
+    separated_by : dict
+        Other effect -> what trajectory or measurement would tell the two apart.
+    tension, geometry, leave, gravity, load, model : callable, optional
+        The effect's physics in the diagnosis's forward model, JAX, applied in the order of
+        :data:`DIAGNOSIS` at each stage of :func:`cdprid.diagnosis.model.cable_contribution`
+        (one cable, its blocks ``q`` by name, ``c`` the context: the blocks at the
+        linearisation point ``c["at"]``, ``taud``, ``ldot``, ``R``, ``p``, ``k``, ``ref``,
+        ``bb``): ``tension(tau, q, c)`` the tension behind the load-cell reading;
+        ``geometry(geo, q)`` the exit point ``A``, attachment ``b`` (platform frame) and
+        pulley radius ``r``; ``leave(T, geo, q, c)`` the leave point; ``gravity(g, q)``;
+        ``load(f, Ln, g, q)`` a force on the platform at the attachment. ``model(y, d, q)``
+        adds to the model side (:func:`~cdprid.diagnosis.model.model_side`).
+    """
+
+    blocks: tuple = ()
+    per_cable: bool = False
+    group: int = 2
+    when: str = "always"
+    keys: tuple = ()
+    params: object = None
+    interval: object = None
+    vocabulary: str | None = None
+    alias: str | None = None
+    displacement: bool = False
+    bounds: dict = dataclasses.field(default_factory=dict)
+    nonneg: tuple = ()
+    ranges: dict = dataclasses.field(default_factory=dict)
+    separated_by: dict = dataclasses.field(default_factory=dict)
+    tension: object = None
+    geometry: object = None
+    leave: object = None
+    gravity: object = None
+    load: object = None
+    model: object = None
