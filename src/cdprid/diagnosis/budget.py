@@ -49,7 +49,7 @@ class Subset:
         time ``t - shift_k`` (one clock for every time-dependent effect and the delay).
         """
         t = np.asarray(t_joined, float)
-        starts = np.array([a + sh for (a, _), sh in zip(self.windows, self.shifts)])
+        starts = np.array([a + sh for (a, _), sh in zip(self.windows, self.shifts, strict=True)])
         k = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(starts) - 1)
         return t - np.asarray(self.shifts)[k] - self.t0
 

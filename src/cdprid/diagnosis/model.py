@@ -190,7 +190,8 @@ def cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c,
     this cable's values, global blocks the common ones); ``local_c`` the same at the
     linearisation point. The effects act through the hooks of
     :data:`cdprid.effects.DIAGNOSIS`, in table order: ``tension`` on the reading ``tau_c``
-    (its rate ``taud_c``, the cable rate ``ldot_c``, the clock ``t_c``), ``geometry`` on the exit point, the
+    (its rate ``taud_c``, the cable rate ``ldot_c``, the clock ``t_c``), ``geometry`` on
+    the exit point, the
     attachment and the pulley radius, ``leave`` on the leave point, ``gravity`` and ``load``
     (a force at the attachment).
     """
