@@ -105,6 +105,26 @@ def summarize(prob: Problem, base: BaseFit, s: Selection, noise: NoiseLevels, se
         info, resid
 
 
+def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say):
+    """The problem on the whole recording or on its budgeted subset (on the recording's own
+    clock), its lengths stream and the notes."""
+    lengths, notes = lengths_stream(ds)
+    sub = subset(ds, max_samples, margin_s=max(trim, 0.1))
+    if sub is not None:
+        notes.append(sub.note)
+        say(sub.note)
+        ds = sub.dataset
+        if train_until is not None:
+            train_until = joined_time(sub, train_until)
+    prob = prepare(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
+                   joins=sub.joins if sub is not None else (),
+                   clock=sub.clock if sub is not None else None)
+    say(f"aligned {prob.n} samples at {1 / prob.dt:.4g} Hz; {int(prob.train.sum())} used for "
+        "fitting" + (f" ({prob.n_slack} samples with a cable below {taut_N:g} N excluded)"
+                     if prob.n_slack else ""))
+    return prob, sub, lengths, notes
+
+
 def diagnose(
     ds: Dataset,
     train_until: float | None = None,
@@ -164,20 +184,8 @@ def diagnose(
         if progress is not None:
             progress(f"[{time.perf_counter() - t0:6.1f} s] {msg}")
 
-    lengths, notes = lengths_stream(ds)
-    sub = subset(ds, max_samples, margin_s=max(trim, 0.1))
-    if sub is not None:
-        notes.append(sub.note)
-        say(sub.note)
-        ds = sub.dataset
-        if train_until is not None:
-            train_until = joined_time(sub, train_until)
-    prob = prepare(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
-                   joins=sub.joins if sub is not None else (),
-                   clock=sub.clock if sub is not None else None)
-    say(f"aligned {prob.n} samples at {1 / prob.dt:.4g} Hz; {int(prob.train.sum())} used for "
-        "fitting" + (f" ({prob.n_slack} samples with a cable below {taut_N:g} N excluded)"
-                     if prob.n_slack else ""))
+    prob, sub, lengths, notes = _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
+                                         max_samples, say)
     prob, base = base_fit(prob)
     say(f"base fit: m = {base.x[0]:.4f} kg, force residual rms "
         f"{np.sqrt(np.mean(np.square(base.residual_rms[:3]))):.3f} N")
