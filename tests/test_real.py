@@ -61,3 +61,22 @@ def test_mass_from_motion_matches_weight_at_rest(calibrated):
     # the tension log leads the pose by a few tens of ms (same sign as the swivel residuals)
     assert -0.05 < r.delay < -0.005
     assert r.heldout_rms["force_N"] < 20.0
+
+
+@pytest.mark.slow
+def test_diagnosis_and_importer_agree_on_the_clock_offset(calibrated):
+    """One recording, one delay: the importer's nuisance fit (meta.toml [nuisance]) and the
+    diagnosis's time_delay finding agree within 2 of their combined std (issue 22)."""
+    from cdprid.diagnosis import diagnose
+    from cdprid.identify import nuisance_summary, prepare_real
+
+    ds = read_dataset(calibrated)
+    nui = nuisance_summary(prepare_real(ds))
+    res = diagnose(ds)
+    delay = [f for f in res.findings if f.effect == "time_delay"]
+    assert delay, [f.effect for f in res.findings]
+    d = delay[0].parameters["delay_s"]
+    lo, hi = delay[0].interval["delay_s"]
+    s = (hi - lo) / (2 * 1.959963984540054)
+    assert -0.035 < d < -0.015, d  # tens of ms, tensions leading the poses
+    assert abs(d - nui["delay_s"]) < 2 * np.hypot(s, nui["delay_std_s"]), (d, s, nui)
