@@ -89,7 +89,7 @@ def add_parser(sub) -> None:
                    help="family-wise false-positive rate, in (0, 1)")
     p.add_argument("--n-null", type=V.positive_int, default=30,
                    help="null replicates for calibration (>= 1)")
-    p.add_argument("--max-effects", type=V.positive_int, default=3,
+    p.add_argument("--max-effects", type=V.positive_int, default=8,
                    help="greedy selection stops here (>= 1)")
     p.add_argument("--seed", type=V.nonneg_int, default=0, help="seed of the null simulation")
     p.add_argument("--quiet", action="store_true", help="no progress output")

@@ -120,7 +120,8 @@ def measured_side(d: DiagData, th):
     """
     tau = tension_at(d, d.t + th["delay"])
     tau = (tau - th["offset"] - th["drift"] * d.clock[:, None]) / (1.0 + th["gain"])
-    tau = tau + th["coulomb"] * jnp.sign(d.ldot) + th["pvisc"] * d.ldot
+    tau = tau + (th["coulomb"] + th["coulomb_all"]) * jnp.sign(d.ldot) \
+        + (th["pvisc"] + th["pvisc_all"]) * d.ldot
     rob = shifted_robot(d.robot, th)
     g = tilt_gravity(d.robot.gravity, th["tilt"])
 

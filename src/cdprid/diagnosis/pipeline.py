@@ -133,7 +133,7 @@ def diagnose(
     n_folds: int = 5,
     alpha: float = 1e-3,
     n_null: int = 30,
-    max_effects: int = 3,
+    max_effects: int = 8,
     min_gain: float = 0.01,
     seed: int = 0,
     taut_N: float = TAUT_THRESHOLD_N,

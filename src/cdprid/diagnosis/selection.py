@@ -29,6 +29,7 @@ from cdprid.diagnosis.refit import refit_gauss_newton
 from cdprid.diagnosis.result import Finding
 from cdprid.diagnosis.testing import aliases_of, partial_wald, partial_wald_many
 from cdprid.diagnosis.unexplained import structure_tests
+from cdprid.effects._effects import DIAGNOSIS
 
 
 def finding_columns(c: Candidate, layout: ThetaLayout, active_idx: list, n_model: int) -> list:
@@ -36,7 +37,8 @@ def finding_columns(c: Candidate, layout: ThetaLayout, active_idx: list, n_model
     if c.effect == "rotational_dynamics":
         return list(range(4, n_model))
     idx = layout.candidate_indices(c.effect, c.cable)
-    return [n_model + active_idx.index(i) for i in idx]
+    # a parameter held at its bound (see :func:`refit_with`) has no column
+    return [n_model + active_idx.index(i) for i in idx if i in active_idx]
 
 
 def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int,
@@ -213,6 +215,34 @@ def score_step(prob: Problem, Zbase, y_target, cand_cols: dict, null_gen, alpha:
     return scored, pcols, yt, thr_p
 
 
+def _negative_blocks(c, t: Selection, layout, extra) -> list:
+    """Theta indices of a candidate's scalar parameters that must be >= 0 and are not."""
+    form = DIAGNOSIS[c.effect]
+    vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
+    idx = layout.candidate_indices(c.effect, c.cable)
+    out, i = [], 0
+    for key, (_, size) in zip(form.keys, form.blocks, strict=False):
+        if size == 1 and key in form.nonneg and vocab.get(key, 0.0) < 0:
+            out.append(idx[i])
+        i += size
+    return out
+
+
+def refit_with(prob: Problem, s: Selection, c, extra: dict, theta=None,
+               active_idx=None) -> Selection:
+    """Refit with candidate ``c`` active; a parameter that must be >= 0 and comes out
+    negative is held at its bound 0 (an active-set step) and the others refitted: a
+    coefficient that is zero in truth (a friction without its viscous part) then does not
+    make the whole effect implausible."""
+    t = refit(prob, s, theta=theta, active_idx=active_idx)
+    neg = _negative_blocks(c, t, prob.layout, extra)
+    if neg:
+        th = t.theta.copy()
+        th[neg] = 0.0
+        t = refit(prob, s, theta=th, active_idx=[i for i in t.active_idx if i not in neg])
+    return t
+
+
 def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: float,
                   extra: dict):
     """Add one candidate, refit, and check plausibility and the held-out gain after the refit.
@@ -226,7 +256,7 @@ def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: f
         # Gauss-Newton from the current linearisation (already computed: its first
         # iteration is the joint linear fit, whose new coefficients are ``beta``)
         idx = layout.candidate_indices(c.effect, c.cable)
-        t = refit(prob, s, active_idx=sorted(set(s.active_idx) | set(idx)))
+        t = refit_with(prob, s, c, extra, active_idx=sorted(set(s.active_idx) | set(idx)))
     vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
     why = implausible(c.effect, vocab)
     if why:
@@ -319,7 +349,7 @@ def swap_stage(prob: Problem, s: Selection, candidates, min_gain: float, extra: 
         theta[idx_old] = 0.0
         active = sorted((set(s.active_idx) - set(idx_old))
                         | set(layout.candidate_indices(alt.effect, alt.cable)))
-        t = refit(prob, s, theta=theta, active_idx=active)
+        t = refit_with(prob, s, alt, extra, theta=theta, active_idx=active)
         if implausible(alt.effect, vocab_params(alt, t.theta, layout, extra, t.th_cov)):
             break
         say(f"swap: {old.label} -> {alt.label} predicts the held-out data better")

@@ -43,7 +43,8 @@ from 1). How each effect is modelled by :func:`cdprid.simulation.simulate`:
     ``g_pose = 9.81 [sin ry, -sin rx cos ry, -cos rx cos ry]``); robot.toml keeps the
     nominal g.
 ``pulley_friction {cable, coulomb_N, viscous_Ns_per_m}``
-    Friction where cable ``cable`` runs over its pulley/guide between the platform and a
+    Friction where cable ``cable`` (or ``"all"``: the same coefficients on every cable, as
+    on a robot whose pulleys are alike) runs over its pulley/guide between the platform and a
     load cell on the winch side. With ``dl/dt`` the rate of the cable length between the
     exit point and the platform (``dl/dt = -W_i^T [v; omega]``, > 0 paying out), the load
     cell reads ``tau - coulomb_N sign(dl/dt) - viscous_Ns_per_m dl/dt`` before gain,
@@ -118,8 +119,15 @@ VOCABULARY: dict[str, dict[str, str]] = {
 }
 
 
+#: per-cable effects that also have a form common to every cable (``"cable": "all"``)
+ALL_CABLES = frozenset({"pulley_friction"})
+
+
 def _convert(effect: str, key: str, kind: str, value):
     where = f"effect '{effect}' parameter '{key}'"
+    if kind == "cable" and effect in ALL_CABLES and isinstance(value, str) \
+            and value.strip().lower() == "all":
+        return "all"
     if isinstance(value, str):
         text = value.strip()
         if kind in ("vec3", "vec2"):
@@ -157,7 +165,9 @@ def _convert(effect: str, key: str, kind: str, value):
         raise InputError(f"{where} must be finite, got {value!r}.")
     if kind == "cable":
         if v != int(v) or v < 1:
-            raise InputError(f"{where} must be a cable number 1, 2, ..., got {value!r}.")
+            raise InputError(f"{where} must be a cable number 1, 2, ..."
+                             + (" or all" if effect in ALL_CABLES else "")
+                             + f", got {value!r}.")
         return int(v)
     return v
 
@@ -254,7 +264,7 @@ def validate_effects(effects, n_cables: int) -> list[Effect]:
     for e in effects:
         e = e if isinstance(e, Effect) else Effect(*e)
         c = e.params.get("cable")
-        if c is not None and c > n_cables:
+        if c is not None and c != "all" and c > n_cables:
             raise InputError(
                 f"effect '{e.name}' refers to cable {c} but the robot has {n_cables} cables "
                 f"(numbered 1 to {n_cables})."
@@ -302,15 +312,12 @@ def load_cell_friction(effects, W, v, omega) -> np.ndarray:
     ndarray (n, m)
         ``-coulomb_N sign(dl/dt) - viscous_Ns_per_m dl/dt`` on the cables with friction.
     """
+    from cdprid.effects._sensor import load_cell_reading
+
     W = np.asarray(W)
-    ldot = -np.einsum("nim,ni->nm", W, np.concatenate([v, omega], axis=1))
-    out = np.zeros(ldot.shape)
-    for e in effects:
-        if e.name == "pulley_friction":
-            i = e.params["cable"] - 1
-            out[:, i] -= e.params["coulomb_N"] * np.sign(ldot[:, i])
-            out[:, i] -= e.params["viscous_Ns_per_m"] * ldot[:, i]
-    return out
+    zero = np.zeros((W.shape[0], W.shape[2]))
+    friction = [e for e in effects if e.name == "pulley_friction"]
+    return load_cell_reading(friction, zero, W, v, omega, np.zeros(W.shape[0]))
 
 
 def encoder_lengths(effects, L, tension) -> np.ndarray:
@@ -458,6 +465,12 @@ def _friction_tension(tau, q, c):
     return tau + q["coulomb"] * jnp.sign(c["ldot"]) + q["pvisc"] * c["ldot"]
 
 
+def _common_friction_tension(tau, q, c):
+    import jax.numpy as jnp
+
+    return tau + q["coulomb_all"] * jnp.sign(c["ldot"]) + q["pvisc_all"] * c["ldot"]
+
+
 def _pulley_params(flip: bool):
     def params(v, extra):
         axis = np.asarray(extra.get("pulley_axis", [0.0, 0.0, -1.0]), float)
@@ -537,6 +550,20 @@ DIAGNOSIS: dict[str, DiagnosisForm] = {
         keys=("coulomb_N", "viscous_Ns_per_m"), tension=_friction_tension,
         bounds={"coulomb_N": 100.0, "viscous_Ns_per_m": 1e3},
         nonneg=("coulomb_N", "viscous_Ns_per_m")),
+    "pulley_friction_all": DiagnosisForm(
+        blocks=(("coulomb_all", 1), ("pvisc_all", 1)), group=1,
+        keys=("coulomb_N", "viscous_Ns_per_m"), tension=_common_friction_tension,
+        params=lambda v, extra: {"cable": "all", "coulomb_N": float(v[0]),
+                                 "viscous_Ns_per_m": float(v[1])},
+        interval=lambda lo, hi, extra: {"coulomb_N": [float(lo[0]), float(hi[0])],
+                                        "viscous_Ns_per_m": [float(lo[1]), float(hi[1])]},
+        vocabulary="pulley_friction", alias="pulley_friction:cable=all",
+        bounds={"coulomb_N": 100.0, "viscous_Ns_per_m": 1e3},
+        nonneg=("coulomb_N", "viscous_Ns_per_m"),
+        separated_by={"pulley_friction": "motion of one cable at a time (friction on one "
+                      "pulley or the same on all)",
+                      "viscous_drag": "motion at several speeds (Coulomb friction does not "
+                      "grow with the speed)"}),
     "pulley_flipped": DiagnosisForm(
         blocks=(("pulley_flip", 1),), group=3, when="no_pulley", keys=("radius_m",),
         params=_pulley_params(True), vocabulary="pulley", alias="pulley:arriving_opposite",

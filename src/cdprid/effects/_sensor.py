@@ -18,7 +18,7 @@ __all__ = ["SENSOR_CHAIN", "load_cell_reading"]
 
 
 def _friction(x, p, ctx):
-    i = p["cable"] - 1
+    i = slice(None) if p["cable"] == "all" else p["cable"] - 1
     ld = ctx["ldot"][:, i]
     x[:, i] += -p["coulomb_N"] * np.sign(ld) - p["viscous_Ns_per_m"] * ld
     return x
