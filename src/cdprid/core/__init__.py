@@ -16,9 +16,11 @@ from cdprid.core._identification import group_weights as group_weights
 from cdprid.core._identification import least_squares as least_squares
 from cdprid.core._identification import least_squares_blocks as least_squares_blocks
 from cdprid.core._motion import BLOCK as BLOCK
+from cdprid.core._motion import ROTATION_WARN_DEG as ROTATION_WARN_DEG
 from cdprid.core._motion import Motion as Motion
 from cdprid.core._motion import angular_rates as angular_rates
 from cdprid.core._motion import blockwise as blockwise
+from cdprid.core._motion import rotation_angle_deg as rotation_angle_deg
 from cdprid.core._motion import estimate_motion as estimate_motion
 from cdprid.core._motion import rotation_matrices as rotation_matrices
 from cdprid.core._motion import segment_mask as segment_mask

@@ -25,8 +25,8 @@ from cdprid.io.align import AlignedSignals
 from cdprid.model._rotations import angular_rates_from_quat, quat_to_matrix
 from cdprid.signal._differentiators import differentiate
 
-__all__ = ["BLOCK", "Motion", "angular_rates", "blockwise", "estimate_motion", "rotation_matrices",
-           "segment_mask"]
+__all__ = ["BLOCK", "Motion", "ROTATION_WARN_DEG", "angular_rates", "blockwise",
+           "estimate_motion", "rotation_angle_deg", "rotation_matrices", "segment_mask"]
 
 BLOCK = 16384
 """Samples per jitted call when the per-sample rotation functions are evaluated block by block
@@ -203,3 +203,25 @@ def estimate_motion(sig: AlignedSignals, method: str = "euler-filtfilt", params:
             qd, qdd = differentiate(q, sig.dt, method=method, **params)
             om[i0:i1], al[i0:i1] = angular_rates(q, qd, qdd)
     return Motion(sig.t, sig.position, v, a, R, om, al, method, segs)
+
+
+ROTATION_WARN_DEG = 1.0
+"""Rotation (99th percentile of the angle from the mean orientation, deg) above which the
+translation model is a mismatch (its moment rows ignore I alpha and the rotating first moment)
+and ``model="auto"`` picks the full model."""
+
+
+def rotation_angle_deg(quaternion) -> float:
+    """99th percentile of the rotation angle (deg) of each sample from the mean orientation.
+
+    Parameters
+    ----------
+    quaternion : ndarray (n, 4)
+        Unit quaternions (w, x, y, z); signs may flip between samples.
+    """
+    q = np.asarray(quaternion, float)
+    q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
+    qm = q.mean(axis=0)
+    qm = qm / np.linalg.norm(qm)
+    c = np.clip(np.abs(q @ qm), 0.0, 1.0)
+    return float(np.percentile(np.degrees(2.0 * np.arccos(c)), 99))

@@ -1,6 +1,8 @@
 """Stage 1 of the diagnosis: base fit, noise levels and the null model.
 
-The paper's translation model (x = [m, m s_G]) with matched filtering; force and moment rows
+The model ``identify --model auto`` would use: the paper's translation model (x = [m, m s_G]),
+or the full 10-parameter model when the platform rotates (``Problem.rotational_base``), with
+matched filtering; force and moment rows
 weighted by the inverse of their residual RMS. The sensor noise is estimated from the data and
 drives the null residuals that calibrate the thresholds of the tests.
 """
@@ -25,13 +27,19 @@ from cdprid.signal._differentiators import differentiate
 class BaseFit:
     """The paper's model fitted to the data (before any effect)."""
 
-    x: np.ndarray  # (4,) m, m s_G
+    x: np.ndarray  # (4,) m, m s_G, or (10,) with the inertia when ``rotational``
     parameters: dict
     residual_rms: list
     residual: np.ndarray  # (n, 6) unweighted, filtered
     y: np.ndarray  # (n, 6) filtered measured wrench at theta = 0
     A4: np.ndarray  # (n, 6, 4)
     A10: np.ndarray | None  # (n, 6, 10) with rotation, else None
+    rotational: bool = False  # the base model is the full model
+
+    @property
+    def A(self) -> np.ndarray:
+        """The base model's regressors, ``(n, 6, 4)`` or ``(n, 6, 10)``."""
+        return self.A10 if self.rotational else self.A4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,11 +72,13 @@ def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
         sm = sf
     wrow = np.array([1 / sf] * 3 + [1 / sm] * 3)
     prob = dataclasses.replace(prob, wrow=wrow)
-    names = PARAMETER_NAMES["translation"]
-    x = least_squares((A4[train] * wrow[None, :, None]).reshape(-1, 4),
+    rot = bool(prob.rotational_base and A10 is not None)
+    A = A10 if rot else A4
+    names = PARAMETER_NAMES["full" if rot else "translation"]
+    x = least_squares((A[train] * wrow[None, :, None]).reshape(-1, A.shape[2]),
                       (y0[train] * wrow).reshape(-1), names).x
-    res = y0 - np.einsum("nij,j->ni", A4, x)
-    Zb, yb = A4 * wrow[None, :, None], y0 * wrow
+    res = y0 - np.einsum("nij,j->ni", A, x)
+    Zb, yb = A * wrow[None, :, None], y0 * wrow
     _, _, Vb, _ = wald(Zb[train], yb[train], [0], prob.lags)
     params = {
         nm: {"value": float(v_), "std": float(np.sqrt(Vb[i, i])),
@@ -76,7 +86,7 @@ def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
         for i, (nm, v_) in enumerate(zip(names, x, strict=True))
     }
     rms = [float(np.sqrt(np.mean(res[train][:, i] ** 2))) for i in range(6)]
-    return prob, BaseFit(x, params, rms, res, y0, A4, A10)
+    return prob, BaseFit(x, params, rms, res, y0, A4, A10, rot)
 
 
 def noise_levels(prob: Problem) -> NoiseLevels:

@@ -30,6 +30,7 @@ from cdprid.diagnosis.result import DiagnosisResult
 from cdprid.diagnosis.selection import (
     Selection,
     backward_stage,
+    finding_floor_N,
     forward_step,
     linear_model,
     start,
@@ -75,14 +76,17 @@ def summarize(prob: Problem, base: BaseFit, s: Selection, noise: NoiseLevels, se
              "rel_std_percent": float(100 * np.sqrt(V_f[i, i]) / max(abs(beta_f[i]), 1e-300))}
         for i, nm in enumerate(names)
     }
-    Zb, yb = base.A4 * wrow[None, :, None], base.y * wrow
+    Zb, yb = base.A * wrow[None, :, None], base.y * wrow
     n_eff = max(10.0, train.sum() / max(1.0, lags / 2.0))
     e_b = yb[train] - np.einsum("nip,p->ni", Zb[train], np.linalg.lstsq(
-        Zb[train].reshape(-1, 4), yb[train].reshape(-1), rcond=None)[0])
+        Zb[train].reshape(-1, Zb.shape[2]), yb[train].reshape(-1), rcond=None)[0])
     e_f = yfw[train] - np.einsum("nip,p->ni", Zfw[train], beta_f)
-    bic_b = n_eff * math.log(np.mean(e_b**2)) + 4 * math.log(n_eff)
+    bic_b = n_eff * math.log(np.mean(e_b**2)) + Zb.shape[2] * math.log(n_eff)
     bic_f = n_eff * math.log(np.mean(e_f**2)) + Zfw.shape[2] * math.log(n_eff)
     info = {
+        # the model identify --model auto uses: "full" when the platform rotates
+        "base_model": "full" if base.rotational else "translation",
+        "rotation_deg": prob.rotation_deg,
         "n_samples": int(prob.n),
         "n_train": int(train.sum()),
         "n_heldout": int(prob.test.sum()) if prob.test is not None else None,
@@ -187,6 +191,11 @@ def diagnose(
     prob, sub, lengths, notes = _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
                                          max_samples, say)
     prob, base = base_fit(prob)
+    if base.rotational:
+        notes.append(f"the platform rotates by up to {prob.rotation_deg:.2g} deg: the base model "
+                     "is the full 10-parameter model (inertia included), the one identify "
+                     "--model auto uses; rotational_dynamics is part of it, not a finding")
+        say(notes[-1])
     say(f"base fit: m = {base.x[0]:.4f} kg, force residual rms "
         f"{np.sqrt(np.mean(np.square(base.residual_rms[:3]))):.3f} N")
     noise = noise_levels(prob)
@@ -195,9 +204,11 @@ def diagnose(
     axes = np.asarray(prob.d.robot.pulley_axis, float)
     extra = {"rotation_amplitude": noise.rotation_amplitude,
              "rotation_amplitude_std": noise.rotation_amplitude_std,
-             "pulley_axis": axes[0] if np.allclose(axes, axes[0]) else axes}
+             "pulley_axis": axes[0] if np.allclose(axes, axes[0]) else axes,
+             "finding_floor_N": finding_floor_N(noise.tension_N, prob.tension[prob.use])}
     rng = np.random.default_rng(seed)
-    candidates = candidate_list(prob.m, prob.has_rotation, prob.d.robot)
+    candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational,
+                                prob.d.robot)
     s = start(prob, base)
     ranking, thr_first = [], alpha / len(candidates)
     for step in range(1, max_effects + 1):

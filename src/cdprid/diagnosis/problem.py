@@ -16,6 +16,7 @@ import numpy as np
 
 from cdprid.base._defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
 from cdprid.base._errors import UserError
+from cdprid.core._motion import ROTATION_WARN_DEG, rotation_angle_deg
 from cdprid.core._nuisance import taut_mask
 from cdprid.core._regression import wrench_matrices
 from cdprid.diagnosis.model import (
@@ -61,6 +62,11 @@ class Problem:
     n_folds: int
     lags: int
     wrow: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(6))
+    #: the platform rotates more than :data:`cdprid.core.ROTATION_WARN_DEG`: the base model is
+    #: the full (10-parameter) model, the one ``identify --model auto`` uses
+    rotational_base: bool = False
+    #: rotation of the used samples, deg (99th percentile from the mean orientation)
+    rotation_deg: float = 0.0
     #: linearisations already computed (see :func:`design`); not part of the problem's value
     cache: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
@@ -162,7 +168,9 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
                 f"--train-until {train_until:g} leaves {int(train.sum())} training and "
                 f"{int(test.sum())} held-out samples; choose a time inside the recording."
             )
+    rot_deg = rotation_angle_deg(sig.quaternion[use]) if sig.has_rotation and use.any() else 0.0
     return Problem(
+        rotational_base=bool(rot_deg > ROTATION_WARN_DEG), rotation_deg=float(rot_deg),
         d=d, layout=ThetaLayout(m), t=sig.t, position=sig.position, quaternion=sig.quaternion,
         tension=sig.tension, tau_grid=np.asarray(tau_grid), R=R, v=v, a=a, om=om, W_all=W_all,
         has_rotation=bool(sig.has_rotation), dt=dt, tdt=tdt, cutoff_hz=cutoff_hz, use=use,

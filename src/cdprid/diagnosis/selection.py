@@ -56,6 +56,8 @@ def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int
     worst, worst_gain, reason, worst_p = None, np.inf, "", 1.0
     for k, c in enumerate(accepted):
         cols = cols_of(c)
+        if not cols:  # every parameter held at its bound: nothing left of it
+            return k, f"{c.label}: every parameter at its bound", 1.0
         rest = [j for j in range(p) if j not in cols]
         rms_minus = heldout_rms(Z[:, :, rest], y)
         gain = 1.0 - rms_full / rms_minus
@@ -122,8 +124,8 @@ class Selection:
 def start(prob: Problem, base: BaseFit) -> Selection:
     """The base model as a selection without findings."""
     size = prob.layout.size
-    return Selection(np.zeros(size), np.concatenate([base.x, np.zeros(6)]), False, (), (), (),
-                     np.zeros((size, size)))
+    x = np.concatenate([base.x, np.zeros(10 - len(base.x))])
+    return Selection(np.zeros(size), x, base.rotational, (), (), (), np.zeros((size, size)))
 
 
 def linear_model(prob: Problem, s: Selection):
@@ -215,6 +217,24 @@ def score_step(prob: Problem, Zbase, y_target, cand_cols: dict, null_gen, alpha:
     return scored, pcols, yt, thr_p
 
 
+def effect_size_N(prob: Problem, s: Selection, c) -> float:
+    """The force a candidate adds to the model at ``s`` (RMS over the used samples, N):
+    its linearised columns times its parameters, force rows."""
+    idx = [i for i in prob.layout.candidate_indices(c.effect, c.cable) if i in s.active_idx]
+    if not idx:
+        return 0.0
+    _, _, C = design(prob, s.theta, s.x, s.rotational)
+    f = np.einsum("nij,j->ni", C[prob.use][:, :3][:, :, idx], s.theta[idx])
+    return float(np.sqrt(np.mean(f * f)))
+
+
+def finding_floor_N(tension_noise_N, tension) -> float:
+    """Smallest force (RMS, N) a finding may add: a tenth of the tension noise, and never
+    below 1e-3 of the median tension (noise-free data: numerical residue is not an effect)."""
+    sig = float(np.sqrt(np.mean(np.square(tension_noise_N))))
+    return max(0.1 * sig, 1e-3 * float(np.median(np.abs(tension))))
+
+
 def _negative_blocks(c, t: Selection, layout, extra) -> list:
     """Theta indices of a candidate's scalar parameters that must be >= 0 and are not."""
     form = DIAGNOSIS[c.effect]
@@ -257,10 +277,18 @@ def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: f
         # iteration is the joint linear fit, whose new coefficients are ``beta``)
         idx = layout.candidate_indices(c.effect, c.cable)
         t = refit_with(prob, s, c, extra, active_idx=sorted(set(s.active_idx) | set(idx)))
+        if not set(idx) & set(t.active_idx):
+            return None, None, float("nan"), "refits to its bounds (every parameter at 0)"
     vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
     why = implausible(c.effect, vocab)
     if why:
         return None, None, float("nan"), f"refits to an implausible value ({why})"
+    if c.effect != "rotational_dynamics":
+        size = effect_size_N(prob, t, c)
+        floor = extra.get("finding_floor_N", 0.0)
+        if size < floor:
+            return None, None, float("nan"), (f"its force, {size:.2g} N rms, is below the "
+                                              f"detection floor {floor:.2g} N")
     Z, y, _, _ = linear_model(prob, t)
     rms_after = heldout_rms(prob, Z, y)
     if rms_after > rms_before * (1 - min_gain):
@@ -350,7 +378,9 @@ def swap_stage(prob: Problem, s: Selection, candidates, min_gain: float, extra: 
         active = sorted((set(s.active_idx) - set(idx_old))
                         | set(layout.candidate_indices(alt.effect, alt.cable)))
         t = refit_with(prob, s, alt, extra, theta=theta, active_idx=active)
-        if implausible(alt.effect, vocab_params(alt, t.theta, layout, extra, t.th_cov)):
+        if implausible(alt.effect, vocab_params(alt, t.theta, layout, extra, t.th_cov)) or (
+                alt.effect != "rotational_dynamics"
+                and effect_size_N(prob, t, alt) < extra.get("finding_floor_N", 0.0)):
             break
         say(f"swap: {old.label} -> {alt.label} predicts the held-out data better")
         f = s.findings[k]

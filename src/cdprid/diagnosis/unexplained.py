@@ -444,7 +444,7 @@ def unexplained_stage(prob, Z, y, feats: dict, hints: list, tension_noise_N,
     significant so far, :func:`spectral_peak_test` and (with a significant peak's sinusoid
     removed) :func:`whiteness_test`: whiteness is about what the listed items leave. An item is
     reported when its Holm-adjusted p-value is below ``alpha`` AND its size is at least
-    :func:`materiality_floor` (a structure far below the noise is not worth a user's
+    :func:`materiality_floor` and 1e-3 of the median tension (a structure far below the noise is not worth a user's
     attention even when a long recording makes it significant). Hints of the backward
     elimination are kept under the same floor.
 
@@ -481,7 +481,9 @@ def unexplained_stage(prob, Z, y, feats: dict, hints: list, tension_noise_N,
     r_ext = heldout_residuals(Z, y, wrow, prob.use, prob.test, prob.n_folds, guard)
     mask = ~np.isnan(r_ext[:, 0])
     rms = float(np.sqrt(np.mean(r_ext[mask] ** 2))) if mask.any() else 0.0
-    floor = materiality_floor(tension_noise_N, rms)
+    # never below the findings' absolute floor (noise-free data: numerical residue)
+    floor = max(materiality_floor(tension_noise_N, rms),
+                1e-3 * float(np.median(np.abs(prob.tension[prob.use]))))
     r = heldout_residuals(np.concatenate([Z] + cols, axis=2), y, wrow, prob.use, prob.test,
                           prob.n_folds, guard) if cols else r_ext
     step = decorrelation_step(prob.filt, max(1, 4 * prob.lags))

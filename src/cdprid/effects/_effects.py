@@ -145,7 +145,9 @@ def _convert(effect: str, key: str, kind: str, value):
             try:
                 value = float(text)
             except ValueError:
-                raise InputError(f"{where} must be a number, got {text!r}.") from None
+                what = "a number" if kind != "cable" else (
+                    "a cable number 1, 2, ..." + (" or all" if effect in ALL_CABLES else ""))
+                raise InputError(f"{where} must be {what}, got {text!r}.") from None
     if kind in ("vec3", "vec2"):
         n = 3 if kind == "vec3" else 2
         try:

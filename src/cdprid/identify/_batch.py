@@ -27,7 +27,12 @@ import numpy as np
 from cdprid.base._defaults import TRIM_S
 from cdprid.base._errors import InputError
 from cdprid.core._identification import LSResult, least_squares_blocks
-from cdprid.core._motion import Motion, estimate_motion
+from cdprid.core._motion import (  # noqa: F401  (re-exported by cdprid.identify)
+    ROTATION_WARN_DEG,
+    Motion,
+    estimate_motion,
+    rotation_angle_deg,
+)
 from cdprid.core._physical import inertia_about_com, physical_fit, physical_warnings
 from cdprid.core._regression import (
     CHUNK,
@@ -62,11 +67,6 @@ DEFAULT_TRIM_S = TRIM_S
 
 MODELS = ("auto", "translation", "full")
 WRENCH_FILTERS = ("matched", "none")
-
-ROTATION_WARN_DEG = 1.0
-"""Rotation (99th percentile of the angle from the mean orientation, deg) above which the
-translation model is a mismatch (its moment rows ignore I alpha and the rotating first moment)
-and ``model="auto"`` picks the full model."""
 
 COND_WARN = 1.0e3
 """Scaled condition number of W_ID above which the excitation is reported as too little."""
@@ -166,22 +166,6 @@ class IdentificationReport:
         if self.model == "full":
             out["inertia_about"] = self.inertia_about_text
         return out
-
-
-def rotation_angle_deg(quaternion) -> float:
-    """99th percentile of the rotation angle (deg) of each sample from the mean orientation.
-
-    Parameters
-    ----------
-    quaternion : ndarray (n, 4)
-        Unit quaternions (w, x, y, z); signs may flip between samples.
-    """
-    q = np.asarray(quaternion, float)
-    q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
-    qm = q.mean(axis=0)
-    qm = qm / np.linalg.norm(qm)
-    c = np.clip(np.abs(q @ qm), 0.0, 1.0)
-    return float(np.percentile(np.degrees(2.0 * np.arccos(c)), 99))
 
 
 def _choose_model(model: str, sig: AlignedSignals, path) -> tuple[str, float, list]:
