@@ -20,8 +20,8 @@ from cdprid.core._motion import ROTATION_WARN_DEG as ROTATION_WARN_DEG
 from cdprid.core._motion import Motion as Motion
 from cdprid.core._motion import angular_rates as angular_rates
 from cdprid.core._motion import blockwise as blockwise
-from cdprid.core._motion import rotation_angle_deg as rotation_angle_deg
 from cdprid.core._motion import estimate_motion as estimate_motion
+from cdprid.core._motion import rotation_angle_deg as rotation_angle_deg
 from cdprid.core._motion import rotation_matrices as rotation_matrices
 from cdprid.core._motion import segment_mask as segment_mask
 from cdprid.core._noise import estimate_noise as estimate_noise
