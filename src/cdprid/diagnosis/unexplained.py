@@ -445,8 +445,8 @@ def unexplained_stage(prob, Z, y, feats: dict, hints: list, tension_noise_N,
     removed) :func:`whiteness_test`: whiteness is about what the listed items leave. An item is
     reported when its Holm-adjusted p-value is below ``alpha`` AND its size is at least
     :func:`materiality_floor` and 1e-3 of the median tension (a structure far below the
-    noise is not worth a user's attention even when a long recording makes it significant). Hints of the backward
-    elimination are kept under the same floor.
+    noise is not worth a user's attention even when a long recording makes it significant).
+    Hints of the backward elimination are kept under the same floor.
 
     Parameters
     ----------
