@@ -43,6 +43,11 @@ class ThetaLayout:
                 i += n
         self.slices = sl
         self.size = i
+        #: theta indices of the scalar parameters that must be >= 0 (a form's ``nonneg``)
+        self.nonneg = frozenset(
+            j for form in DIAGNOSIS.values()
+            for key, (name, size) in zip(form.keys, form.blocks, strict=False)
+            if size == 1 and key in form.nonneg for j in range(sl[name].start, sl[name].stop))
 
     def unpack(self, theta):
         """Theta as named blocks: per-cable blocks ``(m,)`` or ``(m, size)``, global scalars

@@ -24,6 +24,7 @@ from cdprid.base._defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
 from cdprid.diagnosis.base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from cdprid.diagnosis.budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis.candidates import candidate_list
+from cdprid.diagnosis.clock import clock_stage
 from cdprid.diagnosis.lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis.problem import Problem, force_heldout_rms, measured, prepare
 from cdprid.diagnosis.result import DiagnosisResult
@@ -205,11 +206,12 @@ def diagnose(
     extra = {"rotation_amplitude": noise.rotation_amplitude,
              "rotation_amplitude_std": noise.rotation_amplitude_std,
              "pulley_axis": axes[0] if np.allclose(axes, axes[0]) else axes,
-             "finding_floor_N": finding_floor_N(noise.tension_N, prob.tension[prob.use])}
+             "finding_floor_N": finding_floor_N(prob.tension[prob.use])}
     rng = np.random.default_rng(seed)
     candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational,
                                 prob.d.robot)
-    s = start(prob, base)
+    s, clock_info = clock_stage(prob, base, start(prob, base), candidates, alpha, min_gain,
+                                extra, say)
     ranking, thr_first = [], alpha / len(candidates)
     for step in range(1, max_effects + 1):
         # null replicates calibrate the first step's threshold; later steps reuse it
@@ -236,6 +238,7 @@ def diagnose(
                 "n_candidates": len(candidates), "alpha": alpha}
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, settings)
     info["unexplained_rule"], info["lengths"] = rule, el_info
+    info["clock_profile"] = clock_info
     info["wall_time_s"] = time.perf_counter() - t0
     if sub is not None:
         info["subset"] = sub.as_json()

@@ -29,7 +29,6 @@ from cdprid.diagnosis.refit import refit_gauss_newton
 from cdprid.diagnosis.result import Finding
 from cdprid.diagnosis.testing import aliases_of, partial_wald, partial_wald_many
 from cdprid.diagnosis.unexplained import structure_tests
-from cdprid.effects._effects import DIAGNOSIS
 
 
 def finding_columns(c: Candidate, layout: ThetaLayout, active_idx: list, n_model: int) -> list:
@@ -37,7 +36,7 @@ def finding_columns(c: Candidate, layout: ThetaLayout, active_idx: list, n_model
     if c.effect == "rotational_dynamics":
         return list(range(4, n_model))
     idx = layout.candidate_indices(c.effect, c.cable)
-    # a parameter held at its bound (see :func:`refit_with`) has no column
+    # a parameter held at its bound (see :func:`refit`) has no column
     return [n_model + active_idx.index(i) for i in idx if i in active_idx]
 
 
@@ -140,16 +139,30 @@ def linear_model(prob: Problem, s: Selection):
 
 def refit(prob: Problem, s: Selection, theta=None, active_idx=None, rotational=None,
           x=None) -> Selection:
-    """Nonlinear refit (Gauss-Newton) of the active effects with x, from the given start."""
-    theta = s.theta if theta is None else theta
+    """Nonlinear refit (Gauss-Newton) of the active effects with x, from the given start.
+
+    A parameter that must be >= 0 (friction, drag, cable mass, pulley radius) and refits
+    negative is held at its bound 0 and the others refitted (an active-set step, at most
+    three): a coefficient that is zero in truth (a friction without viscous part) then does
+    not make its effect implausible or pull the others.
+    """
+    theta = np.array(s.theta if theta is None else theta, float)
     active = list(s.active_idx if active_idx is None else active_idx)
     rot = s.rotational if rotational is None else rotational
     x0 = s.x if x is None else x
-    theta, x_new, th_cov, lin = refit_gauss_newton(functools.partial(design, prob), theta, x0,
-                                                   active, rot, prob.wrow, prob.train, prob.lags)
+    for _ in range(4):
+        th, x_new, th_cov, lin = refit_gauss_newton(functools.partial(design, prob), theta,
+                                                    x0, active, rot, prob.wrow, prob.train,
+                                                    prob.lags)
+        neg = [i for i in active if i in prob.layout.nonneg and th[i] < 0]
+        if not neg:
+            break
+        theta = np.array(th, float)
+        theta[neg] = 0.0
+        active = [i for i in active if i not in neg]
     if lin is not None:
-        seed_design(prob, theta, x_new, rot, lin)
-    return dataclasses.replace(s, theta=theta, x=x_new, rotational=rot,
+        seed_design(prob, th, x_new, rot, lin)
+    return dataclasses.replace(s, theta=th, x=x_new, rotational=rot,
                                active_idx=tuple(active), th_cov=th_cov)
 
 
@@ -218,49 +231,24 @@ def score_step(prob: Problem, Zbase, y_target, cand_cols: dict, null_gen, alpha:
 
 
 def effect_size_N(prob: Problem, s: Selection, c) -> float:
-    """The force a candidate adds to the model at ``s`` (RMS over the used samples, N):
-    its linearised columns times its parameters, force rows."""
+    """The wrench a candidate adds to the model at ``s``, as a force (RMS over the used
+    samples, N): its linearised columns times its parameters; the larger of the force rows
+    and the moment rows divided by the platform's radius (an attachment error acts through
+    the moment)."""
     idx = [i for i in prob.layout.candidate_indices(c.effect, c.cable) if i in s.active_idx]
     if not idx:
         return 0.0
     _, _, C = design(prob, s.theta, s.x, s.rotational)
-    f = np.einsum("nij,j->ni", C[prob.use][:, :3][:, :, idx], s.theta[idx])
-    return float(np.sqrt(np.mean(f * f)))
+    w = np.einsum("nij,j->ni", C[prob.use][:, :, idx], s.theta[idx])
+    radius = max(float(np.median(np.linalg.norm(np.asarray(prob.d.robot.P_b), axis=1))), 1e-3)
+    return float(max(np.sqrt(np.mean(w[:, :3] ** 2)), np.sqrt(np.mean(w[:, 3:] ** 2)) / radius))
 
 
-def finding_floor_N(tension_noise_N, tension) -> float:
-    """Smallest force (RMS, N) a finding may add: a tenth of the tension noise, and never
-    below 1e-3 of the median tension (noise-free data: numerical residue is not an effect)."""
-    sig = float(np.sqrt(np.mean(np.square(tension_noise_N))))
-    return max(0.1 * sig, 1e-3 * float(np.median(np.abs(tension))))
-
-
-def _negative_blocks(c, t: Selection, layout, extra) -> list:
-    """Theta indices of a candidate's scalar parameters that must be >= 0 and are not."""
-    form = DIAGNOSIS[c.effect]
-    vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
-    idx = layout.candidate_indices(c.effect, c.cable)
-    out, i = [], 0
-    for key, (_, size) in zip(form.keys, form.blocks, strict=False):
-        if size == 1 and key in form.nonneg and vocab.get(key, 0.0) < 0:
-            out.append(idx[i])
-        i += size
-    return out
-
-
-def refit_with(prob: Problem, s: Selection, c, extra: dict, theta=None,
-               active_idx=None) -> Selection:
-    """Refit with candidate ``c`` active; a parameter that must be >= 0 and comes out
-    negative is held at its bound 0 (an active-set step) and the others refitted: a
-    coefficient that is zero in truth (a friction without its viscous part) then does not
-    make the whole effect implausible."""
-    t = refit(prob, s, theta=theta, active_idx=active_idx)
-    neg = _negative_blocks(c, t, prob.layout, extra)
-    if neg:
-        th = t.theta.copy()
-        th[neg] = 0.0
-        t = refit(prob, s, theta=th, active_idx=[i for i in t.active_idx if i not in neg])
-    return t
+def finding_floor_N(tension) -> float:
+    """Smallest force (RMS, N) a finding may add: 1e-3 of the median tension. The tests
+    decide on noisy data; this floor keeps numerical residue (noise-free data, a 20 um
+    attachment error, a 4e-5 kg/m cable mass) from being named."""
+    return 1e-3 * float(np.median(np.abs(tension)))
 
 
 def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: float,
@@ -276,7 +264,7 @@ def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: f
         # Gauss-Newton from the current linearisation (already computed: its first
         # iteration is the joint linear fit, whose new coefficients are ``beta``)
         idx = layout.candidate_indices(c.effect, c.cable)
-        t = refit_with(prob, s, c, extra, active_idx=sorted(set(s.active_idx) | set(idx)))
+        t = refit(prob, s, active_idx=sorted(set(s.active_idx) | set(idx)))
         if not set(idx) & set(t.active_idx):
             return None, None, float("nan"), "refits to its bounds (every parameter at 0)"
     vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
@@ -377,7 +365,7 @@ def swap_stage(prob: Problem, s: Selection, candidates, min_gain: float, extra: 
         theta[idx_old] = 0.0
         active = sorted((set(s.active_idx) - set(idx_old))
                         | set(layout.candidate_indices(alt.effect, alt.cable)))
-        t = refit_with(prob, s, alt, extra, theta=theta, active_idx=active)
+        t = refit(prob, s, theta=theta, active_idx=active)
         if implausible(alt.effect, vocab_params(alt, t.theta, layout, extra, t.th_cov)) or (
                 alt.effect != "rotational_dynamics"
                 and effect_size_N(prob, t, alt) < extra.get("finding_floor_N", 0.0)):

@@ -495,7 +495,7 @@ _GAIN_VS_GEOMETRY = ("the same poses at two pretension levels (a gain scales wit
 #: on the lengths stream by :mod:`cdprid.diagnosis.lengths`, not through theta)
 DIAGNOSIS: dict[str, DiagnosisForm] = {
     "time_delay": DiagnosisForm(
-        blocks=(("delay", 1),), group=0, keys=("delay_s",), bounds={"delay_s": 0.5},
+        blocks=(("delay", 1),), group=0, keys=("delay_s",), bounds={"delay_s": 0.5}, clock=True,
         # first-order expansion about the linearisation point: exact in value and slope
         tension=lambda tau, q, c: tau + (q["delay"] - c["at"]["delay"]) * c["taud"],
         separated_by={"viscous_drag": "faster motion with the same velocities (a delay "

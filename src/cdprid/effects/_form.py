@@ -53,6 +53,9 @@ class DiagnosisForm:
         Parameters that must lie in an open interval after a refit.
     separated_by : dict
         Other effect -> what trajectory or measurement would tell the two apart.
+    clock : bool
+        The effect is the tension stream's clock offset (profiled first, see
+        :mod:`cdprid.diagnosis.clock`).
     tension, geometry, leave, gravity, load, model : callable, optional
         The effect's physics in the diagnosis's forward model, JAX, applied in the order of
         :data:`DIAGNOSIS` at each stage of :func:`cdprid.diagnosis.model.cable_contribution`
@@ -79,6 +82,9 @@ class DiagnosisForm:
     nonneg: tuple = ()
     ranges: dict = dataclasses.field(default_factory=dict)
     separated_by: dict = dataclasses.field(default_factory=dict)
+    #: the effect shifts the tension stream's clock (its one block is the delay in s): the
+    #: diagnosis profiles it before the greedy search and keeps it in every refit
+    clock: bool = False
     tension: object = None
     geometry: object = None
     leave: object = None
