@@ -10,6 +10,8 @@ from cdprid.core._covariance import hac_covariance_blocks as hac_covariance_bloc
 from cdprid.core._covariance import iid_covariance as iid_covariance
 from cdprid.core._covariance import sample_scores as sample_scores
 from cdprid.core._covariance import std_from_cov as std_from_cov
+from cdprid.core._crb import CRBResult as CRBResult
+from cdprid.core._crb import crb as crb
 from cdprid.core._identification import LSResult as LSResult
 from cdprid.core._identification import condition_number as condition_number
 from cdprid.core._identification import group_weights as group_weights

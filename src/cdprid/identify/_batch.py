@@ -26,6 +26,7 @@ import numpy as np
 
 from cdprid.base._defaults import TRIM_S
 from cdprid.base._errors import InputError
+from cdprid.core._crb import CRBResult, crb
 from cdprid.core._identification import LSResult, least_squares_blocks
 from cdprid.core._motion import (  # noqa: F401  (re-exported by cdprid.identify)
     ROTATION_WARN_DEG,
@@ -33,6 +34,7 @@ from cdprid.core._motion import (  # noqa: F401  (re-exported by cdprid.identify
     estimate_motion,
     rotation_angle_deg,
 )
+from cdprid.core._noise import estimate_noise
 from cdprid.core._physical import inertia_about_com, physical_fit, physical_warnings
 from cdprid.core._regression import (
     CHUNK,
@@ -116,6 +118,9 @@ class IdentificationReport:
     inertia_about: str = "P"
     wrench_filter: str = "matched"
     rotation_deg: float = 0.0
+    #: the Cramer-Rao bound of this recording (:func:`cdprid.core.crb`), None when not
+    #: computed or not computable
+    crb: CRBResult | None = None
 
     @property
     def inertia_about_text(self) -> str:
@@ -132,23 +137,41 @@ class IdentificationReport:
         x, J = inertia_about_com(r.x)
         return r.names, x, J @ r.cov @ J.T, J @ cov_iid @ J.T
 
+    def crb_std(self) -> np.ndarray | None:
+        """The Cramer-Rao bound's std per parameter (inertia about the chosen point)."""
+        if self.crb is None:
+            return None
+        cov = self.crb.cov
+        if self.model == "full" and self.inertia_about == "G":
+            _, J = inertia_about_com(self.result.x)
+            cov = J @ cov @ J.T
+        return np.sqrt(np.clip(np.diag(cov), 0, None))
+
     def parameters(self) -> dict:
-        """``{name: {"value", "std", "rel_std_percent", "std_iid"}}`` (JSON ``parameters``)."""
+        """``{name: {"value", "std", "rel_std_percent", "std_iid", "crb_std", "efficiency"}}``
+        (JSON ``parameters``; the last two null when the bound was not computed)."""
         names, x, cov, cov_iid = self.estimates()
         s = np.sqrt(np.clip(np.diag(cov), 0, None))
         si = np.sqrt(np.clip(np.diag(cov_iid), 0, None))
+        cs = self.crb_std()
         with np.errstate(divide="ignore"):
             rel = 100.0 * s / np.abs(x)
-        return {n: {"value": float(v), "std": float(a), "rel_std_percent": float(c),
-                    "std_iid": float(b)}
-                for n, v, a, c, b in zip(names, x, s, rel, si, strict=True)}
+        out = {}
+        for k, (n, v, a, c, b) in enumerate(zip(names, x, s, rel, si, strict=True)):
+            out[n] = {"value": float(v), "std": float(a), "rel_std_percent": float(c),
+                      "std_iid": float(b), "crb_std": None, "efficiency": None}
+            if cs is not None and cs[k] > 0:
+                out[n]["crb_std"] = float(cs[k])
+                out[n]["efficiency"] = float(a / cs[k])
+        return out
 
     def as_json(self) -> dict:
         """The JSON contract of ``cdprid identify --json``."""
         r = self.result
+        params = self.parameters()
         out = {
             "model": self.model,
-            "parameters": self.parameters(),
+            "parameters": params,
             "sigma_rho": r.sigma_rho,
             "cond": r.cond,
             "cond_scaled": r.cond_scaled,
@@ -160,6 +183,11 @@ class IdentificationReport:
             "hac_bandwidth_samples": r.hac_bandwidth if r.covariance == "hac" else None,
             "wrench_filter": self.wrench_filter,
             "rotation_deg": self.rotation_deg,
+            "crb_std": {k: v["crb_std"] for k, v in params.items()},
+            "efficiency": {k: v["efficiency"] for k, v in params.items()},
+            "crb": None if self.crb is None else {
+                "note": self.crb.note, "knot_spacing_s": self.crb.knot_spacing_s,
+                "noise": self.crb.noise},
             "warnings": list(self.warnings),
             "notes": list(self.notes),
         }
@@ -326,6 +354,7 @@ def identify_dataset(
     wrench_filter: str | None = None,
     inertia_about: str = "P",
     chunk: int = CHUNK,
+    bound: bool = True,
 ) -> IdentificationReport:
     """Identify the platform's dynamic parameters from a dataset.
 
@@ -360,6 +389,9 @@ def identify_dataset(
         Time samples per block: the regressor is evaluated and reduced block by block
         (:func:`cdprid.core.least_squares_blocks`), so memory does not grow with
         ``n x 6 x p``; the result does not depend on it (to rounding).
+    bound : bool
+        Compute the recording's Cramer-Rao bound (:func:`cdprid.core.crb`, noise levels
+        estimated from the data) for ``crb_std`` and ``efficiency``.
 
     Returns
     -------
@@ -402,9 +434,47 @@ def identify_dataset(
     w3, n3 = physical_warnings(res.x, model, res.cov)
     warns += w3
     notes += n3
+    bnd = None
+    if bound:
+        bnd, why = recording_bound(ds, sig, motion, keep, model, res.x)
+        if why:
+            notes.append(why)
     return IdentificationReport(res, model, differentiator, params, int(keep.sum()), sig, motion,
                                 reg, tuple(notes), tuple(warns), inertia_about, wrench_filter,
-                                rot)
+                                rot, bnd)
+
+
+def recording_bound(ds: Dataset, sig: AlignedSignals, motion: Motion, keep, model: str,
+                    x) -> tuple[CRBResult | None, str]:
+    """The Cramer-Rao bound of the samples ``keep`` with noise levels from the data.
+
+    Tension noise per cable from the raw stream (4th differences), scaled to a pose sample
+    by the tension samples per pose sample; position and orientation noise from the pose
+    stream. Returns ``(bound, '')`` or ``(None, why)`` when it cannot be computed.
+    """
+    tt = np.asarray(ds.tension_t, float)
+    per_pose = max(1.0, sig.dt / float(np.median(np.diff(tt)))) if len(tt) > 1 else 1.0
+    s_tau = estimate_noise(np.asarray(ds.tension, float)) / np.sqrt(per_pose)
+    s_pos = float(np.median(estimate_noise(sig.position)))
+    s_rot = None
+    if ds.quaternion is not None:
+        q = np.asarray(sig.quaternion, float)
+        q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
+        s_rot = float(np.median(estimate_noise(2.0 * q[:, 1:])))  # small angles: 2 q_xyz
+    k = np.asarray(keep, bool)
+    try:
+        with np.errstate(all="ignore"):
+            b = crb(ds.robot, model, x, motion.t[k], motion.position[k], motion.B_R_P[k],
+                    motion.acceleration[k], motion.omega[k], motion.alpha[k],
+                    np.asarray(sig.tension)[k], s_tau, s_pos, s_rot)
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError) as e:
+        return None, f"Cramer-Rao bound not computed ({e})"
+    if not np.all(np.isfinite(b.std)) or not np.all(b.std > 0):
+        return None, "Cramer-Rao bound not computed (the information matrix is singular)"
+    noise = {**b.noise, "tension_N": [float(v) for v in s_tau * np.sqrt(per_pose)],
+             "tension_samples_per_pose_sample": float(per_pose),
+             "source": "estimated from the data (4th differences)"}
+    return dataclasses.replace(b, noise=noise), ""
 
 
 def physical_report(rep: IdentificationReport) -> IdentificationReport:
@@ -442,10 +512,14 @@ def format_table(rep: IdentificationReport) -> str:
     kind = "HAC" if r.covariance == "hac" else "iid, eq. 20"
     lines = [
         f"model: {rep.model}   differentiator: {rep.differentiator}   samples: {rep.n_samples}",
-        f"{'parameter':<10} {'estimate':>14} {'sigma':>12} {'%sigma':>9}   (sigma: {kind})",
+        f"{'parameter':<10} {'estimate':>14} {'sigma':>12} {'%sigma':>9} {'CRB':>11} "
+        f"{'sigma/CRB':>9}   (sigma: {kind}; CRB: the recording's Cramer-Rao bound)",
     ]
-    for n, v, s, p in zip(names, x, std, rel, strict=True):
-        lines.append(f"{n:<10} {v:>14.6g} {s:>12.4g} {p:>9.3g}")
+    cs = rep.crb_std()
+    for k, (n, v, s, p) in enumerate(zip(names, x, std, rel, strict=True)):
+        b = (f" {cs[k]:>11.4g} {s / cs[k]:>9.3g}" if cs is not None and cs[k] > 0
+             else f" {'-':>11} {'-':>9}")
+        lines.append(f"{n:<10} {v:>14.6g} {s:>12.4g} {p:>9.3g}{b}")
     lines.append(f"sigma_rho = {r.sigma_rho:.4g}   cond(W_ID) = {r.cond:.4g}   "
                  f"cond scaled = {r.cond_scaled:.4g}")
     if rep.model == "full":
