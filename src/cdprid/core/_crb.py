@@ -28,6 +28,7 @@ import functools
 import jax
 import jax.numpy as jnp
 import numpy as np
+from scipy.linalg import solveh_banded
 
 from cdprid.model._dynamics import regressor_full, regressor_translation
 from cdprid.model._geometry import wrench_matrix
@@ -174,13 +175,19 @@ def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, te
         obs[:, idx[:, None], idx[None, :]] += inv_var[d] * b[:, :, None] * b[:, None, :]
     Icc_loc = Icc_loc + obs
     p = Y.shape[2]
-    Itc = np.zeros((p, nc))
-    Icc = np.zeros((nc, nc))
-    np.add.at(Itc, (slice(None), cols), np.moveaxis(Itc_loc, 1, 0))
-    np.add.at(Icc, (cols[:, :, None], cols[:, None, :]), Icc_loc)
+    # scatter-add of the local blocks (bincount: one pass over the samples)
+    Itc = np.stack([np.bincount(cols.ravel(), weights=Itc_loc[:, j, :].ravel(), minlength=nc)
+                    for j in range(p)])
+    flat = (cols[:, :, None] * nc + cols[:, None, :]).ravel()
+    Icc = np.bincount(flat, weights=Icc_loc.ravel(), minlength=nc * nc).reshape(nc, nc)
     ridge = 1e-12 * float(np.max(np.diag(Icc)))
     Icc[np.diag_indices(nc)] += ridge
-    S = Itt - Itc @ np.linalg.solve(Icc, Itc.T)
+    # I_cc is banded (a sample touches 4 consecutive knots): banded Cholesky solve
+    bw = 4 * ndof - 1
+    ab = np.zeros((bw + 1, nc))
+    for d in range(bw + 1):
+        ab[d, :nc - d] = np.diagonal(Icc, -d)
+    S = Itt - Itc @ solveh_banded(ab, Itc.T, lower=True)
     cov = np.linalg.pinv(0.5 * (S + S.T))
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     noise = {"tension_N": [float(v) for v in np.sqrt(s2)], "position_m": float(position_std),
