@@ -4,7 +4,7 @@
 # In CI (CI=true): the slow tests run too. Extra arguments are passed to pytest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/setup.sh test
+bash scripts/setup.sh test,cluster
 SEL=()
 if [ "${CI:-}" = "true" ]; then SEL=(-m "slow or not slow"); fi
 echo "[test] running the test suite ${SEL[*]:-(slow tests deselected)}"

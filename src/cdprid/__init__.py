@@ -45,6 +45,7 @@ _LAZY = {
     "identify_dataset": (".identify", "identify_dataset"),
     "DiagnosisResult": (".diagnosis", "DiagnosisResult"),
     "diagnose": (".diagnosis", "diagnose"),
+    "run_sweep": (".base", "run_sweep"),
     "VOCABULARY": (".effects", "VOCABULARY"),
     "Effect": (".effects", "Effect"),
     "OnlineStepper": (".identify", "OnlineStepper"),
