@@ -206,7 +206,8 @@ def diagnose(
     extra = {"rotation_amplitude": noise.rotation_amplitude,
              "rotation_amplitude_std": noise.rotation_amplitude_std,
              "pulley_axis": axes[0] if np.allclose(axes, axes[0]) else axes,
-             "finding_floor_N": finding_floor_N(prob.tension[prob.use])}
+             "finding_floor_N": finding_floor_N(prob.tension[prob.use]),
+             "base_mass_kg": float(base.x[0])}
     rng = np.random.default_rng(seed)
     candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational,
                                 prob.d.robot)

@@ -251,6 +251,25 @@ def finding_floor_N(tension) -> float:
     return 1e-3 * float(np.median(np.abs(tension)))
 
 
+#: the extended model's mass may differ from the base model's by this factor at most (an
+#: effect that needs more is compensating something else, not explaining it)
+MASS_RATIO = 2.0
+
+
+def model_implausible(prob: Problem, t: Selection, extra: dict) -> str:
+    """A reason when the jointly refitted model is implausible, else '': an earlier
+    finding pushed outside its plausible range, or a mass changed by more than
+    :data:`MASS_RATIO` from the base model's."""
+    for c in t.accepted:
+        why = implausible(c.effect, vocab_params(c, t.theta, prob.layout, extra, t.th_cov))
+        if why:
+            return f"{c.label} becomes {why}"
+    m0 = extra.get("base_mass_kg")
+    if m0 and not (m0 / MASS_RATIO < t.x[0] < m0 * MASS_RATIO):
+        return f"the mass becomes {t.x[0]:.3g} kg (base model {m0:.3g} kg)"
+    return ""
+
+
 def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: float,
                   extra: dict):
     """Add one candidate, refit, and check plausibility and the held-out gain after the refit.
@@ -268,7 +287,7 @@ def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: f
         if not set(idx) & set(t.active_idx):
             return None, None, float("nan"), "refits to its bounds (every parameter at 0)"
     vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
-    why = implausible(c.effect, vocab)
+    why = implausible(c.effect, vocab) or model_implausible(prob, t, extra)
     if why:
         return None, None, float("nan"), f"refits to an implausible value ({why})"
     if c.effect != "rotational_dynamics":
@@ -367,6 +386,7 @@ def swap_stage(prob: Problem, s: Selection, candidates, min_gain: float, extra: 
                         | set(layout.candidate_indices(alt.effect, alt.cable)))
         t = refit(prob, s, theta=theta, active_idx=active)
         if implausible(alt.effect, vocab_params(alt, t.theta, layout, extra, t.th_cov)) or (
+                model_implausible(prob, t, extra)) or (
                 alt.effect != "rotational_dynamics"
                 and effect_size_N(prob, t, alt) < extra.get("finding_floor_N", 0.0)):
             break
