@@ -30,6 +30,10 @@ from cdprid.diagnosis.result import Finding
 from cdprid.diagnosis.selection import Selection, linear_model, refit
 from cdprid.effects._effects import DIAGNOSIS
 
+#: the clock is accepted first only when it improves the held-out residual by this much (a
+#: dominant clock offset); smaller offsets are left to the greedy search
+FIRST_GAIN = 0.03
+
 #: delays profiled, s (every 2 ms within +-0.1 s)
 GRID_S = np.round(np.arange(-0.1, 0.1 + 1e-9, 0.002), 6)
 
@@ -86,6 +90,11 @@ def clock_stage(prob: Problem, base, s: Selection, candidates, alpha: float, min
     idx = prob.layout.candidate_indices(c.effect, c.cable)
     Z, y, _, _ = linear_model(prob, s)
     rms_before = heldout_rms(prob, Z, y)
+    gain = max(min_gain, FIRST_GAIN)
+    if float(np.min(prof)) > rms_before * (1 - gain):
+        say(f"clock: the profile's best shift improves the held-out residual by less than "
+            f"{100 * gain:g} %; left to the greedy search")
+        return s, info
     theta = np.array(s.theta, float)
     theta[idx] = d0
     t = refit(prob, s, theta=theta, active_idx=sorted(set(s.active_idx) | set(idx)))
@@ -97,7 +106,7 @@ def clock_stage(prob: Problem, base, s: Selection, candidates, alpha: float, min
     thr = alpha / len(candidates)
     vocab = vocab_params(c, t.theta, prob.layout, extra, t.th_cov)
     why = implausible(c.effect, vocab)
-    if why or not p < thr or rms_after > rms_before * (1 - min_gain):
+    if why or not p < thr or rms_after > rms_before * (1 - gain):
         say(f"clock: {c.label} at {1e3 * t.theta[idx[0]]:+.1f} ms not accepted first "
             f"(p = {p:.2e}, held-out {rms_before:.4f} -> {rms_after:.4f}"
             + (f", {why}" if why else "") + "); left to the greedy search")
