@@ -200,6 +200,11 @@ def test_coulomb_outside_vocabulary_is_unexplained_like_cable_velocity_sign(tmp_
     assert js["findings"] == []
     assert js["unexplained"][0]["correlates_with"] == "sign of cable velocity"
     assert js["unexplained"][0]["p_value"] < 1e-3
+    # its size in its own units: +1.5 N on every load cell, the sign opposite to friction
+    u = js["unexplained"][0]
+    assert u["sign"] == "opposite to pulley friction"
+    assert np.allclose(u["coulomb_N_per_cable"], 1.5, rtol=0.25), u["coulomb_N_per_cable"]
+    assert "separated_by" in u
 
 
 @pytest.mark.slow

@@ -424,6 +424,44 @@ def remove_sinusoid(r, mask, dt: float, f_hz: float):
     return out
 
 
+#: per structure signal: what measurement or trajectory would tell its cause apart
+SEPARATED_BY = {
+    "sign of cable velocity": (
+        "motion at several speeds and in both directions of each cable (a Coulomb force keeps "
+        "its size and flips with the direction; pulley friction seen by a load cell on the "
+        "winch side has the negative sign, in the vocabulary as pulley_friction)"),
+    "tension level": ("a calibration of the load cells with known weights (a nonlinear cell "
+                      "is wrong by the same amount at the same tension, whatever the pose)"),
+    "pose": ("a geometric calibration (exit points, attachments) or the same poses at two "
+             "pretension levels (a geometry error follows the pose, a sensor error the "
+             "tension)"),
+    "time (slow drift)": ("a zero reading at rest at the start and the end of the recording "
+                          "(a drift grows with the clock; per load cell it is tension_drift)"),
+}
+
+
+def in_own_units(u: dict, prob) -> dict:
+    """A structure's size in its own units and one sentence on what would separate it:
+    the Coulomb level per cable (N, in the convention of the load-cell reading: negative like
+    pulley friction), the drift rate per force axis (N/s)."""
+    name, coef = u.get("correlates_with"), u.get("coefficients")
+    out = {}
+    if name in SEPARATED_BY:
+        out["separated_by"] = SEPARATED_BY[name]
+    if name == "sign of cable velocity" and coef and len(coef) == prob.m:
+        out["coulomb_N_per_cable"] = [float(c) for c in coef]
+        sig = [c for c in coef if abs(c) > 0.1 * max(abs(x) for x in coef)]
+        out["sign"] = ("like pulley friction" if all(c < 0 for c in sig) else
+                       "opposite to pulley friction" if all(c > 0 for c in sig) else "mixed")
+    if name == "time (slow drift)" and coef and len(coef) == 9:
+        clk = np.asarray(prob.d.clock)[prob.use]
+        span = float(np.ptp(clk)) if clk.size else 0.0
+        if span > 0:  # the degree-1 Legendre term: s = 2 (t - t0) / T - 1
+            out["rate_N_per_s"] = {ax: float(coef[3 * j] * 2.0 / span)
+                                   for j, ax in enumerate("xyz")}
+    return out
+
+
 def materiality_floor(tension_noise_N, residual_rms_N: float) -> float:
     """Smallest size (N) worth reporting: :data:`MATERIAL_FRACTION` of the noise scale.
 
@@ -499,7 +537,7 @@ def unexplained_stage(prob, Z, y, feats: dict, hints: list, tension_noise_N,
         u.update(p_value=float(p), floor_N=floor,
                  significant=bool(p < alpha and u["size"] >= floor))
         if u["significant"]:
-            items.append(u)
+            items.append({**u, **in_own_units(u, prob)})
     kept_hints = [{**h, "floor_N": floor, "test": "backward elimination (hint)"}
                   for h in hints if h["size"] >= floor]
     rule = {
