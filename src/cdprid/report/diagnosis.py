@@ -98,6 +98,34 @@ def unexplained_figure(result, out: Path) -> Path:
     return save_fig(fig, out / "unexplained.png")
 
 
+def clock_figure(result, out: Path) -> Path | None:
+    """The clock stage's held-out profile over tension clock offsets (None without one)."""
+    prof = result.info.get("clock_profile") or {}
+    if not prof.get("delay_s"):
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cdprid.report.figures import save_fig
+
+    fig, ax = plt.subplots(figsize=(6.4, 3.2))
+    d = 1e3 * np.asarray(prof["delay_s"])
+    ax.plot(d, prof["heldout_rms"], "-", color="tab:blue")
+    ax.axvline(1e3 * prof["minimum_s"], color="tab:red", ls="--",
+               label=f"profile minimum {1e3 * prof['minimum_s']:+.1f} ms")
+    for f in result.findings:
+        if "delay_s" in f.parameters:
+            lo, hi = (1e3 * v for v in f.interval["delay_s"])
+            ax.axvspan(lo, hi, color="tab:green", alpha=0.3, label="finding (95 %)")
+    ax.set_xlabel("tension clock offset (ms)")
+    ax.set_ylabel("held-out rms (weighted)")
+    ax.set_title("clock stage: base model with the tension stream shifted")
+    ax.legend(loc="best", fontsize=8)
+    return save_fig(fig, out / "clock_profile.png")
+
+
 def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     """Write ``report.md`` and PNG figures of a diagnosis into ``out_dir``.
 
@@ -119,11 +147,16 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     out.mkdir(parents=True, exist_ok=True)
     figs = diagnosis_figures(result, out)
     figs.append(unexplained_figure(result, out))
+    clk = clock_figure(result, out)
+    if clk is not None:
+        figs.append(clk)
     lines = [f"# Diagnosis of {dataset_name}", ""]
     for note in result.notes:
         lines += [f"**Note:** {note}", ""]
     bp = result.base_parameters
-    lines += ["## Base model (paper, translation only, matched filtering)", "",
+    kind = ("full 10-parameter model: the platform rotates"
+            if result.info.get("base_model") == "full" else "paper, translation only")
+    lines += [f"## Base model ({kind}, matched filtering)", "",
               "| parameter | estimate | std (HAC) | %std |", "|---|---|---|---|"]
     for k, v in bp.items():
         lines.append(f"| {k} | {v['value']:.6g} | {v['std']:.3g} | {v['rel_std_percent']:.3g} |")
