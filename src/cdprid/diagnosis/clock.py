@@ -49,10 +49,10 @@ def clock_candidate(candidates) -> Candidate | None:
 def delay_profile(prob: Problem, base, grid=GRID_S) -> np.ndarray:
     """Held-out RMS (weighted units) of the base model with the tension stream shifted by
     each delay of ``grid`` (the exact shift, the model refitted at each)."""
-    tau0 = np.asarray(jax.jit(tension_at)(prob.d, prob.d.t))
+    shifted = jax.jit(lambda s: tension_at(prob.d, prob.d.t + s))
+    tau0 = np.asarray(shifted(0.0))
     Z = base.A * prob.wrow[None, :, None]
     out = []
-    shifted = jax.jit(lambda s: tension_at(prob.d, prob.d.t + s))
     for dly in grid:
         dtau = np.asarray(shifted(float(dly))) - tau0
         y = base.y + prob.filt(np.einsum("nij,nj->ni", prob.W_all, dtau))

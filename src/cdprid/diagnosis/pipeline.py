@@ -31,14 +31,17 @@ from cdprid.diagnosis.result import DiagnosisResult
 from cdprid.diagnosis.selection import (
     Selection,
     backward_stage,
-    finding_floor_N,
     forward_step,
     linear_model,
     start,
     swap_stage,
 )
 from cdprid.diagnosis.testing import wald
-from cdprid.diagnosis.unexplained import structure_features, unexplained_stage
+from cdprid.diagnosis.unexplained import (
+    finding_floor_N,
+    structure_features,
+    unexplained_stage,
+)
 from cdprid.io.dataset import Dataset
 from cdprid.model._dynamics import PARAMETER_NAMES
 

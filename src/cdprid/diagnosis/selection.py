@@ -244,13 +244,6 @@ def effect_size_N(prob: Problem, s: Selection, c) -> float:
     return float(max(np.sqrt(np.mean(w[:, :3] ** 2)), np.sqrt(np.mean(w[:, 3:] ** 2)) / radius))
 
 
-def finding_floor_N(tension) -> float:
-    """Smallest force (RMS, N) a finding may add: 1e-3 of the median tension. The tests
-    decide on noisy data; this floor keeps numerical residue (noise-free data, a 20 um
-    attachment error, a 4e-5 kg/m cable mass) from being named."""
-    return 1e-3 * float(np.median(np.abs(tension)))
-
-
 #: the extended model's mass may differ from the base model's by this factor at most (an
 #: effect that needs more is compensating something else, not explaining it)
 MASS_RATIO = 2.0
@@ -270,6 +263,20 @@ def model_implausible(prob: Problem, t: Selection, extra: dict) -> str:
     return ""
 
 
+def refit_rejected(prob: Problem, t: Selection, c, extra: dict) -> str:
+    """Why candidate ``c``, refitted in ``t``, may not be named ('' when it may): its own
+    parameters or the joint model implausible, or its force below the finding floor."""
+    why = implausible(c.effect, vocab_params(c, t.theta, prob.layout, extra, t.th_cov)) \
+        or model_implausible(prob, t, extra)
+    if why:
+        return f"refits to an implausible value ({why})"
+    if c.effect != "rotational_dynamics":
+        size, floor = effect_size_N(prob, t, c), extra.get("finding_floor_N", 0.0)
+        if size < floor:
+            return f"its force, {size:.2g} N rms, is below the detection floor {floor:.2g} N"
+    return ""
+
+
 def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: float,
                   extra: dict):
     """Add one candidate, refit, and check plausibility and the held-out gain after the refit.
@@ -286,16 +293,10 @@ def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: f
         t = refit(prob, s, active_idx=sorted(set(s.active_idx) | set(idx)))
         if not set(idx) & set(t.active_idx):
             return None, None, float("nan"), "refits to its bounds (every parameter at 0)"
-    vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
-    why = implausible(c.effect, vocab) or model_implausible(prob, t, extra)
+    why = refit_rejected(prob, t, c, extra)
     if why:
-        return None, None, float("nan"), f"refits to an implausible value ({why})"
-    if c.effect != "rotational_dynamics":
-        size = effect_size_N(prob, t, c)
-        floor = extra.get("finding_floor_N", 0.0)
-        if size < floor:
-            return None, None, float("nan"), (f"its force, {size:.2g} N rms, is below the "
-                                              f"detection floor {floor:.2g} N")
+        return None, None, float("nan"), why
+    vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
     Z, y, _, _ = linear_model(prob, t)
     rms_after = heldout_rms(prob, Z, y)
     if rms_after > rms_before * (1 - min_gain):
@@ -385,10 +386,7 @@ def swap_stage(prob: Problem, s: Selection, candidates, min_gain: float, extra: 
         active = sorted((set(s.active_idx) - set(idx_old))
                         | set(layout.candidate_indices(alt.effect, alt.cable)))
         t = refit(prob, s, theta=theta, active_idx=active)
-        if implausible(alt.effect, vocab_params(alt, t.theta, layout, extra, t.th_cov)) or (
-                model_implausible(prob, t, extra)) or (
-                alt.effect != "rotational_dynamics"
-                and effect_size_N(prob, t, alt) < extra.get("finding_floor_N", 0.0)):
+        if refit_rejected(prob, t, alt, extra):
             break
         say(f"swap: {old.label} -> {alt.label} predicts the held-out data better")
         f = s.findings[k]

@@ -462,6 +462,13 @@ def in_own_units(u: dict, prob) -> dict:
     return out
 
 
+def finding_floor_N(tension) -> float:
+    """Smallest force (RMS, N) a finding or an unexplained item may have: 1e-3 of the median
+    tension. The tests decide on noisy data; this floor keeps numerical residue (noise-free
+    data, a 20 um attachment error, a 4e-5 kg/m cable mass) from being named."""
+    return 1e-3 * float(np.median(np.abs(tension)))
+
+
 def materiality_floor(tension_noise_N, residual_rms_N: float) -> float:
     """Smallest size (N) worth reporting: :data:`MATERIAL_FRACTION` of the noise scale.
 
@@ -521,7 +528,7 @@ def unexplained_stage(prob, Z, y, feats: dict, hints: list, tension_noise_N,
     rms = float(np.sqrt(np.mean(r_ext[mask] ** 2))) if mask.any() else 0.0
     # never below the findings' absolute floor (noise-free data: numerical residue)
     floor = max(materiality_floor(tension_noise_N, rms),
-                1e-3 * float(np.median(np.abs(prob.tension[prob.use]))))
+                finding_floor_N(prob.tension[prob.use]))
     r = heldout_residuals(np.concatenate([Z] + cols, axis=2), y, wrow, prob.use, prob.test,
                           prob.n_folds, guard) if cols else r_ext
     step = decorrelation_step(prob.filt, max(1, 4 * prob.lags))
