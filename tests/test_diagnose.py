@@ -118,7 +118,7 @@ def test_flipped_pulley_is_a_pulley_with_the_opposite_arrival():
     y_flip, _ = M.meas_and_jac(data(robot), jnp.asarray(th), L)
     flipped = eqx.tree_at(lambda r: r.pulley_axis, robot, -robot.pulley_axis)
     th2 = np.zeros(L.size)
-    th2[L.slices["pulley"]] = 0.04
+    th2[L.slices["radius"]] = 0.04
     y_ref = M.measured_side(data(flipped), L.unpack(jnp.asarray(th2)))
     assert np.allclose(y_flip, y_ref, atol=1e-10)
     y_down = M.measured_side(data(robot), L.unpack(jnp.asarray(th2)))

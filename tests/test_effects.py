@@ -95,3 +95,45 @@ def test_diagnosis_forms_are_complete_and_laid_out_once():
         for name, f in DIAGNOSIS.items():
             for key in f.keys:
                 assert key in VOCABULARY[f.vocabulary or name], (name, key)
+
+
+def _effect_name_literals(root) -> list:
+    """String literals equal to an effect name in src/ outside the effects package
+    ('none' excluded: it also names filters and weightings)."""
+    import ast
+    from pathlib import Path
+
+    from cdprid.effects import DIAGNOSIS, VOCABULARY
+
+    names = (set(VOCABULARY) | set(DIAGNOSIS)) - {"none"}
+    found = []
+    for p in sorted(Path(root).rglob("*.py")):
+        if "effects" in p.parts:
+            continue
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, ast.Constant) and node.value in names:
+                found.append(f"{p.name}:{node.lineno} {node.value!r}")
+    return found
+
+
+def test_no_effect_name_as_a_string_outside_the_effects_package(tmp_path):
+    """Issue 22: effects are objects; the simulator and the diagnosis ask the effects
+    package (plant_terms, DiagnosisForm flags) instead of testing names."""
+    from pathlib import Path
+
+    src = Path(__file__).resolve().parents[1] / "src" / "cdprid"
+    assert _effect_name_literals(src) == []
+    # the detector can fail
+    (tmp_path / "m.py").write_text('if name == "time_delay":\n    pass\n')
+    assert _effect_name_literals(tmp_path) == ["m.py:1 'time_delay'"]
+
+
+def test_plant_terms_read_the_effects():
+    from cdprid.effects import Effect, plant_terms
+
+    t = plant_terms([Effect("time_delay", {"delay_s": 0.02}),
+                     Effect("cable_mass", {"linear_density_kg_per_m": 0.1}),
+                     Effect("cable_elasticity", {"cable": 1, "EA_N": 1e5})])
+    assert (t.delay_s, t.rho_kg_per_m, t.drag_Ns_per_m) == (0.02, 0.1, 0.0)
+    assert t.encoders and not t.tilted and t.rotation_amplitude_rad == 0.0
+    assert plant_terms([]) == type(t)()

@@ -24,6 +24,7 @@ from cdprid.core._covariance import hac_covariance
 from cdprid.diagnosis.problem import Problem
 from cdprid.diagnosis.result import Finding
 from cdprid.diagnosis.testing import blocks
+from cdprid.effects._effects import ENCODER_EFFECT
 from cdprid.model._geometry import cable_lengths
 
 #: the stream's file stem and column names (``l_1..l_m``), in the style of tensions.csv
@@ -161,7 +162,7 @@ def elasticity_stage(prob: Problem, stream: LengthsStream, alpha: float) -> tupl
         if p < alpha and rms1 < rms0 and k > 0:
             zc = 1.959963984540054
             findings.append(Finding(
-                effect="cable_elasticity", parameters={"cable": i + 1, "EA_N": float(1.0 / k)},
+                effect=ENCODER_EFFECT, parameters={"cable": i + 1, "EA_N": float(1.0 / k)},
                 interval={"EA_N": [float(1.0 / (k + zc * sd)),
                                    float(1.0 / (k - zc * sd)) if k > zc * sd else None]},
                 aliases=[], heldout_rms_before=rms0, heldout_rms_after=rms1, p_value=p,

@@ -113,7 +113,7 @@ def shifted_robot(robot: CableRobot, th):
     return eqx.tree_at(
         lambda r: (r.B_A, r.P_b, r.pulley_radius),
         robot,
-        (robot.B_A + th["exit"], robot.P_b + th["anchor"], robot.pulley_radius + th["pulley"]),
+        (robot.B_A + th["exit"], robot.P_b + th["anchor"], robot.pulley_radius + th["radius"]),
     )
 
 

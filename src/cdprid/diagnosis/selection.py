@@ -28,12 +28,19 @@ from cdprid.diagnosis.problem import Problem, design, heldout_rms, seed_design
 from cdprid.diagnosis.refit import refit_gauss_newton
 from cdprid.diagnosis.result import Finding
 from cdprid.diagnosis.testing import aliases_of, partial_wald, partial_wald_many
+from cdprid.effects._effects import DIAGNOSIS
 from cdprid.diagnosis.unexplained import structure_tests
+
+
+def extends_base(c: Candidate) -> bool:
+    """The candidate extends the base model itself (its form's ``base_model``, e.g. the
+    rotational dynamics: the full inertial parameters) instead of adding theta blocks."""
+    return DIAGNOSIS[c.effect].base_model
 
 
 def finding_columns(c: Candidate, layout: ThetaLayout, active_idx: list, n_model: int) -> list:
     """Columns of the linearised extended model ``[A, C_active]`` that belong to a finding."""
-    if c.effect == "rotational_dynamics":
+    if extends_base(c):
         return list(range(4, n_model))
     idx = layout.candidate_indices(c.effect, c.cable)
     # a parameter held at its bound (see :func:`refit`) has no column
@@ -91,7 +98,7 @@ def best_swap(accepted: list, alts: dict, Z, y, cols_of, alt_cols, heldout_rms,
     best, best_rms = (None, None), rms_now * (1.0 - min_gain)
     ties = {}
     for k, c in enumerate(accepted):
-        if c.effect == "rotational_dynamics":
+        if extends_base(c):
             continue
         rest = [j for j in range(p) if j not in cols_of(c)]
         ties[c] = []
@@ -182,7 +189,7 @@ def candidate_columns(prob: Problem, base: BaseFit, s: Selection, C, candidates)
     for c in candidates:
         if c in s.accepted:
             continue
-        if c.effect == "rotational_dynamics":
+        if extends_base(c):
             if s.rotational:
                 continue
             K = np.einsum("nij,j->ni", base.A10[:, :, :4] - base.A4, s.x[:4])[:, :, None]
@@ -270,7 +277,7 @@ def refit_rejected(prob: Problem, t: Selection, c, extra: dict) -> str:
         or model_implausible(prob, t, extra)
     if why:
         return f"refits to an implausible value ({why})"
-    if c.effect != "rotational_dynamics":
+    if not extends_base(c):
         size, floor = effect_size_N(prob, t, c), extra.get("finding_floor_N", 0.0)
         if size < floor:
             return f"its force, {size:.2g} N rms, is below the detection floor {floor:.2g} N"
@@ -284,7 +291,7 @@ def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: f
     Returns ``(selection, parameters, rms_after, '')`` or ``(None, None, nan, reason)``.
     """
     layout = prob.layout
-    if c.effect == "rotational_dynamics":
+    if extends_base(c):
         t = refit(prob, s, rotational=True)
     else:
         # Gauss-Newton from the current linearisation (already computed: its first
@@ -441,7 +448,7 @@ def backward_stage(prob: Problem, s: Selection, feats: dict, alpha: float, min_g
                 "p_value": p_given})
         theta, x = s.theta.copy(), s.x.copy()
         rot, active = s.rotational, list(s.active_idx)
-        if c.effect == "rotational_dynamics":
+        if extends_base(c):
             rot = False
             x[4:] = 0.0
         else:

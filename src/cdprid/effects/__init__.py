@@ -5,6 +5,9 @@ diagnosis.
 # ruff: noqa: F401  (explicit re-exports)
 
 from cdprid.effects._effects import DIAGNOSIS as DIAGNOSIS
+from cdprid.effects._effects import ENCODER_EFFECT as ENCODER_EFFECT
+from cdprid.effects._effects import PlantTerms as PlantTerms
+from cdprid.effects._effects import plant_terms as plant_terms
 from cdprid.effects._effects import VOCABULARY as VOCABULARY
 from cdprid.effects._effects import DiagnosisForm as DiagnosisForm
 from cdprid.effects._effects import Effect as Effect

@@ -300,6 +300,55 @@ def true_robot(robot, effects):
     return robot.replace(B_A=B_A, P_b=P_b, pulley_radius=radius)
 
 
+@dataclasses.dataclass(frozen=True)
+class PlantTerms:
+    """What the simulator's plant takes from the effects (zero when an effect is absent).
+
+    Attributes
+    ----------
+    delay_s : float
+        ``time_delay``: the load cells read the tensions of ``delay_s`` earlier.
+    drag_Ns_per_m : float
+        ``viscous_drag`` on the platform.
+    rho_kg_per_m : float
+        ``cable_mass`` linear density.
+    rotation_amplitude_rad : float
+        ``rotational_dynamics``: the trajectory's added rotation amplitude.
+    encoders : bool
+        An effect the winch encoders see (``cable_elasticity``): simulate ``lengths.csv``.
+    tilted : bool
+        ``frame_tilt``: gravity is not along the pose frame's -z (meta.toml records it).
+    """
+
+    delay_s: float = 0.0
+    drag_Ns_per_m: float = 0.0
+    rho_kg_per_m: float = 0.0
+    rotation_amplitude_rad: float = 0.0
+    encoders: bool = False
+    tilted: bool = False
+
+
+def plant_terms(effects) -> PlantTerms:
+    """The plant's scalar terms and switches from a list of effects (see :class:`PlantTerms`)."""
+    by_name = {e.name: e.params for e in effects}
+
+    def value(name, key):
+        return float(by_name[name][key]) if name in by_name else 0.0
+
+    return PlantTerms(
+        delay_s=value("time_delay", "delay_s"),
+        drag_Ns_per_m=value("viscous_drag", "coefficient_Ns_per_m"),
+        rho_kg_per_m=value("cable_mass", "linear_density_kg_per_m"),
+        rotation_amplitude_rad=value("rotational_dynamics", "amplitude_rad"),
+        encoders="cable_elasticity" in by_name,
+        tilted="frame_tilt" in by_name,
+    )
+
+
+#: the effect the winch encoders measure (its findings come from lengths.csv)
+ENCODER_EFFECT = "cable_elasticity"
+
+
 def load_cell_friction(effects, W, v, omega) -> np.ndarray:
     """What the load cells read in excess of the tension, ``(n, m)``, from ``pulley_friction``.
 
@@ -531,8 +580,8 @@ DIAGNOSIS: dict[str, DiagnosisForm] = {
         separated_by={"pulley_friction": "motion at several speeds (Coulomb friction does not "
                       "grow with the speed)"}),
     "pulley": DiagnosisForm(
-        blocks=(("pulley", 1),), keys=("radius_m",), params=_pulley_params(False),
-        geometry=lambda geo, q: {**geo, "r": geo["r"] + q["pulley"]},
+        blocks=(("radius", 1),), keys=("radius_m",), params=_pulley_params(False),
+        geometry=lambda geo, q: {**geo, "r": geo["r"] + q["radius"]},
         bounds={"radius_m": 0.25}, nonneg=("radius_m",),
         separated_by={"pulley_flipped": "poses close to the exit points and far below them "
                       "(the wrap differs by arrival)"}),
@@ -544,7 +593,7 @@ DIAGNOSIS: dict[str, DiagnosisForm] = {
         blocks=(("tilt", 2),), keys=("tilt_rad",), bounds={"tilt_rad": 0.05},
         gravity=lambda g, q: tilt_gravity(g, q["tilt"])),
     "rotational_dynamics": DiagnosisForm(
-        group=4, when="rotation",
+        group=4, when="rotation", base_model=True,
         params=lambda v, extra: {"amplitude_rad": float(extra["rotation_amplitude"])},
         interval=_rotation_interval),
     "pulley_friction": DiagnosisForm(

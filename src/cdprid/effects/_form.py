@@ -53,6 +53,9 @@ class DiagnosisForm:
         Parameters that must lie in an open interval after a refit.
     separated_by : dict
         Other effect -> what trajectory or measurement would tell the two apart.
+    base_model : bool
+        The effect extends the base model itself (rotational dynamics: 4 -> 10 inertial
+        parameters) rather than adding theta blocks.
     clock : bool
         The effect is the tension stream's clock offset (profiled first, see
         :mod:`cdprid.diagnosis.clock`).
@@ -85,6 +88,9 @@ class DiagnosisForm:
     #: the effect shifts the tension stream's clock (its one block is the delay in s): the
     #: diagnosis profiles it before the greedy search and keeps it in every refit
     clock: bool = False
+    #: the effect is the base model's own extension (the 4-parameter model to the full
+    #: 10-parameter one), not theta blocks: its columns are the extra inertial parameters
+    base_model: bool = False
     tension: object = None
     geometry: object = None
     leave: object = None

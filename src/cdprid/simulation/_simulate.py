@@ -34,6 +34,7 @@ from cdprid.base._errors import InputError
 from cdprid.effects._effects import (
     effect_parameters_table,
     encoder_lengths,
+    plant_terms,
     true_gravity,
     true_robot,
     validate_effects,
@@ -375,19 +376,10 @@ def simulate(
     effects = tuple(e for e in validate_effects(effects, robot.n_cables) if e.name != "none")
     noise = SensorNoise() if noise is None else noise
     params = _default_params(robot) if params is None else params
-    by_name = {e.name: e for e in effects}
-    if "rotational_dynamics" in by_name:
-        amp = by_name["rotational_dynamics"].params["amplitude_rad"]
-        if amp > 0:
-            trajectory = with_rotation(trajectory, amp)
-    delay, drag, rho = (
-        by_name[name].params[key] if name in by_name else 0.0
-        for name, key in (
-            ("time_delay", "delay_s"),
-            ("viscous_drag", "coefficient_Ns_per_m"),
-            ("cable_mass", "linear_density_kg_per_m"),
-        )
-    )
+    terms = plant_terms(effects)
+    if terms.rotation_amplitude_rad > 0:
+        trajectory = with_rotation(trajectory, terms.rotation_amplitude_rad)
+    delay, drag, rho = terms.delay_s, terms.drag_Ns_per_m, terms.rho_kg_per_m
     robot_true = true_robot(robot, effects)
     g_true = true_gravity(robot, effects)
     tmin, tmax = _tension_limits(robot, tension_min, tension_max)
@@ -421,7 +413,7 @@ def simulate(
     )
 
     enc = None
-    if lengths or "cable_elasticity" in by_name:
+    if lengths or terms.encoders:
         enc = _encoders(robot_true, mt, tau_true, effects, noise, seed)
     description, settings = _describe(
         robot, trajectory, effects, noise, seed, rate_pose, rate_tension, tau_ref, tmin, tmax,
@@ -473,7 +465,7 @@ def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Pat
     table = effect_parameters_table(r.effects)
     if table:
         truth["effect_parameters"] = table
-    if any(e.name == "frame_tilt" for e in r.effects):
+    if plant_terms(r.effects).tilted:
         truth["gravity_pose_frame"] = [float(v) for v in r.gravity_true]
     meta = {
         "description": r.description,
