@@ -105,6 +105,25 @@ def _pinv_sym(S: np.ndarray, rel: float = 1e-10) -> np.ndarray:
     return np.einsum("nij,nj,nkj->nik", V, inv, V)
 
 
+def _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc: int, bw: int):
+    """The Schur complement ``I_tt - I_tc I_cc^-1 I_ct`` of the nuisance coefficients,
+    the per-sample blocks scatter-added into ``I_tc`` and the banded ``I_cc`` (bandwidth
+    ``bw``: a sample touches 4 consecutive knots), solved by banded Cholesky."""
+    p = Itt.shape[0]
+    # scatter-add of the local blocks (bincount: one pass over the samples)
+    Itc = np.stack([np.bincount(cols.ravel(), weights=Itc_loc[:, j, :].ravel(), minlength=nc)
+                    for j in range(p)])
+    flat = (cols[:, :, None] * nc + cols[:, None, :]).ravel()
+    Icc = np.bincount(flat, weights=Icc_loc.ravel(), minlength=nc * nc).reshape(nc, nc)
+    ridge = 1e-12 * float(np.max(np.diag(Icc)))
+    Icc[np.diag_indices(nc)] += ridge
+    # I_cc is banded (a sample touches 4 consecutive knots): banded Cholesky solve
+    ab = np.zeros((bw + 1, nc))
+    for d in range(bw + 1):
+        ab[d, :nc - d] = np.diagonal(Icc, -d)
+    return Itt - Itc @ solveh_banded(ab, Itc.T, lower=True)
+
+
 def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, tension,
         tension_std, position_std: float, rotation_std: float | None,
         knot_spacing_s: float = 0.1) -> CRBResult:
@@ -174,20 +193,7 @@ def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, te
         idx = np.arange(4) * ndof + d
         obs[:, idx[:, None], idx[None, :]] += inv_var[d] * b[:, :, None] * b[:, None, :]
     Icc_loc = Icc_loc + obs
-    p = Y.shape[2]
-    # scatter-add of the local blocks (bincount: one pass over the samples)
-    Itc = np.stack([np.bincount(cols.ravel(), weights=Itc_loc[:, j, :].ravel(), minlength=nc)
-                    for j in range(p)])
-    flat = (cols[:, :, None] * nc + cols[:, None, :]).ravel()
-    Icc = np.bincount(flat, weights=Icc_loc.ravel(), minlength=nc * nc).reshape(nc, nc)
-    ridge = 1e-12 * float(np.max(np.diag(Icc)))
-    Icc[np.diag_indices(nc)] += ridge
-    # I_cc is banded (a sample touches 4 consecutive knots): banded Cholesky solve
-    bw = 4 * ndof - 1
-    ab = np.zeros((bw + 1, nc))
-    for d in range(bw + 1):
-        ab[d, :nc - d] = np.diagonal(Icc, -d)
-    S = Itt - Itc @ solveh_banded(ab, Itc.T, lower=True)
+    S = _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc, 4 * ndof - 1)
     cov = np.linalg.pinv(0.5 * (S + S.T))
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     noise = {"tension_N": [float(v) for v in np.sqrt(s2)], "position_m": float(position_std),

@@ -187,13 +187,66 @@ def diagnose(
     DiagnosisResult
     """
     t0 = time.perf_counter()
+    say = _timed_say(progress, t0)
+    prob, sub, lengths, notes = _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
+                                         max_samples, say)
+    prob, base, noise, extra = _base_stage(prob, notes, say)
+    candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational,
+                                prob.d.robot)
+    s, clock_info, ranking, thr_first = _search(
+        prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain,
+        np.random.default_rng(seed), say)
+    feats = _structure(prob)
+    s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
+    Z, y, _, _ = linear_model(prob, s)
+    unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
+    _say_unexplained(unexplained, say)
+    findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
+    settings = {"train_until": train_until, "taut_threshold_N": taut_N,
+                "n_candidates": len(candidates), "alpha": alpha}
+    ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, settings)
+    info.update({"unexplained_rule": rule, "lengths": el_info, "clock_profile": clock_info,
+                 "wall_time_s": time.perf_counter() - t0})
+    if sub is not None:
+        info["subset"] = sub.as_json()
+    say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
+    return DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
+                           ext_params, ext_ho, ranking, info, _arrays(prob, base, resid),
+                           unexplained=unexplained, notes=notes)
 
+
+def _timed_say(progress, t0):
+    """A progress callback prefixing each message with the seconds since ``t0``."""
     def say(msg):
         if progress is not None:
             progress(f"[{time.perf_counter() - t0:6.1f} s] {msg}")
+    return say
 
-    prob, sub, lengths, notes = _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
-                                         max_samples, say)
+
+def _say_unexplained(unexplained: list, say) -> None:
+    """One progress line per unexplained structure."""
+    for u in unexplained:
+        say(f"unexplained: {u['where']}, {u['size']:.3g} N, like {u['correlates_with']}, "
+            f"p = {u['p_value']:.2e}")
+
+
+def _arrays(prob, base, resid) -> dict:
+    """The time series the report plots (residuals before and after, motion, tensions)."""
+    return {"t": prob.t, "residual_base": base.residual, "residual_extended": resid,
+            "velocity": prob.v, "acceleration": prob.a, "tension": prob.tension,
+            "position": prob.position, "train": prob.train, "use": prob.use}
+
+
+def _structure(prob) -> dict:
+    """The residual structure signals (filtered and row-weighted like the regression)."""
+    return {k: prob.filt(F) * prob.wrow[None, :, None] for k, F in structure_features(
+        prob.W_all, prob.v, prob.om, prob.tension, prob.position, np.asarray(prob.d.clock),
+        prob.use).items()}
+
+
+def _base_stage(prob, notes: list, say):
+    """The base model's fit, the noise levels estimated from the data and the context the
+    candidates' checks read (``extra``): ``(prob, base, noise, extra)``."""
     prob, base = base_fit(prob)
     if base.rotational:
         notes.append(f"the platform rotates by up to {prob.rotation_deg:.2g} deg: the base model "
@@ -211,9 +264,13 @@ def diagnose(
              "pulley_axis": axes[0] if np.allclose(axes, axes[0]) else axes,
              "finding_floor_N": finding_floor_N(prob.tension[prob.use]),
              "base_mass_kg": float(base.x[0])}
-    rng = np.random.default_rng(seed)
-    candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational,
-                                prob.d.robot)
+    return prob, base, noise, extra
+
+
+def _search(prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain, rng,
+            say):
+    """The clock stage, the greedy forward steps and the swap stage:
+    ``(selection, clock_info, first step's ranking, first step's threshold)``."""
     s, clock_info = clock_stage(prob, base, start(prob, base), candidates, alpha, min_gain,
                                 extra, say)
     ranking, thr_first = [], alpha / len(candidates)
@@ -227,29 +284,4 @@ def diagnose(
         if nxt is None:
             break
         s = nxt
-    s = swap_stage(prob, s, candidates, min_gain, extra, say)
-    feats = {k: prob.filt(F) * prob.wrow[None, :, None] for k, F in structure_features(
-        prob.W_all, prob.v, prob.om, prob.tension, prob.position, np.asarray(prob.d.clock),
-        prob.use).items()}
-    s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
-    Z, y, _, _ = linear_model(prob, s)
-    unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
-    for u in unexplained:
-        say(f"unexplained: {u['where']}, {u['size']:.3g} N, like {u['correlates_with']}, "
-            f"p = {u['p_value']:.2e}")
-    findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
-    settings = {"train_until": train_until, "taut_threshold_N": taut_N,
-                "n_candidates": len(candidates), "alpha": alpha}
-    ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, settings)
-    info["unexplained_rule"], info["lengths"] = rule, el_info
-    info["clock_profile"] = clock_info
-    info["wall_time_s"] = time.perf_counter() - t0
-    if sub is not None:
-        info["subset"] = sub.as_json()
-    arrays = {"t": prob.t, "residual_base": base.residual, "residual_extended": resid,
-              "velocity": prob.v, "acceleration": prob.a, "tension": prob.tension,
-              "position": prob.position, "train": prob.train, "use": prob.use}
-    say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
-    return DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
-                           ext_params, ext_ho, ranking, info, arrays, unexplained=unexplained,
-                           notes=notes)
+    return swap_stage(prob, s, candidates, min_gain, extra, say), clock_info, ranking, thr_first

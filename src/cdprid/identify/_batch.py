@@ -397,6 +397,52 @@ def identify_dataset(
     -------
     IdentificationReport
     """
+    wrench_filter = _check_options(model, differentiator, weighting, wrench_filter,
+                                   matched_filter, inertia_about)
+    params = dict(params or {})
+    sig = align(ds, t_start, t_end)
+    notes = list(sig.notes)
+    model, rot, warns = _choose_model(model, sig, ds.path)
+    motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
+    wf, note, w2 = _wrench_filter(ds.robot, differentiator, params, sig.dt, wrench_filter)
+    warns += w2
+    if note:
+        notes.append(note)
+    keep = _trimmed(motion.t, trim, ds.path)
+    reg = _streamed_regression(ds.robot, motion, sig.tension, model, wf, keep, int(chunk))
+    res = least_squares_blocks(reg.wrench_block, len(reg.t), PARAMETER_NAMES[model],
+                               groups=reg.groups if weighting == "groups" else None,
+                               covariance=covariance, chunk=int(chunk))
+    warns += excitation_warnings(res.names, res.column_norms, res.cond_scaled)
+    w3, n3 = physical_warnings(res.x, model, res.cov)
+    warns, notes = warns + w3, notes + n3
+    bnd = _bound_noted(ds, sig, motion, keep, model, res.x, notes) if bound else None
+    return IdentificationReport(res, model, differentiator, params, int(keep.sum()), sig, motion,
+                                reg, tuple(notes), tuple(warns), inertia_about, wrench_filter,
+                                rot, bnd)
+
+
+def _trimmed(t, trim: float, path):
+    """Samples more than ``trim`` s from both ends (at least 10, else one sentence)."""
+    keep = (t >= t[0] + trim) & (t <= t[-1] - trim)
+    if keep.sum() < 10:
+        raise InputError(
+            f"{path}: fewer than 10 samples remain after trimming {trim:g} s at each end."
+        )
+    return keep
+
+
+def _bound_noted(ds, sig, motion, keep, model, x, notes: list):
+    """:func:`recording_bound`, its reason for no bound appended to ``notes``."""
+    bnd, why = recording_bound(ds, sig, motion, keep, model, x)
+    if why:
+        notes.append(why)
+    return bnd
+
+
+def _check_options(model, differentiator, weighting, wrench_filter, matched_filter,
+                   inertia_about) -> str:
+    """One sentence for an unknown option (before any work); the wrench filter to use."""
     if model not in MODELS:
         raise InputError(f"unknown model {model!r}; use one of {', '.join(MODELS)}.")
     if differentiator not in METHODS:
@@ -412,36 +458,7 @@ def identify_dataset(
                          f"identification; use one of {', '.join(WRENCH_FILTERS)}.")
     if inertia_about not in ("P", "G"):
         raise InputError(f"inertia_about must be 'P' or 'G', got {inertia_about!r}.")
-    params = dict(params or {})
-    sig = align(ds, t_start, t_end)
-    notes = list(sig.notes)
-    model, rot, warns = _choose_model(model, sig, ds.path)
-    motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
-    wf, note, w2 = _wrench_filter(ds.robot, differentiator, params, sig.dt, wrench_filter)
-    warns += w2
-    if note:
-        notes.append(note)
-    keep = (motion.t >= motion.t[0] + trim) & (motion.t <= motion.t[-1] - trim)
-    if keep.sum() < 10:
-        raise InputError(
-            f"{ds.path}: fewer than 10 samples remain after trimming {trim:g} s at each end."
-        )
-    reg = _streamed_regression(ds.robot, motion, sig.tension, model, wf, keep, int(chunk))
-    res = least_squares_blocks(reg.wrench_block, len(reg.t), PARAMETER_NAMES[model],
-                               groups=reg.groups if weighting == "groups" else None,
-                               covariance=covariance, chunk=int(chunk))
-    warns += excitation_warnings(res.names, res.column_norms, res.cond_scaled)
-    w3, n3 = physical_warnings(res.x, model, res.cov)
-    warns += w3
-    notes += n3
-    bnd = None
-    if bound:
-        bnd, why = recording_bound(ds, sig, motion, keep, model, res.x)
-        if why:
-            notes.append(why)
-    return IdentificationReport(res, model, differentiator, params, int(keep.sum()), sig, motion,
-                                reg, tuple(notes), tuple(warns), inertia_about, wrench_filter,
-                                rot, bnd)
+    return wrench_filter
 
 
 def recording_bound(ds: Dataset, sig: AlignedSignals, motion: Motion, keep, model: str,

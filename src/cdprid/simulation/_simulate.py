@@ -377,55 +377,57 @@ def simulate(
     noise = SensorNoise() if noise is None else noise
     params = _default_params(robot) if params is None else params
     terms = plant_terms(effects)
-    if terms.rotation_amplitude_rad > 0:
-        trajectory = with_rotation(trajectory, terms.rotation_amplitude_rad)
-    delay, drag, rho = terms.delay_s, terms.drag_Ns_per_m, terms.rho_kg_per_m
+    if (amplitude := terms.rotation_amplitude_rad) > 0:
+        trajectory = with_rotation(trajectory, amplitude)
     robot_true = true_robot(robot, effects)
     g_true = true_gravity(robot, effects)
     tmin, tmax = _tension_limits(robot, tension_min, tension_max)
-
     t0, t1 = trajectory.t_start, trajectory.t_end
-    pose_t = _time_base(t0, t1, rate_pose)
-    tension_t = _time_base(t0, t1, rate_tension)
+    pose_t, tension_t = _time_base(t0, t1, rate_pose), _time_base(t0, t1, rate_tension)
     ref = np.broadcast_to(np.asarray(tau_ref, float), (robot.n_cables,))
+    mt, motion, W, wp, tau_true, n_qp = _run_plant(
+        robot_true, params, g_true, terms, ref, trajectory, pose_t, tension_t, tmin, tmax,
+        robot if check_workspace_box else None)
+    # sensors
+    has_rotation = bool(trajectory.has_rotation)
+    position, quaternion, tension = _measure(motion, tau_true, W, mt, tension_t, effects,
+                                             noise, seed, has_rotation)
+    enc = (_encoders(robot_true, mt, tau_true, effects, noise, seed)
+           if lengths or terms.encoders else None)
+    description, settings = _describe(robot, trajectory, effects, noise, seed, rate_pose,
+                                      rate_tension, tau_ref, tmin, tmax, n_qp, t1 - t0)
+    return SimResult(robot, robot_true, params, effects, noise, g_true, pose_t, position,
+                     quaternion, tension_t, tension, tau_true, motion, mt, wp, W, n_qp,
+                     int(seed), has_rotation, description, settings, lengths=enc)
+
+
+def _run_plant(robot_true, params, g_true, terms, ref, trajectory, pose_t, tension_t, tmin,
+               tmax, box_robot):
+    """The plant: motion at the tension times (delayed) and at the pose times, the true
+    wrench matrices and the tensions distributed within their limits.
+
+    Returns ``(motion at tension times, motion at pose times, W, required wrench, true
+    tensions, number of QP fallback samples)``; ``box_robot`` (or None) checks the
+    workspace box of robot.toml.
+    """
     # one evaluation of the trajectory at [tension times - delay, pose times]
-    t_all = np.concatenate([tension_t - delay, pose_t])
+    t_all = np.concatenate([tension_t - terms.delay_s, pose_t])
     k = tension_t.size
     state = [np.asarray(x) for x in trajectory.evaluate(t_all)]
     mt = TrajectoryState(*(x[:k] for x in state))
     motion = TrajectoryState(*(x[k:] for x in state))
     W, wp, wext, tau0 = _plant(
-        robot_true, params, jnp.asarray(g_true), jnp.asarray(drag, float),
-        jnp.asarray(rho, float), jnp.asarray(ref),
+        robot_true, params, jnp.asarray(g_true), jnp.asarray(terms.drag_Ns_per_m, float),
+        jnp.asarray(terms.rho_kg_per_m, float), jnp.asarray(ref),
         *(jnp.asarray(_pad(x)) for x in (mt.p, mt.v, mt.a, mt.q, mt.omega, mt.alpha)),
     )
-    if check_workspace_box:
-        check_workspace(trajectory, robot, state=motion)
+    if box_robot is not None:
+        check_workspace(trajectory, box_robot, state=motion)
     W, wp, wext = (np.asarray(x)[:k] for x in (W, wp, wext))
     tau_true, n_qp = distribute_tensions(
         W, wp - wext, tmin, tmax, tau_ref=ref, t=tension_t, tau_initial=np.asarray(tau0)[:k]
     )
-
-    # sensors
-    has_rotation = bool(trajectory.has_rotation)
-    position, quaternion, tension = _measure(
-        motion, tau_true, W, mt, tension_t, effects, noise, seed, has_rotation
-    )
-
-    enc = None
-    if lengths or terms.encoders:
-        enc = _encoders(robot_true, mt, tau_true, effects, noise, seed)
-    description, settings = _describe(
-        robot, trajectory, effects, noise, seed, rate_pose, rate_tension, tau_ref, tmin, tmax,
-        n_qp, t1 - t0
-    )
-    return SimResult(
-        robot=robot, robot_true=robot_true, params=params, effects=effects, noise=noise,
-        gravity_true=g_true, pose_t=pose_t, position=position, quaternion=quaternion,
-        tension_t=tension_t, tension=tension, tension_true=tau_true, motion=motion,
-        motion_tension=mt, wrench_required=wp, W_true=W, n_qp=n_qp, seed=int(seed),
-        has_rotation=has_rotation, description=description, settings=settings, lengths=enc,
-    )
+    return mt, motion, W, wp, tau_true, n_qp
 
 
 def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Path:
