@@ -16,11 +16,19 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src" / "cdprid"
-MAX_FUNCTION_LINES = 120
+MAX_FUNCTION_LINES = 80
+MAX_MODULE_LINES = 600
 
 # --------------------------------------------------------------------------- allow-lists
 # "module:function" -> reason. Empty them as the modules are converted.
 ALLOWED_LONG_FUNCTIONS: dict[str, str] = {
+    "cdprid.core._crb:crb": "90 lines; split in progress (issue 22)",
+    "cdprid.diagnosis.pipeline:diagnose": "120 lines; split in progress (issue 22)",
+    "cdprid.identify._batch:identify_dataset": "102 lines; split in progress (issue 22)",
+    "cdprid.simulation._simulate:simulate": "116 lines; split in progress (issue 22)",
+}
+# "module" -> reason, for modules over MAX_MODULE_LINES lines
+ALLOWED_LONG_MODULES: dict[str, str] = {
 }
 # "importer -> imported:name"
 ALLOWED_PRIVATE_IMPORTS: dict[str, str] = {
@@ -292,8 +300,22 @@ def _long_functions() -> dict[str, str]:
     return found
 
 
-def test_no_function_over_120_lines_outside_cli():
+def test_no_function_over_80_lines_outside_cli():
     _check(_long_functions(), ALLOWED_LONG_FUNCTIONS, f"functions over {MAX_FUNCTION_LINES} lines")
+
+
+def _long_modules() -> dict[str, str]:
+    found = {}
+    for m, (path, _tree) in MODULES.items():
+        n = len(path.read_text().splitlines())
+        if n > MAX_MODULE_LINES:
+            found[m] = f"{n} lines"
+    return found
+
+
+def test_no_module_over_600_lines():
+    """Issue 22: every module of src/ (the CLI's too) stays under 600 lines."""
+    _check(_long_modules(), ALLOWED_LONG_MODULES, f"modules over {MAX_MODULE_LINES} lines")
 
 
 def _benchmark_users() -> dict[str, str]:
@@ -322,6 +344,8 @@ def test_tests_do_not_import_benchmarks():
 
 @pytest.mark.parametrize("source, expected", [
     ("def f():\n" + "    x = 1\n" * 130, 1),
+    ("def f():\n" + "    x = 1\n" * 80, 1),
+    ("def f():\n" + "    x = 1\n" * 79, 0),
     ("def f():\n" + "    x = 1\n" * 10, 0),
 ])
 def test_long_function_detector_can_fail(source, expected):
@@ -345,6 +369,7 @@ def _stale() -> list[str]:
             if n is not None and n.startswith("_") and not n.startswith("__")}
     cli = {f"{m} -> {d}" for m, ds in g.items() for d in ds if not _is_cli(m) and _is_cli(d)}
     return ([k for k in ALLOWED_LONG_FUNCTIONS if k not in long]
+            + [k for k in ALLOWED_LONG_MODULES if k not in _long_modules()]
             + [k for k in ALLOWED_PRIVATE_IMPORTS if k not in priv]
             + [k for k in ALLOWED_CLI_IMPORTS if k not in cli]
             + [k for k in ALLOWED_REPORT_IMPORTS

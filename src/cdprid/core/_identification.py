@@ -177,6 +177,24 @@ def _factor_blocks(block, n, w, chunk):
     return Ra, Ru, k, p
 
 
+def _residuals_and_scores(block, n: int, chunk: int, x, w, k: int, p: int):
+    """Second pass of :func:`least_squares_blocks` at the solution ``x``: the unweighted
+    residuals (n, k), the weighted scores ``Z^T e`` per sample (n, p) and the weighted RSS."""
+    resid = np.empty((n, k))
+    S = np.empty((n, p))
+    rss = 0.0
+    for i0, i1 in _chunks(n, chunk):
+        Z, y = _block_rows(block, i0, i1, p)
+        e = y - Z @ x
+        resid[i0:i1] = e
+        if w is not None:
+            ww = w[i0 * k:i1 * k].reshape(-1, k)
+            Z, e = Z * ww[..., None], e * ww
+        S[i0:i1] = np.einsum("nkp,nk->np", Z, e)
+        rss += float(np.sum(e * e))
+    return resid, S, rss
+
+
 def least_squares_blocks(block, n: int, names=None, weights=None, groups=None,
                          covariance: str = "hac", bandwidth: float | None = None,
                          chunk: int = 16384) -> LSResult:
@@ -221,18 +239,7 @@ def least_squares_blocks(block, n: int, names=None, weights=None, groups=None,
     R = Ra[:p, :p]
     _check_rank(R, names)
     x = np.linalg.solve(R, Ra[:p, p])
-    resid = np.empty((n, k))
-    S = np.empty((n, p))
-    rss = 0.0
-    for i0, i1 in _chunks(n, chunk):
-        Z, y = _block_rows(block, i0, i1, p)
-        e = y - Z @ x
-        resid[i0:i1] = e
-        if w is not None:
-            ww = w[i0 * k:i1 * k].reshape(-1, k)
-            Z, e = Z * ww[..., None], e * ww
-        S[i0:i1] = np.einsum("nkp,nk->np", Z, e)
-        rss += float(np.sum(e * e))
+    resid, S, rss = _residuals_and_scores(block, n, chunk, x, w, k, p)
     sigma2 = rss / (N - p)
     cov_iid = iid_covariance(R, sigma2)
     cov, bw = cov_iid, float("nan")

@@ -550,20 +550,33 @@ def fit_nuisance(
         w_, s_ = args
         return (resid(z * s_)[idx] * w_[None, :]).ravel()
 
+    theta, wrow, n_steps = _two_passes(fun, resid, theta, scale, wrow, rows, max_steps)
+    cov, bw = _scaled_hac(fun, theta, scale, wrow, lay.size)
+    return _package(lay, theta, cov, bw, np.asarray(resid(jnp.asarray(theta))),
+                    np.asarray(measured(jnp.asarray(theta))), wrow, n_steps)
+
+
+def _two_passes(fun, resid, theta, scale, wrow, rows, max_steps: int):
+    """Two Levenberg-Marquardt passes of :func:`fit_nuisance` on the scaled vector, the second
+    with row weights from the first solution: ``(theta, row weights, steps of the last)``."""
     n_steps = 0
-    for _ in range(2):  # the second pass uses row weights from the first solution
+    for _ in range(2):
         args = (jnp.asarray(wrow), jnp.asarray(scale))
         z, n_steps = _solve(fun, jnp.asarray(theta / scale), args, max_steps)
         theta = z * scale
         wrow = _row_weight(np.asarray(resid(jnp.asarray(theta)))[rows])
+    return theta, wrow, n_steps
+
+
+def _scaled_hac(fun, theta, scale, wrow, size: int):
+    """HAC covariance of ``theta`` (:func:`hac_covariance` of the weighted residual's Jacobian
+    in the scaled vector, scaled back) and its bandwidth."""
     args = (jnp.asarray(wrow), jnp.asarray(scale))
     z = jnp.asarray(theta / scale)
-    J = np.asarray(jax.jacfwd(lambda zz: fun(zz, args))(z)).reshape(-1, 6, lay.size)
+    J = np.asarray(jax.jacfwd(lambda zz: fun(zz, args))(z)).reshape(-1, 6, size)
     e = np.asarray(fun(z, args)).reshape(-1, 6)
     cov, bw = hac_covariance(J, e)
-    cov = cov * np.outer(scale, scale)
-    return _package(lay, theta, cov, bw, np.asarray(resid(jnp.asarray(theta))),
-                    np.asarray(measured(jnp.asarray(theta))), wrow, n_steps)
+    return cov * np.outer(scale, scale), bw
 
 
 def _package(lay: _Layout, theta, cov, bw, e, meas, wrow, n_steps) -> NuisanceFit:

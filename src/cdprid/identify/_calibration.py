@@ -44,15 +44,8 @@ from cdprid.base._errors import ConvergenceError, InputError
 from cdprid.model._geometry import CableRobot, cable_lengths, swivel_angles
 from cdprid.model._rotations import matrix_to_quat, quat_to_matrix, rotvec_to_quat
 
-__all__ = [
-    "CalibrationData",
-    "CalibrationResult",
-    "calibrate_geometry",
-    "platform_pose",
-    "write_calibrated_dataset",
-    "calibration_data",
-    "import_calibrated_uacdpr",
-]
+__all__ = ["CalibrationData", "CalibrationResult", "calibrate_geometry", "platform_pose",
+           "write_calibrated_dataset", "calibration_data", "import_calibrated_uacdpr"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -330,8 +323,21 @@ def calibrate_geometry(
     small = data.subsample(start_subsample)
     res = _make_residual(robot, anchors, sizes, use_swivel, swivel_sign)
     w = (1e3, 1e2)  # 1 mm and 10 mrad as the first scales
-    best = None
     say = progress or (lambda msg: None)
+    Rb, Rm, x = _best_start(robot, anchors, sizes, small, starts_BV, starts_MP, res, use_swivel,
+                            swivel_sign, w, max_steps, say)
+    rms_before = _naive_rms(robot, anchors, sizes, data, res, use_swivel, swivel_sign)
+    x, w, rms_after, per = _refine(res, x, data, use_swivel, w, Rb, Rm, max_steps, m, say)
+    std, cond = _weighted_std(res, x, _args(data, use_swivel, w, Rb, Rm))
+    return _calibration_result(robot, anchors, sizes, x, std, Rb, Rm, rms_before, rms_after,
+                               per, len(data.t), cond, swivel_sign)
+
+
+def _best_start(robot, anchors, sizes, small, starts_BV, starts_MP, res, use_swivel,
+                swivel_sign, w, max_steps, say):
+    """Multi-start on the subsampled ``small`` data: ``(R0_BV, R0_MP, x)`` of the pair of
+    starting rotations with the lowest finite cost (:class:`ConvergenceError` if none)."""
+    best = None
     n_starts = len(starts_BV) * len(starts_MP)
     for k, (Rb, Rm) in enumerate(itertools.product(starts_BV, starts_MP), start=1):
         x0 = _initial_x(robot, anchors, sizes, small, Rb, Rm, res, use_swivel, swivel_sign)
@@ -346,21 +352,29 @@ def calibrate_geometry(
     if best is None:
         raise ConvergenceError("geometric calibration: every multi-start solve gave a non-finite "
                                "cost; check the swivel axis and the marker frame.")
-    _, Rb, Rm, x = best
-    # "before": naive start (identity transforms) with its best constants, on all samples
-    I3 = np.eye(3)
+    return best[1:]
+
+
+def _naive_rms(robot, anchors, sizes, data, res, use_swivel, swivel_sign):
+    """The "before" RMS per residual group: the naive start (identity transforms) with its
+    best constants (mean lengths, circular-mean swivel offsets), on all samples."""
+    m = robot.n_cables
     x_naive = np.zeros(sum(n for _, n in sizes))
     qn = _split(x_naive, sizes)
     if anchors == "free":
         qn["M_b"][:] = np.asarray(robot.P_b).ravel()
-    a1 = _args(data, use_swivel, (1.0, 1.0), I3, I3)
+    a1 = _args(data, use_swivel, (1.0, 1.0), np.eye(3), np.eye(3))
     r0 = np.asarray(res(jnp.asarray(x_naive), a1)).reshape(len(data.t), -1)
     qn["length"][:] = r0[:, :m].mean(0)
     if use_swivel:
         qn["swivel_offset"][:] = swivel_sign * np.arctan2(np.sin(r0[:, m:]).mean(0),
                                                           np.cos(r0[:, m:]).mean(0))
-    rms_before, _ = _group_rms(np.asarray(res(jnp.asarray(x_naive), a1)), m, use_swivel)
-    # two passes on all samples: first scales, then scales from the first solution
+    return _group_rms(np.asarray(res(jnp.asarray(x_naive), a1)), m, use_swivel)[0]
+
+
+def _refine(res, x, data, use_swivel, w, Rb, Rm, max_steps, m, say):
+    """Two strict passes on all samples, with the scales ``w`` then with scales re-estimated
+    from the first solution (unit RMS per group): ``(x, w, rms_after, rms_per_cable)``."""
     for k in range(2):
         say(f"  calibration refinement {k + 1}/2 on {len(data.t)} samples ...")
         x, _ = _solve(res, x, _args(data, use_swivel, w, Rb, Rm), max_steps)
@@ -368,7 +382,12 @@ def calibrate_geometry(
         rms_after, per = _group_rms(r1, m, use_swivel)
         w = (1.0 / max(rms_after["length_m"], 1e-12),
              1.0 / max(rms_after.get("swivel_rad", 1.0), 1e-12))
-    args = _args(data, use_swivel, w, Rb, Rm)
+    return x, w, rms_after, per
+
+
+def _weighted_std(res, x, args):
+    """Standard deviations ``sqrt(diag(s^2 (J^T J)^{-1}))`` of the weighted Jacobian at ``x``,
+    through its SVD, and its condition number."""
     J = np.asarray(jax.jacfwd(res)(jnp.asarray(x), args))
     rw = np.asarray(res(jnp.asarray(x), args))
     dof = max(J.shape[0] - J.shape[1], 1)
@@ -377,7 +396,13 @@ def calibrate_geometry(
     cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
     inv = np.where(sv > sv[0] * 1e-14, 1.0 / np.maximum(sv, 1e-300) ** 2, 0.0)
     cov = (Vt.T * inv) @ Vt * s2
-    std = np.sqrt(np.diag(cov))
+    return np.sqrt(np.diag(cov)), cond
+
+
+def _calibration_result(robot, anchors, sizes, x, std, Rb, Rm, rms_before, rms_after, per,
+                        n_samples, cond, swivel_sign) -> CalibrationResult:
+    """The :class:`CalibrationResult` of the solution ``x`` and its standard deviations."""
+    m = robot.n_cables
     q = {k: np.array(v) for k, v in _split(x, sizes).items()}
     qs = {k: np.array(v) for k, v in _split(std, sizes).items()}
     B_R_V = np.asarray(_rot(Rb, jnp.asarray(q["B_r_V"])))
@@ -393,7 +418,7 @@ def calibrate_geometry(
         anchors=anchors, B_R_V=B_R_V, B_p_V=q["B_p_V"], M_R_P=M_R_P, M_p_P=M_p_P, M_b=M_b,
         lengths=q["length"], swivel_offset=q["swivel_offset"], params=q, sigma=qs,
         rms_before=rms_before, rms_after=rms_after, rms_per_cable=per,
-        n_samples=len(data.t), condition=cond, swivel_sign=float(swivel_sign),
+        n_samples=n_samples, condition=cond, swivel_sign=float(swivel_sign),
     )
 
 

@@ -86,6 +86,54 @@ def online_init(
     -------
     OnlineState
     """
+    g, delay = _checked_gains_and_delay(model, dt, forgetting, gains, wrench_filter,
+                                        wrench_delay)
+    p = len(PARAMETER_NAMES[model])
+    f64 = jnp.float64
+    x0 = jnp.zeros(p, f64) if x0 is None else jnp.asarray(x0, f64).reshape(p)
+    cfg = _online_config(robot, dt, model, forgetting, g, wrench_filter, delay, x0,
+                         prior_weight, warmup, excitation_window, excitation_threshold)
+    z3, z4 = (jnp.zeros(n, f64) for n in (3, 4))
+    wf = _wrench_filter_init(wrench_filter, delay, f64)
+    return OnlineState(
+        config=cfg,
+        k=jnp.zeros((), jnp.int64 if jax.config.read("jax_enable_x64") else jnp.int32),
+        sihd_p=CascadeState((z3, z3), (z3, z3)),
+        sihd_q=CascadeState((z4, z4), (z4, z4)),
+        q_prev=jnp.asarray([1.0, 0.0, 0.0, 0.0], f64),
+        wf=wf,
+        S=_rls_init(x0, cfg.prior_weight),
+        n_rows=jnp.zeros((), f64),
+        M=jnp.zeros((p, p), f64),
+        m_rows=jnp.zeros((), f64),
+        rot=RotationFilterState(*(_integral_stage_init(n, f64) for n in (9, 9, 4, 4, 4))),
+    )
+
+
+def _online_config(robot, dt, model, forgetting, g, wrench_filter, delay, x0, prior_weight,
+                   warmup, excitation_window, excitation_threshold) -> OnlineConfig:
+    """The :class:`OnlineConfig` of :func:`online_init`'s (checked) arguments, in float64."""
+    f64 = jnp.float64
+    return OnlineConfig(
+        robot=robot,
+        dt=jnp.asarray(dt, f64),
+        forgetting=jnp.asarray(forgetting, f64),
+        gains=jnp.asarray([g[k] for k in ("lambda1", "lambda2", "lambda3", "lambda4",
+                                          "alpha", "mu")], f64),
+        x0=x0,
+        prior_weight=jnp.asarray(prior_weight, f64),
+        warmup=jnp.asarray(warmup, f64),
+        excitation_forgetting=jnp.asarray(math.exp(-dt / excitation_window), f64),
+        excitation_threshold=jnp.asarray(excitation_threshold, f64),
+        model=model,
+        wrench_filter=wrench_filter,
+        wrench_delay=delay,
+    )
+
+
+def _checked_gains_and_delay(model, dt, forgetting, gains, wrench_filter, wrench_delay):
+    """Check the arguments of :func:`online_init` (:class:`InputError` otherwise) and return
+    the SIHD cascade gains (defaults overridden by ``gains``) and the wrench delay, samples."""
     if model not in PARAMETER_NAMES:
         raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")
     if wrench_filter not in WRENCH_FILTERS:
@@ -104,44 +152,18 @@ def online_init(
     delay = int(wrench_delay) if wrench_filter == "delay" else 0
     if wrench_filter == "delay" and delay < 1:
         raise InputError(f"wrench_delay must be >= 1 sample, got {wrench_delay!r}.")
-    p = len(PARAMETER_NAMES[model])
-    f64 = jnp.float64
-    x0 = jnp.zeros(p, f64) if x0 is None else jnp.asarray(x0, f64).reshape(p)
-    cfg = OnlineConfig(
-        robot=robot,
-        dt=jnp.asarray(dt, f64),
-        forgetting=jnp.asarray(forgetting, f64),
-        gains=jnp.asarray([g[k] for k in ("lambda1", "lambda2", "lambda3", "lambda4",
-                                          "alpha", "mu")], f64),
-        x0=x0,
-        prior_weight=jnp.asarray(prior_weight, f64),
-        warmup=jnp.asarray(warmup, f64),
-        excitation_forgetting=jnp.asarray(math.exp(-dt / excitation_window), f64),
-        excitation_threshold=jnp.asarray(excitation_threshold, f64),
-        model=model,
-        wrench_filter=wrench_filter,
-        wrench_delay=delay,
-    )
-    z3, z4, z6 = (jnp.zeros(n, f64) for n in (3, 4, 6))
+    return g, delay
+
+
+def _wrench_filter_init(wrench_filter: str, delay: int, dtype):
+    """Initial state of the wrench filter: matched, a delay line of ``delay`` samples, or
+    none (``()``)."""
+    z6 = jnp.zeros(6, dtype)
     if wrench_filter == "matched":
-        wf = MatchedFilterState(z6, (z6, z6), z6, (z6, z6), z6, z6, jnp.ones(6, f64))
-    elif wrench_filter == "delay":
-        wf = DelayState(jnp.zeros((delay, 6), f64))
-    else:
-        wf = ()
-    return OnlineState(
-        config=cfg,
-        k=jnp.zeros((), jnp.int64 if jax.config.read("jax_enable_x64") else jnp.int32),
-        sihd_p=CascadeState((z3, z3), (z3, z3)),
-        sihd_q=CascadeState((z4, z4), (z4, z4)),
-        q_prev=jnp.asarray([1.0, 0.0, 0.0, 0.0], f64),
-        wf=wf,
-        S=_rls_init(x0, cfg.prior_weight),
-        n_rows=jnp.zeros((), f64),
-        M=jnp.zeros((p, p), f64),
-        m_rows=jnp.zeros((), f64),
-        rot=RotationFilterState(*(_integral_stage_init(n, f64) for n in (9, 9, 4, 4, 4))),
-    )
+        return MatchedFilterState(z6, (z6, z6), z6, (z6, z6), z6, z6, jnp.ones(6, dtype))
+    if wrench_filter == "delay":
+        return DelayState(jnp.zeros((delay, 6), dtype))
+    return ()
 
 
 def _integral_stage_init(n: int, dtype) -> IntegralStage:

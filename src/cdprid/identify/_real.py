@@ -320,6 +320,23 @@ def _named(names_x, fit, spec: NuisanceSpec) -> tuple[list, dict, dict]:
     return names, values, std
 
 
+def _train_test_masks(data: RealData, train_until: float, test_until: float | None,
+                      taut_threshold_N: float, trim: float) -> tuple[np.ndarray, np.ndarray]:
+    """Taut samples inside both streams (``trim`` s off each end), before ``train_until``
+    (training) and in ``[train_until, test_until)`` (held out); raises
+    :class:`InsufficientDataError` under 100 training samples."""
+    t = data.t
+    end = t[-1] if test_until is None else test_until
+    usable = ((t >= max(t[0], data.tension_t[0]) + trim)
+              & (t <= min(t[-1], data.tension_t[-1]) - trim) & taut_mask(data, taut_threshold_N))
+    train = usable & (t < train_until)
+    test = usable & (t >= train_until) & (t < end)
+    if train.sum() < 100:
+        raise InsufficientDataError(f"only {int(train.sum())} taut training samples before "
+                         f"t = {train_until:g} s; lower taut_threshold_N or move train_until.")
+    return train, test
+
+
 def identify_real(
     data: RealData | Dataset,
     model: str = "translation",
@@ -376,14 +393,7 @@ def identify_real(
     spec = NuisanceSpec(offsets=offsets, gains=gains, delay=delay, delay0=delay0,
                         interpolation=interpolation, smooth_hz=smooth_hz)
     t = data.t
-    end = t[-1] if test_until is None else test_until
-    usable = ((t >= max(t[0], data.tension_t[0]) + trim)
-              & (t <= min(t[-1], data.tension_t[-1]) - trim) & taut_mask(data, taut_threshold_N))
-    train = usable & (t < train_until)
-    test = usable & (t >= train_until) & (t < end)
-    if train.sum() < 100:
-        raise InsufficientDataError(f"only {int(train.sum())} taut training samples before "
-                         f"t = {train_until:g} s; lower taut_threshold_N or move train_until.")
+    train, test = _train_test_masks(data, train_until, test_until, taut_threshold_N, trim)
     A = np.asarray(regressors(model, jnp.asarray(data.R), jnp.asarray(data.a),
                               jnp.asarray(data.omega), jnp.asarray(data.alpha),
                               jnp.asarray(data.robot.gravity)))

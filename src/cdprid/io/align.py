@@ -180,6 +180,50 @@ def _segment_arrays(ds: Dataset, runs, dt: float):
     return parts, segs, resampled, worst_jit
 
 
+def _gap_free_runs(t: np.ndarray, keep: np.ndarray, dt: float, notes: list) -> list:
+    """Gap-free segments of the pose stream among the ``keep`` samples, those shorter than
+    :data:`MIN_SEGMENT_SAMPLES` dropped; the gaps and the dropped segments are noted."""
+    d = np.diff(t)
+    gaps = np.flatnonzero(d > GAP_FACTOR * dt) + 1
+    if gaps.size:
+        worst = int(gaps[np.argmax(d[gaps - 1])])
+        notes.append(
+            f"pose stream has {gaps.size} gap(s) longer than {GAP_FACTOR:g} sample periods "
+            f"(largest {_fmt_s(d[worst - 1])} at t = {t[worst - 1]:g} s); segments are "
+            "differentiated separately and never bridged"
+        )
+    runs = _runs(keep, gaps)
+    short = [r for r in runs if r[1] - r[0] < MIN_SEGMENT_SAMPLES]
+    runs = [r for r in runs if r[1] - r[0] >= MIN_SEGMENT_SAMPLES]
+    if short:
+        notes.append(f"{len(short)} segment(s) shorter than {MIN_SEGMENT_SAMPLES} samples "
+                     f"({sum(b - a for a, b in short)} samples) dropped: too short to "
+                     "differentiate")
+    return runs
+
+
+def _select_runs(t: np.ndarray, runs: list, split_gaps: bool, notes: list) -> list:
+    """The segments :func:`align` returns: all of them with ``split_gaps``, else the longest
+    (in time); the choice is noted."""
+    n_all = len(t)
+    if len(runs) > 1 and not split_gaps:
+        best = max(runs, key=lambda r: t[r[1] - 1] - t[r[0]])
+        used = best[1] - best[0]
+        notes.append(
+            f"using the longest gap-free segment [{t[best[0]]:g}, {t[best[1] - 1]:g}] s "
+            f"({used} samples, {100 * used / n_all:.1f} % of the pose stream); "
+            f"{len(runs) - 1} other segment(s) dropped"
+        )
+        runs = [best]
+    elif len(runs) > 1:
+        notes.append(
+            f"{len(runs)} gap-free segments used: " + ", ".join(
+                f"[{t[a]:g}, {t[b - 1]:g}] s" for a, b in runs[:6]) + (" ..." if len(runs) > 6
+                                                                      else "")
+        )
+    return runs
+
+
 def align(ds: Dataset, t_start: float | None = None, t_end: float | None = None,
           split_gaps: bool = False) -> AlignedSignals:
     """Put pose and tensions on the pose time base without inventing samples.
@@ -207,7 +251,6 @@ def align(ds: Dataset, t_start: float | None = None, t_end: float | None = None,
         Fewer than 10 usable samples in the window, or a platform that does not move.
     """
     t = ds.pose_t
-    n_all = len(t)
     rep = sampling_report(t)
     dt = rep["dt"] if np.isfinite(rep["dt"]) else 1.0
     tt = ds.tension_t
@@ -215,44 +258,14 @@ def align(ds: Dataset, t_start: float | None = None, t_end: float | None = None,
     lo = -np.inf if t_start is None else t_start
     hi = np.inf if t_end is None else t_end
     keep &= (t >= lo - 1e-12) & (t <= hi + 1e-12)
-    # 2. gap-free segments of the pose stream
-    d = np.diff(t)
-    gaps = np.flatnonzero(d > GAP_FACTOR * dt) + 1
-    if gaps.size:
-        worst = int(gaps[np.argmax(d[gaps - 1])])
-        notes.append(
-            f"pose stream has {gaps.size} gap(s) longer than {GAP_FACTOR:g} sample periods "
-            f"(largest {_fmt_s(d[worst - 1])} at t = {t[worst - 1]:g} s); segments are "
-            "differentiated separately and never bridged"
-        )
-    runs = _runs(keep, gaps)
-    short = [r for r in runs if r[1] - r[0] < MIN_SEGMENT_SAMPLES]
-    runs = [r for r in runs if r[1] - r[0] >= MIN_SEGMENT_SAMPLES]
-    if short:
-        notes.append(f"{len(short)} segment(s) shorter than {MIN_SEGMENT_SAMPLES} samples "
-                     f"({sum(b - a for a, b in short)} samples) dropped: too short to "
-                     "differentiate")
+    runs = _gap_free_runs(t, keep, dt, notes)
     if not runs or sum(b - a for a, b in runs) < 10:
         raise DatasetError(
             f"{ds.path}: fewer than {MIN_SEGMENT_SAMPLES} gap-free pose samples lie in the "
             f"selected time window [{max(lo, tt[0]):g}, {min(hi, tt[-1]):g}] s where tensions "
             "are also available."
         )
-    if len(runs) > 1 and not split_gaps:
-        best = max(runs, key=lambda r: t[r[1] - 1] - t[r[0]])
-        used = best[1] - best[0]
-        notes.append(
-            f"using the longest gap-free segment [{t[best[0]]:g}, {t[best[1] - 1]:g}] s "
-            f"({used} samples, {100 * used / n_all:.1f} % of the pose stream); "
-            f"{len(runs) - 1} other segment(s) dropped"
-        )
-        runs = [best]
-    elif len(runs) > 1:
-        notes.append(
-            f"{len(runs)} gap-free segments used: " + ", ".join(
-                f"[{t[a]:g}, {t[b - 1]:g}] s" for a, b in runs[:6]) + (" ..." if len(runs) > 6
-                                                                      else "")
-        )
+    runs = _select_runs(t, runs, split_gaps, notes)
     parts, segs, resampled, worst_jit = _segment_arrays(ds, runs, dt)
     if resampled:
         notes.append(

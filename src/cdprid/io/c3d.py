@@ -270,7 +270,7 @@ def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
     Path
     """
     from cdprid.base._outputs import check_output
-    from cdprid.io.table import parse_mapping, parse_units, read_tension_table, write_imported
+    from cdprid.io.table import write_imported
     from cdprid.model._geometry import load_robot
 
     check_output(out, force, "--out", kind="dir", inputs=[path, robot, layout, tensions])
@@ -285,10 +285,33 @@ def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
     names, V_m, rate, unit = read_c3d_markers(c, path, markers)
     n = V_m.shape[0]
     t = np.arange(n) / rate
-    seen = np.all(np.isfinite(V_m), axis=2)
     R, p, res, M_m, frame_note = platform_pose(V_m, names, t, path, layout, layout_units,
                                                origin_marker, min_markers)
     good = np.isfinite(p).all(1)
+    _check_pose_fit(path, res, good, min_markers, layout_units)
+    from scipy.spatial.transform import Rotation
+
+    q = Rotation.from_matrix(R[good]).as_quat()
+    q = np.concatenate([q[:, 3:], q[:, :3]], axis=1)
+    imp = _import_record(path, names, unit, rate, min_markers, frame_note, M_m, V_m, t, good,
+                         res)
+    tt, tau, imp["tensions"] = _c3d_tensions(c, path, rob.n_cables, analog_tensions,
+                                             analog_units, tensions, tension_columns,
+                                             tension_units, tension_time_offset)
+    meta = {
+        "description": f"imported from the C3D file {Path(path).name} by `cdprid import c3d`",
+        "source": "imported",
+        "import": imp,
+        "units": {"t": "s", "position": "m", "quaternion": "scalar first, platform -> base",
+                  "tension": "N"},
+    }
+    return write_imported(out, rob, t[good], p[good], tt, tau, quaternion=q, meta=meta,
+                          force=force)
+
+
+def _check_pose_fit(path, res, good, min_markers: int, layout_units: str) -> None:
+    """Refuse (:class:`UserError`) a recording with fewer than 2 posed frames or whose markers
+    fit the rigid body worse than :data:`MAX_FIT_RMS_MM`."""
     if good.sum() < 2:
         raise UserError(f"{path}: fewer than 2 frames show {min_markers} of the platform markers.")
     fit_mm = float(1e3 * np.sqrt(np.nanmean(res[good] ** 2)))
@@ -297,12 +320,16 @@ def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
                         f"{fit_mm:.4g} mm (more than {MAX_FIT_RMS_MM:g} mm): is the layout in "
                         f"another unit (--layout-units, now {layout_units!r}) or are the markers "
                         "misnamed?")
-    from scipy.spatial.transform import Rotation
 
-    q = Rotation.from_matrix(R[good]).as_quat()
-    q = np.concatenate([q[:, 3:], q[:, :3]], axis=1)
+
+def _import_record(path, names, unit, rate, min_markers, frame_note, M_m, V_m, t, good,
+                   res) -> dict:
+    """meta.toml ``[import]`` of a C3D import (its ``tensions`` entry is added by the caller):
+    markers, rate, pose frame, layout, frames without pose, gaps and fit RMS."""
+    n = V_m.shape[0]
+    seen = np.all(np.isfinite(V_m), axis=2)
     gaps = marker_gaps(t, good)
-    imp = {
+    return {
         "format": "c3d",
         "file": str(path),
         "markers": names,
@@ -320,23 +347,19 @@ def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
         "fit_rms_mm": float(1e3 * np.sqrt(np.nanmean(res[good] ** 2))),
         "time": "frame index / rate, from the first frame of the file",
     }
+
+
+def _c3d_tensions(c, path, m: int, analog_tensions, analog_units, tensions, tension_columns,
+                  tension_units, tension_time_offset):
+    """The tensions of a C3D import, from its analog channels or from a separate table:
+    ``(t, tau (n, m) N, the [import] tensions entry)``."""
     if analog_tensions is not None:
-        tt, tau, info = _analog_tensions(c, path, analog_tensions, rob.n_cables, analog_units)
-        imp["tensions"] = info
-    else:
-        tu = parse_units(tension_units, "--tension-units", ("time", "force"))
-        m = rob.n_cables
-        tmap = parse_mapping(tension_columns, "--tension-columns") or \
-            {k: k for k in ["t"] + [f"tau_{i}" for i in range(1, m + 1)]}
-        _tab, tt, tau, drop = read_tension_table(tensions, tmap, m, tu, float(tension_time_offset))
-        imp["tensions"] = {"file": str(tensions), "columns": tmap, "units": tu,
-                           "time_offset_s": float(tension_time_offset), "rows_dropped": drop}
-    meta = {
-        "description": f"imported from the C3D file {Path(path).name} by `cdprid import c3d`",
-        "source": "imported",
-        "import": imp,
-        "units": {"t": "s", "position": "m", "quaternion": "scalar first, platform -> base",
-                  "tension": "N"},
-    }
-    return write_imported(out, rob, t[good], p[good], tt, tau, quaternion=q, meta=meta,
-                          force=force)
+        return _analog_tensions(c, path, analog_tensions, m, analog_units)
+    from cdprid.io.table import parse_mapping, parse_units, read_tension_table
+
+    tu = parse_units(tension_units, "--tension-units", ("time", "force"))
+    tmap = parse_mapping(tension_columns, "--tension-columns") or \
+        {k: k for k in ["t"] + [f"tau_{i}" for i in range(1, m + 1)]}
+    _tab, tt, tau, drop = read_tension_table(tensions, tmap, m, tu, float(tension_time_offset))
+    return tt, tau, {"file": str(tensions), "columns": tmap, "units": tu,
+                     "time_offset_s": float(tension_time_offset), "rows_dropped": drop}

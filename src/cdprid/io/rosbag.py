@@ -408,12 +408,29 @@ def import_rosbag(bag: str | Path, robot: str | Path, out: str | Path, pose_topi
     if len(pst) < 2:
         raise UserError(f"--pose-topic {pose_topic}: fewer than 2 pose messages.")
     q = pv[:, 3:]
+    norm = _quaternion_norms(q, pose_topic)
+    t0 = int(pst[0])
+    meta = _rosbag_meta(bag, pose_topic, ptyp, tension_topics, ttypes, t0, notes, frames, joints,
+                        wrench_component)
+    return write_imported(out, rob, (pst - t0) * 1e-9, pv[:, :3], (tst - t0) * 1e-9, tau,
+                          quaternion=q / norm[:, None], meta=meta, force=force)
+
+
+def _quaternion_norms(q: np.ndarray, pose_topic: str) -> np.ndarray:
+    """Norms of the pose messages' quaternions; :class:`UserError` naming the first message
+    whose norm is not 1 within 1e-3."""
     norm = np.linalg.norm(q, axis=1)
     if np.any(np.abs(norm - 1.0) > 1e-3):
         k = int(np.argmax(np.abs(norm - 1.0)))
         raise UserError(f"--pose-topic {pose_topic}: message {k + 1} has an orientation "
                         f"quaternion of norm {norm[k]:.6g}, not 1 within 1e-3.")
-    t0 = int(pst[0])
+    return norm
+
+
+def _rosbag_meta(bag, pose_topic, ptyp, tension_topics, ttypes, t0, notes, frames, joints,
+                 wrench_component) -> dict:
+    """meta.toml of a bag import: its ``[import]`` record (topics, message types, time origin,
+    notes, and the frames, joints and wrench component when they apply)."""
     meta = {
         "description": f"imported from the bag {Path(bag).name} by `cdprid import rosbag`",
         "source": "imported",
@@ -438,8 +455,7 @@ def import_rosbag(bag: str | Path, robot: str | Path, out: str | Path, pose_topi
         meta["import"]["joints"] = list(joints)
     if any(t == "geometry_msgs/msg/WrenchStamped" for t in ttypes):
         meta["import"]["wrench_component"] = wrench_component
-    return write_imported(out, rob, (pst - t0) * 1e-9, pv[:, :3], (tst - t0) * 1e-9, tau,
-                          quaternion=q / norm[:, None], meta=meta, force=force)
+    return meta
 
 
 def _stamp(types, t_ns: int):
@@ -514,18 +530,9 @@ def write_rosbag(ds, path: str | Path, kind: str = "ros2-mcap",
                                        "tf2_msgs/msg/TFMessage"))
     T = ts.types
     ser = ts.serialize_ros1 if ros1 else ts.serialize_cdr
-    if ros1:
-        from rosbags.rosbag1 import Writer
-
-        writer = Writer(Path(path))
-    else:
-        from rosbags.rosbag2 import StoragePlugin, Writer
-
-        plugin = StoragePlugin.MCAP if kind == "ros2-mcap" else StoragePlugin.SQLITE3
-        writer = Writer(Path(path), version=9, storage_plugin=plugin)
+    writer = _bag_writer(path, kind)
     q = ds.quaternion if ds.quaternion is not None else \
         np.tile([1.0, 0.0, 0.0, 0.0], (len(ds.pose_t), 1))
-    m = ds.tension.shape[1]
     pose_ns = t0_ns + np.round(ds.pose_t * 1e9).astype(np.int64)
     tens_ns = t0_ns + np.round(ds.tension_t * 1e9).astype(np.int64)
     with writer as w:
@@ -534,30 +541,51 @@ def write_rosbag(ds, path: str | Path, kind: str = "ros2-mcap",
         for k in range(len(pose_ns)):
             msg = _pose_msg(T, ros1, pose_type, int(pose_ns[k]), ds.position[k], q[k], frames)
             w.write(pc, int(pose_ns[k]), ser(msg, pose_type))
-        if tension_type in ARRAY_TENSION_TYPES:
-            tc = w.add_connection("/cable/tensions", tension_type, typestore=ts)
-            names = [f"cable{i + 1}" for i in range(m)]
-            for k in range(len(tens_ns)):
-                if tension_type == "sensor_msgs/msg/JointState":
-                    msg = T[tension_type](header=_header(T, ros1, int(tens_ns[k]), ""),
-                                          name=names, position=np.zeros(m),
-                                          velocity=np.zeros(m), effort=ds.tension[k].copy())
-                else:
-                    lay = T["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
-                    msg = T[tension_type](layout=lay, data=ds.tension[k].copy())
-                w.write(tc, int(tens_ns[k]), ser(msg, tension_type))
-        else:
-            V3 = T["geometry_msgs/msg/Vector3"]
-            for i in range(m):
-                tc = w.add_connection(f"/cable{i + 1}/tension", tension_type, typestore=ts)
-                for k in range(len(tens_ns)):
-                    v = float(ds.tension[k, i])
-                    if tension_type == "std_msgs/msg/Float64":
-                        msg = T[tension_type](data=v)
-                    else:
-                        msg = T[tension_type](
-                            header=_header(T, ros1, int(tens_ns[k]), f"cable{i + 1}"),
-                            wrench=T["geometry_msgs/msg/Wrench"](force=V3(x=0.0, y=0.0, z=v),
-                                                                 torque=V3(x=0.0, y=0.0, z=0.0)))
-                    w.write(tc, int(tens_ns[k]), ser(msg, tension_type))
+        _write_tensions(w, ts, ros1, ser, ds.tension, tension_type, tens_ns)
     return Path(path)
+
+
+def _bag_writer(path, kind: str):
+    """The rosbags writer of ``kind``: a ROS 1 ``.bag`` file, or a ROS 2 bag folder (MCAP or
+    SQLite storage)."""
+    if kind == "ros1":
+        from rosbags.rosbag1 import Writer
+
+        return Writer(Path(path))
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    plugin = StoragePlugin.MCAP if kind == "ros2-mcap" else StoragePlugin.SQLITE3
+    return Writer(Path(path), version=9, storage_plugin=plugin)
+
+
+def _write_tensions(w, ts, ros1: bool, ser, tension, tension_type: str, tens_ns) -> None:
+    """Write the tensions (n, m) into the open bag ``w``: one ``/cable/tensions`` topic of an
+    array type, or one ``/cable{i}/tension`` topic per cable (Float64, WrenchStamped)."""
+    T = ts.types
+    m = tension.shape[1]
+    if tension_type in ARRAY_TENSION_TYPES:
+        tc = w.add_connection("/cable/tensions", tension_type, typestore=ts)
+        names = [f"cable{i + 1}" for i in range(m)]
+        for k in range(len(tens_ns)):
+            if tension_type == "sensor_msgs/msg/JointState":
+                msg = T[tension_type](header=_header(T, ros1, int(tens_ns[k]), ""),
+                                      name=names, position=np.zeros(m),
+                                      velocity=np.zeros(m), effort=tension[k].copy())
+            else:
+                lay = T["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
+                msg = T[tension_type](layout=lay, data=tension[k].copy())
+            w.write(tc, int(tens_ns[k]), ser(msg, tension_type))
+        return
+    V3 = T["geometry_msgs/msg/Vector3"]
+    for i in range(m):
+        tc = w.add_connection(f"/cable{i + 1}/tension", tension_type, typestore=ts)
+        for k in range(len(tens_ns)):
+            v = float(tension[k, i])
+            if tension_type == "std_msgs/msg/Float64":
+                msg = T[tension_type](data=v)
+            else:
+                msg = T[tension_type](
+                    header=_header(T, ros1, int(tens_ns[k]), f"cable{i + 1}"),
+                    wrench=T["geometry_msgs/msg/Wrench"](force=V3(x=0.0, y=0.0, z=v),
+                                                         torque=V3(x=0.0, y=0.0, z=0.0)))
+            w.write(tc, int(tens_ns[k]), ser(msg, tension_type))

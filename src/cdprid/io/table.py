@@ -378,6 +378,15 @@ def import_table(pose: str | Path, tensions: str | Path, robot: str | Path, out:
     ptab, pt, pos, q, convention, pdrop = _read_pose(pose, pmap, euler, pu)
     ttab, tt, tau, tdrop = read_tension_table(tensions, tmap, m, tu, float(tension_time_offset))
     notes = _unmapped_notes(ptab, pmap, ttab, tmap, m)
+    meta = _table_meta(ptab, ttab, pmap, tmap, pu, tu, convention, tension_time_offset, pdrop,
+                       tdrop, notes, euler)
+    return write_imported(out, rob, pt, pos, tt, tau, quaternion=q, meta=meta, force=force)
+
+
+def _table_meta(ptab, ttab, pmap, tmap, pu, tu, convention, tension_time_offset, pdrop, tdrop,
+                notes, euler) -> dict:
+    """meta.toml of a table import: its ``[import]`` record (files, delimiters, column
+    mappings, units, orientation convention, dropped rows, notes, assumptions)."""
     names = {",": "comma", ";": "semicolon", "\t": "tab", "whitespace": "whitespace"}
     meta = {
         "description": f"imported from the tables {ptab.path.name} and {ttab.path.name} by "
@@ -410,4 +419,4 @@ def import_table(pose: str | Path, tensions: str | Path, robot: str | Path, out:
     }
     if euler:
         meta["import"]["euler"] = euler
-    return write_imported(out, rob, pt, pos, tt, tau, quaternion=q, meta=meta, force=force)
+    return meta

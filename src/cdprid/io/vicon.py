@@ -105,6 +105,22 @@ def read_vicon_trajectories(path: str | Path, units: str | None = None) -> Vicon
     if not lines[0].strip().lower().startswith("trajectories"):
         raise InputError(f"{path}: line 1 is {lines[0].strip()[:40]!r}, not 'Trajectories' "
                          "(expected a Vicon Nexus trajectories export).")
+    rate, names, k, ncol, scale = _vicon_header(path, lines, units)
+    rows = _vicon_rows(path, lines, ncol)
+    data = np.asarray(rows, float)
+    frame = data[:, 0]
+    if not np.all(np.isfinite(frame)) or np.any(np.diff(frame) <= 0):
+        raise InputError(f"{path}: the Frame column is not strictly increasing.")
+    V_m = data[:, 2:].reshape(len(data), k, 3) * scale
+    zero = np.all(V_m == 0.0, axis=2)
+    V_m[zero] = np.nan
+    V_m[~np.all(np.isfinite(V_m), axis=2)] = np.nan
+    return ViconTrajectories(frame.astype(int), rate, names, V_m)
+
+
+def _vicon_header(path: Path, lines: list[str], units: str | None):
+    """Lines 2-5 of a Vicon trajectories export: ``(rate Hz, marker names, number of markers,
+    number of columns, metres per unit)``; :class:`InputError` naming the line otherwise."""
     try:
         rate = float(_split(lines[1])[0])
     except ValueError:
@@ -131,6 +147,12 @@ def read_vicon_trajectories(path: str | Path, units: str | None = None) -> Vicon
     scale = {"mm": 1e-3, "m": 1.0}.get(units.lower())
     if scale is None:
         raise InputError(f"{path}: line 5 gives the unit {units!r}; only 'mm' and 'm' are known.")
+    return rate, names, k, ncol, scale
+
+
+def _vicon_rows(path: Path, lines: list[str], ncol: int) -> list[list[float]]:
+    """The numeric rows after the 5 header lines (blank lines skipped, empty marker fields as
+    NaN); :class:`InputError` naming the line of a truncated, long or non-numeric row."""
     rows = []
     for lineno, line in enumerate(lines[5:], start=6):
         if not line.strip():
@@ -156,12 +178,4 @@ def read_vicon_trajectories(path: str | Path, units: str | None = None) -> Vicon
         rows.append(row)
     if not rows:
         raise InputError(f"{path}: no data rows after the 5 header lines.")
-    data = np.asarray(rows, float)
-    frame = data[:, 0]
-    if not np.all(np.isfinite(frame)) or np.any(np.diff(frame) <= 0):
-        raise InputError(f"{path}: the Frame column is not strictly increasing.")
-    V_m = data[:, 2:].reshape(len(data), k, 3) * scale
-    zero = np.all(V_m == 0.0, axis=2)
-    V_m[zero] = np.nan
-    V_m[~np.all(np.isfinite(V_m), axis=2)] = np.nan
-    return ViconTrajectories(frame.astype(int), rate, names, V_m)
+    return rows

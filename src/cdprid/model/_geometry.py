@@ -272,7 +272,32 @@ def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
     _check_typos(source, data)
     cables = data.get("cable")
     if not isinstance(cables, list) or len(cables) == 0:
-        raise RobotFileError(f"{source}: no [[cable]] tables found; at least one cable is required.")
+        raise RobotFileError(f"{source}: no [[cable]] tables found; at least one cable is "
+                             "required.")
+    B_A, P_b, radius, axis, ref = _cable_arrays(source, cables)
+    gravity = _vec(source, data, "gravity", "the top level", default=[0.0, 0.0, -9.81])
+    limits = _limits_from_dict(source, data)
+    plat = data.get("platform", {}) or {}
+    if not isinstance(plat, dict):
+        raise RobotFileError(f"{source}: [platform] must be a table.")
+    platform = _platform(source, plat, _platform_inertia(source, plat))
+    name = data.get("name", "robot")
+    return CableRobot(
+        B_A=jnp.asarray(np.array(B_A)),
+        P_b=jnp.asarray(np.array(P_b)),
+        pulley_radius=jnp.asarray(np.array(radius)),
+        pulley_axis=jnp.asarray(np.array(axis)),
+        pulley_reference=jnp.asarray(np.array(ref)),
+        gravity=jnp.asarray(gravity),
+        name=str(name),
+        limits=limits,
+        platform=platform,
+    )
+
+
+def _cable_arrays(source: str, cables: list) -> tuple[list, list, list, list, list]:
+    """Exit points, anchors, pulley radii, unit pulley axes and unit pulley references of the
+    ``[[cable]]`` tables (lists, one entry per cable); :class:`RobotFileError` if invalid."""
     B_A, P_b, radius, axis, ref = [], [], [], [], []
     for i, c in enumerate(cables, start=1):
         where = f"[[cable]] number {i}"
@@ -299,15 +324,20 @@ def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
             ref.append(e / np.linalg.norm(e))
         else:
             ref.append(_default_reference(k))
-    gravity = _vec(source, data, "gravity", "the top level", default=[0.0, 0.0, -9.81])
+    return B_A, P_b, radius, axis, ref
+
+
+def _limits_from_dict(source: str, data: dict) -> Limits:
+    """The :class:`Limits` of the ``[limits]`` table (all optional); :class:`RobotFileError`
+    if invalid."""
     lim = data.get("limits", {}) or {}
     if not isinstance(lim, dict):
         raise RobotFileError(f"{source}: [limits] must be a table.")
     wmin = _vec(source, lim, "workspace_min", "[limits]") if "workspace_min" in lim else None
     wmax = _vec(source, lim, "workspace_max", "[limits]") if "workspace_max" in lim else None
     if wmin is not None and wmax is not None and not np.all(wmax > wmin):
-        raise RobotFileError(f"{source}: [limits] field 'workspace_max' must exceed 'workspace_min' "
-                             "on every axis.")
+        raise RobotFileError(f"{source}: [limits] field 'workspace_max' must exceed "
+                             "'workspace_min' on every axis.")
     tmin = _num(source, lim, "tension_min", "[limits]")
     tmax = _num(source, lim, "tension_max", "[limits]")
     if tmin is not None and tmin < 0:
@@ -315,7 +345,7 @@ def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
     if tmin is not None and tmax is not None and not tmax > tmin:
         raise RobotFileError(f"{source}: [limits] field 'tension_max' ({tmax}) must exceed "
                              f"'tension_min' ({tmin}).")
-    limits = Limits(
+    return Limits(
         tension_min=tmin,
         tension_max=tmax,
         cable_speed_max=_positive(source, lim, "cable_speed_max", "[limits]"),
@@ -323,31 +353,21 @@ def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
         workspace_max=None if wmax is None else tuple(float(v) for v in wmax),
         **{k: _positive(source, lim, k, "[limits]") for k in _LIMITS_11},
     )
-    plat = data.get("platform", {}) or {}
-    if not isinstance(plat, dict):
-        raise RobotFileError(f"{source}: [platform] must be a table.")
-    inertia = None
-    if "inertia" in plat:
-        try:
-            I = np.asarray(plat["inertia"], float)
-        except (TypeError, ValueError):
-            I = np.zeros(0)
-        if I.shape != (3, 3) or not np.all(np.isfinite(I)):
-            raise RobotFileError(f"{source}: [platform] field 'inertia' must be a 3x3 numeric matrix.")
-        inertia = tuple(tuple(float(v) for v in row) for row in I)
-    platform = _platform(source, plat, inertia)
-    name = data.get("name", "robot")
-    return CableRobot(
-        B_A=jnp.asarray(np.array(B_A)),
-        P_b=jnp.asarray(np.array(P_b)),
-        pulley_radius=jnp.asarray(np.array(radius)),
-        pulley_axis=jnp.asarray(np.array(axis)),
-        pulley_reference=jnp.asarray(np.array(ref)),
-        gravity=jnp.asarray(gravity),
-        name=str(name),
-        limits=limits,
-        platform=platform,
-    )
+
+
+def _platform_inertia(source: str, plat: dict) -> tuple | None:
+    """The ``[platform]`` table's ``inertia`` as a 3x3 tuple of floats, or None if absent;
+    :class:`RobotFileError` if it is not a finite 3x3 numeric matrix."""
+    if "inertia" not in plat:
+        return None
+    try:
+        I = np.asarray(plat["inertia"], float)
+    except (TypeError, ValueError):
+        I = np.zeros(0)
+    if I.shape != (3, 3) or not np.all(np.isfinite(I)):
+        raise RobotFileError(f"{source}: [platform] field 'inertia' must be a 3x3 numeric "
+                             "matrix.")
+    return tuple(tuple(float(v) for v in row) for row in I)
 
 
 def load_robot(path: str | Path) -> CableRobot:

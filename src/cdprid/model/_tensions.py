@@ -339,8 +339,17 @@ def distribute_tensions(
         & np.all(tau <= tension_max + tol, axis=1)
         & (resid <= 1e-9 * scale)
     )
-    bad = []
     todo = np.nonzero(~ok)[0]
+    bad = _qp_fallback(W, w, tau, todo, tension_min, tension_max, ref, qp_solver, scale)
+    if bad:
+        _raise_infeasible(W, w, t, bad, n, tension_min, tension_max)
+    return tau, int(todo.size)
+
+
+def _qp_fallback(W, w, tau, todo, tension_min, tension_max, ref, qp_solver, scale) -> list:
+    """Solve the samples ``todo`` by the QP of :func:`distribute_tensions`, writing each
+    admissible solution into ``tau`` (in place); the indices of the samples left without one."""
+    bad = []
     for k in todo:
         x, success = _solve_qp(W[k], w[k], tension_min, tension_max, ref, qp_solver)
         good = (
@@ -355,14 +364,18 @@ def distribute_tensions(
             tau[k] = x + np.linalg.pinv(W[k]) @ (w[k] - W[k] @ x)
         else:
             bad.append(int(k))
-    if bad:
-        first = bad[0]
-        when = f"t = {t[first]:.4g} s" if t is not None else f"sample {first}"
-        reason = _why_infeasible(W[first], w[first], tension_min, tension_max)
-        raise InfeasibleTensionsError(
-            f"tension distribution infeasible at {len(bad)} of {n} samples (first at {when}): "
-            f"{reason}.",
-            bad,
-            None if t is None else np.asarray(t)[bad],
-        )
-    return tau, int(todo.size)
+    return bad
+
+
+def _raise_infeasible(W, w, t, bad, n, tension_min, tension_max):
+    """Raise :class:`InfeasibleTensionsError` for the infeasible samples ``bad`` of ``n``:
+    their count, the first one's time and why it is infeasible."""
+    first = bad[0]
+    when = f"t = {t[first]:.4g} s" if t is not None else f"sample {first}"
+    reason = _why_infeasible(W[first], w[first], tension_min, tension_max)
+    raise InfeasibleTensionsError(
+        f"tension distribution infeasible at {len(bad)} of {n} samples (first at {when}): "
+        f"{reason}.",
+        bad,
+        None if t is None else np.asarray(t)[bad],
+    )

@@ -50,6 +50,9 @@ bandwidth (much noise); sihd3, sihd2-cascade and euler-butter-causal comply with
 The noise level can be estimated from a dataset (:func:`noise_from_dataset`,
 which uses :func:`cdprid.core.estimate_noise`), and the training signal
 can be the dataset's own smoothed trajectory (:func:`dataset_signal`).
+
+The losses are in :mod:`cdprid.tuning._losses`, the searches (starts, BFGS with continuation,
+golden section) in :mod:`cdprid.tuning._search`; this module re-exports their names.
 """
 
 from __future__ import annotations
@@ -59,34 +62,36 @@ import math
 import time
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base._errors import InputError
+from cdprid.tuning._losses import ParamProblem as ParamProblem
+from cdprid.tuning._losses import _accel_loss as _accel_loss
+from cdprid.tuning._losses import _groups as _groups
+from cdprid.tuning._losses import _param_loss as _param_loss
+from cdprid.tuning._losses import _stack_train as _stack_train
+from cdprid.tuning._losses import penalty_freqs as penalty_freqs
 from cdprid.tuning._response import (
     PENALTY_WEIGHT,
     FrequencyResponse,
     ResponseBounds,
-    _noise_gain,
     acceleration_response,
-    response_penalty,
-    sihd_linear_response,
 )
+from cdprid.tuning._search import CONTINUATION as CONTINUATION
+from cdprid.tuning._search import _golden as _golden
+from cdprid.tuning._search import _init_candidates as _init_candidates
+from cdprid.tuning._search import _minimise as _minimise
+from cdprid.tuning._search import simulated_penalty as simulated_penalty
 from cdprid.tuning._sihd_params import (
     PAPER_PARAMS,
     SIHD_METHODS,
-    _acc_channel,
-    _order,
-    _theta_to_gains,
     default_params,
     params_from_theta,
-    theta_from_params,
 )
 from cdprid.tuning._training import (
     TrainingSignal,
     content_bandwidth,
     evaluate,
-    noise_realisations,
     trajectory_family,
 )
 
@@ -99,61 +104,6 @@ BASELINE_GRIDS = {
     "rts": ("q", 1e-5, 1e3, {}),
     "levant": ("L", 0.05, 200.0, {}),
 }
-
-
-class ParamProblem:
-    """4-parameter least squares (m, m s_G) on simulated tensions, differentiable in the
-    estimated accelerations.
-
-    The CRAFT-like robot follows the training signal (rotation-free); the cable
-    wrench ``W(p) tau`` is computed at the true poses from the simulated
-    tensions plus tension noise ``tension_std`` (one draw per seed).
-    """
-
-    def __init__(self, signal: TrainingSignal, seeds, tension_std: float = 0.5):
-        from cdprid.model._dynamics import regressor_translation
-        from cdprid.model._geometry import wrench_matrix
-        from cdprid.model._robots import craft_like_robot, craft_like_truth
-        from cdprid.model._sampled import SampledTrajectory
-        from cdprid.simulation._simulate import SensorNoise, simulate
-
-        robot = craft_like_robot()
-        truth = craft_like_truth()
-        vel = np.gradient(signal.position, signal.dt, axis=0)
-        traj = SampledTrajectory(jnp.asarray(signal.t), jnp.asarray(signal.position),
-                                 jnp.asarray(vel), jnp.asarray(signal.acceleration))
-        sim = simulate(robot, traj, params=truth, noise=SensorNoise.off(),
-                       rate_pose=1.0 / signal.dt, rate_tension=1.0 / signal.dt,
-                       check_workspace_box=False)
-        tau = np.asarray(sim.tension_true)
-        n = min(tau.shape[0], signal.t.size)
-        I3 = jnp.eye(3)
-        W = np.asarray(jax.vmap(lambda p: wrench_matrix(robot, p, I3))(
-            jnp.asarray(signal.position[:n])))
-        rng_y = []
-        for s in seeds:
-            noise = np.random.default_rng(10_000 + int(s)).standard_normal(tau[:n].shape)
-            rng_y.append(np.einsum("nij,nj->ni", W, tau[:n] + tension_std * noise))
-        self.Y = np.stack(rng_y)  # (S, n, 6)
-        self.n = n
-        self.g = np.asarray(robot.gravity, float)
-        self.theta_true = np.r_[truth.mass, truth.mass * np.asarray(truth.com, float)]
-        self.scale = np.r_[truth.mass, np.full(3, np.linalg.norm(self.theta_true[1:]))]
-        self._reg = jax.vmap(lambda a: regressor_translation(I3, a, jnp.asarray(self.g)))
-
-    def rel_error(self, A_hat, mask):
-        """RMS over seeds of the scaled parameter error; ``A_hat`` (n, S, 3)."""
-        A_hat = A_hat[: self.n]
-        m = jnp.asarray(mask[: self.n], A_hat.dtype)
-
-        def one(a, y):
-            R = self._reg(a) * m[:, None, None]
-            R = R.reshape(-1, 4)
-            th = jnp.linalg.lstsq(R, (y * m[:, None]).reshape(-1))[0]
-            return jnp.sum(((th - self.theta_true) / self.scale) ** 2) / 4
-
-        errs = jax.vmap(one, in_axes=(1, 0))(A_hat, jnp.asarray(self.Y))
-        return errs
 
 
 @dataclasses.dataclass
@@ -207,35 +157,9 @@ class TuneResult:
         return d
 
 
-def _stack_train(signal, noise_std, seeds):
-    S = len(seeds)
-    nz = noise_realisations(signal.t.size, seeds)
-    y = signal.position[None] + noise_std * nz
-    Y = np.transpose(y, (1, 0, 2)).reshape(signal.t.size, 3 * S)
-    acc = np.tile(signal.acceleration, (1, S))
-    return Y, acc
-
-
-def _init_candidates(method, noise_std):
-    """A few starting points: the method's defaults and pole-placement patterns."""
-    cands = [default_params(method)]
-    if method == "sihd2-cascade":
-        for l2, l4 in ((500.0, 800.0), (2000.0, 2000.0)):
-            cands.append({**PAPER_PARAMS, "lambda2": l2, "lambda4": l4, "alpha": 0.99})
-        return cands
-    n = _order(method)
-    # Butterworth patterns of a few bandwidths (Kalman-like pole sets), alpha near 1
-    for om in (5.0, 8.0, 12.0, 18.0, 30.0):
-        roots = [om * complex(math.cos(math.pi * (2 * k + n + 1) / (2 * n)),
-                              math.sin(math.pi * (2 * k + n + 1) / (2 * n))) for k in range(n)]
-        lam = np.real(np.poly(roots))[1:]
-        p = {f"lambda{q + 1}": float(lam[q]) for q in range(n)}
-        p.update(alpha=0.995, mu=1.0)
-        cands.append(p)
-    return cands
-
-
 def _as_signals(signal, signals, dt: float = 0.01) -> list:
+    """The training signals: ``signals`` (checked), else ``[signal]``, else the training
+    family of :func:`trajectory_family`."""
     if signals is not None:
         sigs = list(signals)
         if not sigs:
@@ -256,90 +180,30 @@ def resolve_bounds(bounds, signals) -> ResponseBounds:
     return ResponseBounds(float(bounds))
 
 
-def penalty_freqs(dt: float, bandwidth_hz: float) -> np.ndarray:
-    """Frequency grid of the response penalty (coarser than :func:`dense_freqs`)."""
-    return np.union1d(np.geomspace(0.02, 0.49 / dt, 120), np.linspace(0.02, bandwidth_hz, 25))
+def _check_tune_args(method: str, objective: str, noise_std: float) -> None:
+    """Raise :class:`InputError` for a method, objective or noise level :func:`tune` rejects."""
+    if method not in SIHD_METHODS:
+        raise InputError(f"gradient tuning supports {', '.join(SIHD_METHODS)}; got {method!r}.")
+    if objective not in ("accel", "params", "mix"):
+        raise InputError(f"unknown objective {objective!r}; use accel, params or mix.")
+    if not (math.isfinite(noise_std) and noise_std > 0):
+        raise InputError(f"noise std must be a positive number of metres, got {noise_std!r}.")
 
 
-def _groups(sigs, noise_std, seeds, noisy: bool):
-    """Training arrays grouped by length: (Y (n, 3 k S), acc (n, 3 k S), mask (n,), k)."""
-    by_len: dict = {}
-    for s in sigs:
-        by_len.setdefault((s.t.size, float(s.t0)), []).append(s)
-    out = []
-    for group in by_len.values():
-        Ys, As = [], []
-        for s in group:
-            if noisy:
-                Y, A = _stack_train(s, noise_std, seeds)
-            else:
-                Y, A = s.position, s.acceleration
-            Ys.append(Y)
-            As.append(A)
-        out.append((jnp.asarray(np.concatenate(Ys, 1)), jnp.asarray(np.concatenate(As, 1)),
-                    jnp.asarray(group[0].mask.astype(float)), len(group)))
-    return out
-
-
-def _accel_loss(method, sigs, noise_std, seeds, zeta_min, bounds, constrain, dt):
-    """``f(theta, None)``: mean over members of the log mean-square 3-D acceleration error,
-    plus :data:`PENALTY_WEIGHT` x :func:`response_penalty` when ``constrain``.
-
-    Constrained (alpha = 1, a linear observer), the noise term is exact: ``3 sigma^2`` times
-    :func:`_noise_gain`, added to the noise-free tracking error of each member; otherwise the
-    noise is simulated with ``seeds``.
-    """
-    groups = _groups(sigs, noise_std, seeds, noisy=not constrain)
-    S = 1 if constrain else len(seeds)
-    fa = 1.0 if constrain else None
-    pf = penalty_freqs(dt, bounds.bandwidth_hz)
-
-    def f(th, args):
-        """``args``: multiplier of :data:`PENALTY_WEIGHT` (continuation stages)."""
-        lams, alpha = _theta_to_gains(method, th, zeta_min, fa)
-        nv = 3 * noise_std**2 * _noise_gain(method, lams, dt) if constrain else 0.0
-        logs = []
-        for Y, acc, mask, k in groups:
-            A = jax.vmap(lambda c: _acc_channel(method, c, dt, lams, alpha), 1, 1)(Y)
-            se = jnp.sum(((A - acc) ** 2) * mask[:, None], axis=0).reshape(k, S, 3)
-            logs.append(jnp.log(jnp.sum(se, axis=(1, 2)) / (S * jnp.sum(mask)) + nv))
-        L = jnp.mean(jnp.concatenate(logs))
-        if constrain:
-            H = sihd_linear_response(method, lams, dt, pf)
-            L = L + args * PENALTY_WEIGHT * response_penalty(H, pf, bounds)
-        return L
-
-    return f
-
-
-def _param_loss(method, signal, noise_std, seeds, objective, weight, zeta_min, bounds,
-                constrain):
-    """``f(theta, None)`` for the ``params``/``mix`` objectives (first training signal)."""
-    pp = ParamProblem(signal, seeds)
-    Y, acc = _stack_train(signal, noise_std, seeds)
-    Y, acc = jnp.asarray(Y), jnp.asarray(acc)
-    mask = signal.mask.astype(float)
-    maskj = jnp.asarray(mask)
-    h = float(signal.dt)
-    a_ms = float(np.mean(np.sum(signal.acceleration[signal.mask] ** 2, axis=1)))
-    fa = 1.0 if constrain else None
-    pf = penalty_freqs(h, bounds.bandwidth_hz)
-
-    def f(th, args):
-        lams, alpha = _theta_to_gains(method, th, zeta_min, fa)
-        A = jax.vmap(lambda c: _acc_channel(method, c, h, lams, alpha), 1, 1)(Y)
-        pe = jnp.mean(pp.rel_error(A.reshape(A.shape[0], -1, 3), mask))
-        if objective == "params":
-            L = jnp.log(pe)
+def _optimise_theta(method, objective, sigs, noise_std, train_seeds, weight, zeta_min, bounds,
+                    constrain, h, init, fa, max_steps, say):
+    """Build the ``objective``'s loss (in 64-bit), jit it and minimise it (:func:`_minimise`):
+    ``(theta, BFGS steps, solver status)``."""
+    with jax.enable_x64(True):
+        if objective == "accel":
+            loss = _accel_loss(method, sigs, noise_std, train_seeds, zeta_min, bounds,
+                               constrain, h)
         else:
-            se = jnp.sum(((A - acc) ** 2) * maskj[:, None]) / (jnp.sum(maskj) * len(seeds))
-            L = jnp.log((1 - weight) * se / a_ms + weight * pe)
-        if constrain:
-            L = L + args * PENALTY_WEIGHT * response_penalty(
-                sihd_linear_response(method, lams, h, pf), pf, bounds)
-        return L
-
-    return f
+            loss = _param_loss(method, sigs[0], noise_std, train_seeds, objective, weight,
+                               zeta_min, bounds, constrain)
+        loss_j = jax.jit(loss)
+        return _minimise(loss_j, method, init, noise_std, zeta_min, fa, max_steps, constrain,
+                         say)
 
 
 def tune(
@@ -399,13 +263,7 @@ def tune(
     TuneResult
         With ``response`` verified on :func:`dense_freqs` against the bounds and ``warnings``.
     """
-
-    if method not in SIHD_METHODS:
-        raise InputError(f"gradient tuning supports {', '.join(SIHD_METHODS)}; got {method!r}.")
-    if objective not in ("accel", "params", "mix"):
-        raise InputError(f"unknown objective {objective!r}; use accel, params or mix.")
-    if not (math.isfinite(noise_std) and noise_std > 0):
-        raise InputError(f"noise std must be a positive number of metres, got {noise_std!r}.")
+    _check_tune_args(method, objective, noise_std)
     say = progress or (lambda s: None)
     sigs = _as_signals(signal, signals)
     bounds = resolve_bounds(bounds, sigs)
@@ -414,69 +272,15 @@ def tune(
     fa = 1.0 if constrain else None
     h = float(sigs[0].dt)
 
-    with jax.enable_x64(True):
-        if objective == "accel":
-            loss = _accel_loss(method, sigs, noise_std, train_seeds, zeta_min, bounds,
-                               constrain, h)
-        else:
-            loss = _param_loss(method, sigs[0], noise_std, train_seeds, objective, weight,
-                               zeta_min, bounds, constrain)
-        loss_j = jax.jit(loss)
-        th, steps, status = _minimise(loss_j, method, init, noise_std, zeta_min, fa,
-                                      max_steps, constrain, say)
+    th, steps, status = _optimise_theta(method, objective, sigs, noise_std, train_seeds, weight,
+                                        zeta_min, bounds, constrain, h, init, fa, max_steps,
+                                        say)
     params = params_from_theta(method, th, zeta_min, fa)
     res = _finish(method, params, noise_std, sigs, train_seeds, test_seeds, objective,
                   (t_wall, t_cpu), steps, bounds, heldout, say)
     res.extra["solver_status"] = status
     res.extra["constrained"] = bool(constrain)
     return res
-
-
-#: Penalty-weight multipliers of the continuation stages of the constrained BFGS: the gains
-#: move from the unconstrained optimum into the bounds instead of starting far outside them.
-CONTINUATION = (1e-3, 1e-2, 1e-1, 1.0)
-
-
-def _minimise(loss_j, method, init, noise_std, zeta_min, fa, max_steps, constrain, say):
-    """Best start (unpenalised loss), then BFGS.
-
-    Unconstrained: one solve of ``max_steps``.  Constrained: two paths of solves of
-    ``max(1, max_steps // 2)`` steps each (one compilation), (a) the full penalty weight twice
-    from the start, (b) the stages of :data:`CONTINUATION`; the lower full-weight loss of
-    start, (a) and (b) is kept.
-    """
-    import optimistix as optx
-
-    cands = [init] if init is not None else _init_candidates(method, noise_std)
-    best = None
-    for c in cands:
-        th0 = jnp.asarray(theta_from_params(method, c, zeta_min, fa))
-        v = float(loss_j(th0, 0.0))
-        if best is None or (math.isfinite(v) and v < best[0]):
-            best = (v, th0)
-    one = jnp.asarray(1.0, jnp.float64)
-    v_start = float(loss_j(best[1], one))
-    say(f"tune {method}: start loss {v_start:.4f} (best of {len(cands)} starts)")
-    solver = optx.BFGS(rtol=1e-5, atol=1e-6)
-    per = max(1, max_steps // 2) if constrain else max_steps
-    paths = [(1.0, 1.0), CONTINUATION] if constrain else [(1.0,)]
-    out, steps, status = (v_start, best[1]), 0, ""
-    for path in paths:
-        th = best[1]
-        for w in path:
-            wj = jnp.asarray(w, jnp.float64)  # an array: one compilation for every stage
-            sol = optx.minimise(loss_j, solver, th, args=wj, max_steps=per, throw=False)
-            if math.isfinite(float(loss_j(sol.value, wj))):
-                th = sol.value
-            steps += int(sol.stats.get("num_steps", 0))
-            status = ("converged" if sol.result == optx.RESULTS.successful
-                      else "not converged: " + optx.RESULTS[sol.result].split(".")[0])
-        v = float(loss_j(th, one))
-        if math.isfinite(v) and v < out[0]:
-            out = (v, th)
-    say(f"tune {method}: end loss {out[0]:.4f} after {steps} BFGS steps ({len(paths)} path(s); "
-        f"last solve {status}; the lowest of start and ends is kept)")
-    return out[1], steps, status
 
 
 def response_warnings(method: str, resp: FrequencyResponse) -> list[str]:
@@ -497,6 +301,7 @@ def response_warnings(method: str, resp: FrequencyResponse) -> list[str]:
 
 
 def _family_name(sigs) -> str:
+    """The name of the training signals in the result: one name, or the family's."""
     if len(sigs) == 1:
         return sigs[0].name
     return f"family of {len(sigs)} trajectories: " + "; ".join(s.name for s in sigs)
@@ -537,32 +342,6 @@ def _finish(method, params, noise_std, sigs, train_seeds, test_seeds, objective,
     return TuneResult(method, params, float(noise_std), train, test, paper, dflt, objective,
                       train_seeds, test_seeds, _family_name(sigs), wall, cpu, steps,
                       extra=extra, response=resp, warnings=warns)
-
-
-def _golden(f, lo, hi, iters):
-    g = (math.sqrt(5) - 1) / 2
-    a, b = lo, hi
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = f(c), f(d)
-    for _ in range(iters):
-        if fc < fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = f(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = f(d)
-    return (c, fc) if fc < fd else (d, fd)
-
-
-def simulated_penalty(method: str, params: dict, dt: float, bounds: ResponseBounds,
-                      amplitude_m: float = 0.3) -> float:
-    """:func:`response_penalty` of the simulated (describing) response on a 40-point grid."""
-    f = np.union1d(np.geomspace(0.05, 0.45 / dt, 30), np.linspace(0.05, bounds.bandwidth_hz, 10))
-    r = acceleration_response(method, params, dt, freqs_hz=f, amplitude_m=amplitude_m)
-    H = r.gain * np.exp(1j * np.radians(r.phase_deg))
-    return float(response_penalty(jnp.asarray(H), f, bounds))
 
 
 def tune_baseline(
@@ -636,23 +415,3 @@ def tune_method(method: str, noise_std: float, **kw) -> TuneResult:
     keep = ("signal", "train_seeds", "test_seeds", "progress", "signals", "bounds", "constrain",
             "heldout")
     return tune_baseline(method, noise_std, **{k: v for k, v in kw.items() if k in keep})
-
-
-"""Default gain tolerance: ``|gain - 1| <= RESPONSE_TOL`` up to the stated bandwidth."""
-
-
-"""Default bound on ``|phase|`` of the acceleration estimate up to the stated bandwidth, deg."""
-
-
-"""Bound on the acceleration gain below the bandwidth (no resonance)."""
-
-
-"""Bound on the acceleration gain above the bandwidth: no peak above 1 beyond the tolerance
-(no resonance; the noise is not amplified)."""
-
-
-"""Weight of the response penalty in the (log) tuning loss."""
-
-
-"""Acceleration amplitude (m/s^2) of the test sinusoids of a nonlinear method's describing
-response (position amplitude ``min(amplitude_m, a / (2 pi f)^2)``)."""
