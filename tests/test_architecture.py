@@ -22,10 +22,6 @@ MAX_MODULE_LINES = 600
 # --------------------------------------------------------------------------- allow-lists
 # "module:function" -> reason. Empty them as the modules are converted.
 ALLOWED_LONG_FUNCTIONS: dict[str, str] = {
-    "cdprid.core._crb:crb": "90 lines; split in progress (issue 22)",
-    "cdprid.diagnosis.pipeline:diagnose": "120 lines; split in progress (issue 22)",
-    "cdprid.identify._batch:identify_dataset": "102 lines; split in progress (issue 22)",
-    "cdprid.simulation._simulate:simulate": "116 lines; split in progress (issue 22)",
 }
 # "module" -> reason, for modules over MAX_MODULE_LINES lines
 ALLOWED_LONG_MODULES: dict[str, str] = {

@@ -63,6 +63,9 @@ def _run(args) -> int:
     for u in res.unexplained:
         print(f"unexplained: {u['where']}: {u['size']:.3g} N rms, like {u['correlates_with']} "
               f"(p = {u['p_value']:.2e})")
+    for u in res.info.get("not_named", []):
+        print(f"not named: {u['effect']} {u['parameters']}  interval {u['interval']}  "
+              f"(p = {u['p_value']:.2g} alone: {u['why']})")
     if args.json:
         print(f"wrote {write_json(args.json, res.as_json(), force=args.force)}")
     if args.report:

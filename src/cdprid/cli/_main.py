@@ -24,10 +24,11 @@ import signal
 import sys
 from pathlib import Path
 
-__all__ = ["main", "UserError", "build_parser", "load_json_object", "parse_params", "write_json"]
+__all__ = ["main", "console_main", "UserError", "build_parser", "load_json_object", "parse_params", "write_json"]
 
 
 from cdprid.base._errors import OutputError, UserError  # noqa: E402  (re-exported: cdprid.cli._main.UserError)
+from cdprid.cli._signals import install_termination_handlers, restore_handlers  # noqa: E402
 
 
 def _check_environment() -> None:
@@ -529,7 +530,7 @@ def main(argv=None) -> int:
         print(f"cdprid: internal error: {type(exc).__name__}: {exc} "
               "(set CDPRID_DEBUG=1 for a traceback and please report it)", file=sys.stderr)
         return 1
-    previous = _install_termination_handlers()
+    previous = install_termination_handlers()
     try:
         _enable_x64()
         return int(args.func(args) or 0)
@@ -554,39 +555,22 @@ def main(argv=None) -> int:
               "(set CDPRID_DEBUG=1 for a traceback and please report it)", file=sys.stderr)
         return 1
     finally:
-        _restore_handlers(previous)
+        restore_handlers(previous)
 
 
-class Terminated(KeyboardInterrupt):
-    """SIGTERM or SIGHUP during a command: unwinds like Ctrl-C, so every output transaction
-    removes its temporary ``.part`` files; the exit code is 128 + the signal number."""
-
-    def __init__(self, signum: int):
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
-
-
-def _raise_terminated(signum, frame):
-    raise Terminated(signum)
-
-
-def _install_termination_handlers() -> dict:
-    """SIGTERM and SIGHUP raise :class:`Terminated` (main thread only); returns the old handlers."""
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
-        return {}
-    previous = {}
-    for name in ("SIGTERM", "SIGHUP"):
-        sig = getattr(signal, name, None)
-        if sig is not None:
-            previous[sig] = signal.signal(sig, _raise_terminated)
-    return previous
-
-
-def _restore_handlers(previous: dict) -> None:
-    for sig, handler in previous.items():
-        signal.signal(sig, handler)
+def console_main() -> int:
+    """The ``cdprid`` executable: :func:`main`, and after an interruption (exit code >= 128)
+    the process ends at once (``os._exit``) once the streams are flushed: the command has
+    already removed its partial outputs, and skipping the interpreter's teardown avoids
+    tearing down XLA's worker threads while they may still run (a Ctrl-C during
+    ``import uacdpr``'s calibration once ended in a segmentation fault)."""
+    rc = main()
+    if rc >= 128:
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        os._exit(rc)
+    return rc
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -24,7 +24,7 @@ from cdprid.core._covariance import hac_covariance
 from cdprid.diagnosis.problem import Problem
 from cdprid.diagnosis.result import Finding
 from cdprid.diagnosis.testing import blocks
-from cdprid.effects._effects import ENCODER_EFFECT
+from cdprid.effects._plant import ENCODER_EFFECT
 from cdprid.model._geometry import cable_lengths
 
 #: the stream's file stem and column names (``l_1..l_m``), in the style of tensions.csv

@@ -36,6 +36,7 @@ from cdprid.diagnosis.selection import (
     start,
     swap_stage,
 )
+from cdprid.diagnosis.sizes import not_named_sizes
 from cdprid.diagnosis.testing import wald
 from cdprid.diagnosis.unexplained import (
     finding_floor_N,
@@ -191,8 +192,7 @@ def diagnose(
     prob, sub, lengths, notes = _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
                                          max_samples, say)
     prob, base, noise, extra = _base_stage(prob, notes, say)
-    candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational,
-                                prob.d.robot)
+    candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot)
     s, clock_info, ranking, thr_first = _search(
         prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain,
         np.random.default_rng(seed), say)
@@ -205,7 +205,8 @@ def diagnose(
     settings = {"train_until": train_until, "taut_threshold_N": taut_N,
                 "n_candidates": len(candidates), "alpha": alpha}
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, settings)
-    info.update({"unexplained_rule": rule, "lengths": el_info, "clock_profile": clock_info,
+    info.update({"not_named": not_named_sizes(prob, base, s, candidates, extra),
+                 "unexplained_rule": rule, "lengths": el_info, "clock_profile": clock_info,
                  "wall_time_s": time.perf_counter() - t0})
     if sub is not None:
         info["subset"] = sub.as_json()

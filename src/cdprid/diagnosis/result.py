@@ -72,6 +72,8 @@ class DiagnosisResult:
             "unexplained": [{k: v for k, v in u.items() if k != "significant"}
                             for u in self.unexplained],
             "ranking": self.ranking,
+            "not_named": list(self.info.get("not_named", [])),
             "notes": list(self.notes),
-            "info": {k: v for k, v in self.info.items() if k != "information_criterion"},
+            "info": {k: v for k, v in self.info.items()
+                     if k not in ("information_criterion", "not_named")},
         }

@@ -28,8 +28,8 @@ from cdprid.diagnosis.problem import Problem, design, heldout_rms, seed_design
 from cdprid.diagnosis.refit import refit_gauss_newton
 from cdprid.diagnosis.result import Finding
 from cdprid.diagnosis.testing import aliases_of, partial_wald, partial_wald_many
-from cdprid.effects._effects import DIAGNOSIS
 from cdprid.diagnosis.unexplained import structure_tests
+from cdprid.effects._effects import DIAGNOSIS
 
 
 def extends_base(c: Candidate) -> bool:

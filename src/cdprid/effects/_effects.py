@@ -300,55 +300,6 @@ def true_robot(robot, effects):
     return robot.replace(B_A=B_A, P_b=P_b, pulley_radius=radius)
 
 
-@dataclasses.dataclass(frozen=True)
-class PlantTerms:
-    """What the simulator's plant takes from the effects (zero when an effect is absent).
-
-    Attributes
-    ----------
-    delay_s : float
-        ``time_delay``: the load cells read the tensions of ``delay_s`` earlier.
-    drag_Ns_per_m : float
-        ``viscous_drag`` on the platform.
-    rho_kg_per_m : float
-        ``cable_mass`` linear density.
-    rotation_amplitude_rad : float
-        ``rotational_dynamics``: the trajectory's added rotation amplitude.
-    encoders : bool
-        An effect the winch encoders see (``cable_elasticity``): simulate ``lengths.csv``.
-    tilted : bool
-        ``frame_tilt``: gravity is not along the pose frame's -z (meta.toml records it).
-    """
-
-    delay_s: float = 0.0
-    drag_Ns_per_m: float = 0.0
-    rho_kg_per_m: float = 0.0
-    rotation_amplitude_rad: float = 0.0
-    encoders: bool = False
-    tilted: bool = False
-
-
-def plant_terms(effects) -> PlantTerms:
-    """The plant's scalar terms and switches from a list of effects (see :class:`PlantTerms`)."""
-    by_name = {e.name: e.params for e in effects}
-
-    def value(name, key):
-        return float(by_name[name][key]) if name in by_name else 0.0
-
-    return PlantTerms(
-        delay_s=value("time_delay", "delay_s"),
-        drag_Ns_per_m=value("viscous_drag", "coefficient_Ns_per_m"),
-        rho_kg_per_m=value("cable_mass", "linear_density_kg_per_m"),
-        rotation_amplitude_rad=value("rotational_dynamics", "amplitude_rad"),
-        encoders="cable_elasticity" in by_name,
-        tilted="frame_tilt" in by_name,
-    )
-
-
-#: the effect the winch encoders measure (its findings come from lengths.csv)
-ENCODER_EFFECT = "cable_elasticity"
-
-
 def load_cell_friction(effects, W, v, omega) -> np.ndarray:
     """What the load cells read in excess of the tension, ``(n, m)``, from ``pulley_friction``.
 
@@ -545,6 +496,7 @@ _GAIN_VS_GEOMETRY = ("the same poses at two pretension levels (a gain scales wit
 DIAGNOSIS: dict[str, DiagnosisForm] = {
     "time_delay": DiagnosisForm(
         blocks=(("delay", 1),), group=0, keys=("delay_s",), bounds={"delay_s": 0.5}, clock=True,
+        report_size=True,
         # first-order expansion about the linearisation point: exact in value and slope
         tension=lambda tau, q, c: tau + (q["delay"] - c["at"]["delay"]) * c["taud"],
         separated_by={"viscous_drag": "faster motion with the same velocities (a delay "
@@ -608,7 +560,7 @@ DIAGNOSIS: dict[str, DiagnosisForm] = {
                                  "viscous_Ns_per_m": float(v[1])},
         interval=lambda lo, hi, extra: {"coulomb_N": [float(lo[0]), float(hi[0])],
                                         "viscous_Ns_per_m": [float(lo[1]), float(hi[1])]},
-        vocabulary="pulley_friction", alias="pulley_friction:cable=all",
+        vocabulary="pulley_friction", alias="pulley_friction:cable=all", report_size=True,
         bounds={"coulomb_N": 100.0, "viscous_Ns_per_m": 1e3},
         nonneg=("coulomb_N", "viscous_Ns_per_m"),
         separated_by={"pulley_friction": "motion of one cable at a time (friction on one "

@@ -53,6 +53,10 @@ class DiagnosisForm:
         Parameters that must lie in an open interval after a refit.
     separated_by : dict
         Other effect -> what trajectory or measurement would tell the two apart.
+    report_size : bool
+        When the search does not name it, its linearised size with a 95 % interval and its
+        p-value are reported anyway (``not_named``): "friction named or reported with its
+        size".
     base_model : bool
         The effect extends the base model itself (rotational dynamics: 4 -> 10 inertial
         parameters) rather than adding theta blocks.
@@ -91,6 +95,9 @@ class DiagnosisForm:
     #: the effect is the base model's own extension (the 4-parameter model to the full
     #: 10-parameter one), not theta blocks: its columns are the extra inertial parameters
     base_model: bool = False
+    #: when not named, its size is still reported (``not_named`` in the JSON): effects a real
+    #: recording always holds to some degree (friction on every pulley, a clock offset)
+    report_size: bool = False
     tension: object = None
     geometry: object = None
     leave: object = None

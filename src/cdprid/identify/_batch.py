@@ -44,6 +44,7 @@ from cdprid.core._regression import (
     regressor_blocks,
     regressors,
 )
+from cdprid.identify._eiv import EIV_NOTE, eiv_fit, noise_gains
 from cdprid.io.align import AlignedSignals, align
 from cdprid.io.dataset import Dataset
 from cdprid.model._dynamics import PARAMETER_NAMES
@@ -69,6 +70,9 @@ DEFAULT_TRIM_S = TRIM_S
 
 MODELS = ("auto", "translation", "full")
 WRENCH_FILTERS = ("matched", "none")
+#: ``none``: ordinary least squares; ``groups``: force and moment row weights (two steps);
+#: ``eiv``: errors-in-variables GLS (:mod:`cdprid.identify._eiv`)
+WEIGHTINGS = ("none", "groups", "eiv")
 
 COND_WARN = 1.0e3
 """Scaled condition number of W_ID above which the excitation is reported as too little."""
@@ -373,8 +377,10 @@ def identify_dataset(
         Time window (s) of the data used.
     trim : float
         Seconds dropped at each end of the window after differentiation.
-    weighting : {"none", "groups"}
-        ``groups``: two-step weighted LS with separate force and moment row weights.
+    weighting : {"none", "groups", "eiv"}
+        ``groups``: two-step weighted LS with separate force and moment row weights;
+        ``eiv``: errors-in-variables GLS, each sample whitened by its residual covariance
+        (tension and pose noise estimated from the data, see :mod:`cdprid.identify._eiv`).
     matched_filter : bool, optional
         Older switch for ``wrench_filter`` (True = "matched", False = "none").
     covariance : {"hac", "iid"}
@@ -405,14 +411,11 @@ def identify_dataset(
     model, rot, warns = _choose_model(model, sig, ds.path)
     motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
     wf, note, w2 = _wrench_filter(ds.robot, differentiator, params, sig.dt, wrench_filter)
-    warns += w2
-    if note:
-        notes.append(note)
+    warns, notes = warns + w2, notes + ([note] if note else [])
     keep = _trimmed(motion.t, trim, ds.path)
     reg = _streamed_regression(ds.robot, motion, sig.tension, model, wf, keep, int(chunk))
-    res = least_squares_blocks(reg.wrench_block, len(reg.t), PARAMETER_NAMES[model],
-                               groups=reg.groups if weighting == "groups" else None,
-                               covariance=covariance, chunk=int(chunk))
+    res = _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weighting,
+               covariance, int(chunk), notes)
     warns += excitation_warnings(res.names, res.column_norms, res.cond_scaled)
     w3, n3 = physical_warnings(res.x, model, res.cov)
     warns, notes = warns + w3, notes + n3
@@ -449,8 +452,8 @@ def _check_options(model, differentiator, weighting, wrench_filter, matched_filt
         raise InputError(
             f"unknown differentiator {differentiator!r}; choose one of {', '.join(METHODS)}."
         )
-    if weighting not in ("none", "groups"):
-        raise InputError(f"unknown weighting {weighting!r}; use 'none' or 'groups'.")
+    if weighting not in WEIGHTINGS:
+        raise InputError(f"unknown weighting {weighting!r}; use one of {', '.join(WEIGHTINGS)}.")
     if wrench_filter is None:
         wrench_filter = "none" if matched_filter is False else "matched"
     if wrench_filter not in WRENCH_FILTERS:
@@ -461,13 +464,13 @@ def _check_options(model, differentiator, weighting, wrench_filter, matched_filt
     return wrench_filter
 
 
-def recording_bound(ds: Dataset, sig: AlignedSignals, motion: Motion, keep, model: str,
-                    x) -> tuple[CRBResult | None, str]:
-    """The Cramer-Rao bound of the samples ``keep`` with noise levels from the data.
+def noise_levels(ds: Dataset, sig: AlignedSignals) -> tuple:
+    """Noise levels estimated from the data: ``(s_tau (m,) per pose sample, tension samples
+    per pose sample, position std (m), orientation std (rad) or None)``.
 
     Tension noise per cable from the raw stream (4th differences), scaled to a pose sample
     by the tension samples per pose sample; position and orientation noise from the pose
-    stream. Returns ``(bound, '')`` or ``(None, why)`` when it cannot be computed.
+    stream.
     """
     tt = np.asarray(ds.tension_t, float)
     per_pose = max(1.0, sig.dt / float(np.median(np.diff(tt)))) if len(tt) > 1 else 1.0
@@ -478,6 +481,39 @@ def recording_bound(ds: Dataset, sig: AlignedSignals, motion: Motion, keep, mode
         q = np.asarray(sig.quaternion, float)
         q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
         s_rot = float(np.median(estimate_noise(2.0 * q[:, 1:])))  # small angles: 2 q_xyz
+    return s_tau, per_pose, s_pos, s_rot
+
+
+def _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weighting, covariance,
+         chunk, notes: list) -> LSResult:
+    """The regression's least-squares fit with the chosen weighting (:data:`WEIGHTINGS`)."""
+    if weighting == "eiv":
+        notes.append(EIV_NOTE)
+        return _eiv_result(ds, sig, motion, keep, reg, model, differentiator, params, wf,
+                           covariance, chunk)
+    return least_squares_blocks(reg.wrench_block, len(reg.t), PARAMETER_NAMES[model],
+                                groups=reg.groups if weighting == "groups" else None,
+                                covariance=covariance, chunk=chunk)
+
+
+def _eiv_result(ds, sig, motion, keep, reg, model, differentiator, params, wf, covariance,
+                chunk) -> LSResult:
+    """``--weighting eiv``: :func:`cdprid.identify._eiv.eiv_fit` with the data's noise."""
+    s_tau, _, s_pos, s_rot = noise_levels(ds, sig)
+    C = noise_gains(differentiator, params, sig.dt, wf)
+    return eiv_fit(reg, ds.robot, model, motion, sig.tension, np.flatnonzero(keep),
+                   (s_tau, max(s_pos, 1e-12), s_rot), C, PARAMETER_NAMES[model], covariance,
+                   chunk)
+
+
+def recording_bound(ds: Dataset, sig: AlignedSignals, motion: Motion, keep, model: str,
+                    x) -> tuple[CRBResult | None, str]:
+    """The Cramer-Rao bound of the samples ``keep`` with noise levels from the data.
+
+    Noise levels from :func:`noise_levels`. Returns ``(bound, '')`` or ``(None, why)`` when
+    it cannot be computed.
+    """
+    s_tau, per_pose, s_pos, s_rot = noise_levels(ds, sig)
     k = np.asarray(keep, bool)
     try:
         with np.errstate(all="ignore"):

@@ -7,6 +7,23 @@ from pathlib import Path
 import numpy as np
 
 
+def not_named_lines(result) -> list[str]:
+    """The ``Checked and not named`` section: the sizes of the effects a real recording
+    always holds (friction on every pulley, a clock offset) when the search did not name them."""
+    items = result.info.get("not_named") or []
+    if not items:
+        return []
+    lines = ["", "## Checked and not named", "",
+             "Fitted on top of the extended model (linearised, training samples); the interval "
+             "is 95 % (HAC) and p is that of the effect alone, before any multiple-testing "
+             "correction.", "", "| effect | size | 95 % interval | p | why not named |",
+             "|---|---|---|---|---|"]
+    for u in items:
+        lines.append(f"| {u['effect']} | {u['parameters']} | {u['interval']} | "
+                     f"{u['p_value']:.2g} | {u['why']} |")
+    return lines + [""]
+
+
 def unexplained_lines(result) -> list[str]:
     """The ``What remains unexplained`` section of report.md (items, rule, every test)."""
     lines = ["", "## What remains unexplained", ""]
@@ -172,7 +189,7 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
                      f"(weighted units); p (Bonferroni) = {f.p_value:.2e}"
                      + (f"; indistinguishable on this data from: {', '.join(f.aliases)}"
                         if f.aliases else ""))
-    lines += unexplained_lines(result)
+    lines += not_named_lines(result) + unexplained_lines(result)
     lines += ["## Extended model", "", "| parameter | estimate | std (HAC) | change vs base |",
               "|---|---|---|---|"]
     for k, v in result.extended_parameters.items():

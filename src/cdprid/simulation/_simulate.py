@@ -34,11 +34,11 @@ from cdprid.base._errors import InputError
 from cdprid.effects._effects import (
     effect_parameters_table,
     encoder_lengths,
-    plant_terms,
     true_gravity,
     true_robot,
     validate_effects,
 )
+from cdprid.effects._plant import plant_terms
 from cdprid.effects._sensor import load_cell_reading
 from cdprid.model._dynamics import InertialParameters, platform_wrench
 from cdprid.model._geometry import CableRobot, cable_lengths, cable_vectors, wrench_matrix

@@ -1,0 +1,51 @@
+"""Sizes of the effects the search did not name (``not_named`` in the JSON).
+
+A real recording always holds some friction on its pulleys and some clock offset between its
+streams. When the search does not name such an effect (its form has ``report_size``), the
+user still gets its size: the linearised joint fit of the effect on top of the final model
+(training samples, the final model partialled out), a 95 % HAC interval and the unadjusted
+p-value. "Not named" then reads as "smaller than the noise can show" with the interval
+saying how small, instead of silence.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cdprid.diagnosis.candidates import vocab_interval, vocab_params
+from cdprid.diagnosis.selection import candidate_columns, linear_model, score_step
+from cdprid.diagnosis.testing import partial_wald
+from cdprid.effects._effects import DIAGNOSIS
+
+__all__ = ["not_named_sizes"]
+
+
+def not_named_sizes(prob, base, s, candidates, extra: dict) -> list:
+    """``[{effect, parameters, interval, p_value, statistic, named: False, why}]`` of every
+    ``report_size`` candidate not in the final selection ``s``."""
+    want = [c for c in candidates
+            if c not in s.accepted and DIAGNOSIS[c.effect].report_size]
+    if not want:
+        return []
+    Zbase, y, _, C = linear_model(prob, s)
+    cols = candidate_columns(prob, base, s, C, want)
+    if not cols:
+        return []
+    scored, pcols, yt, _ = score_step(prob, Zbase, y, cols, (), 1.0, 1)
+    out = []
+    for p, c, stat, _, beta in scored:
+        _, _, V = partial_wald(pcols[c], yt, prob.lags)
+        idx = prob.layout.candidate_indices(c.effect, c.cable)
+        th, std = np.array(s.theta, float), np.zeros(len(s.theta))
+        th[idx] = beta
+        std[idx] = np.sqrt(np.clip(np.diag(V), 0, None))
+        out.append({
+            "effect": c.vocabulary_effect,
+            "parameters": vocab_params(c, th, prob.layout, extra),
+            "interval": vocab_interval(c, th, std, prob.layout, extra),
+            "p_value": float(p), "statistic": float(stat), "named": False,
+            "why": ("not significant at the search's threshold" if p > 1e-3 else
+                    "significant alone but not named: it did not improve the held-out "
+                    "residual enough, or its refit was implausible (see the progress log)"),
+        })
+    return out

@@ -1,0 +1,177 @@
+"""Errors-in-variables weighting of the batch regression (``identify --weighting eiv``).
+
+Each sample's residual ``r = F[W tau] - Y theta`` (``F`` the matched wrench filter) is noisy
+through the tensions *and* through the pose: the pose enters ``W``, the rotation enters ``Y``,
+and the differentiated pose gives the accelerations, angular rates and angular accelerations
+of ``Y``. To first order its covariance is
+
+    Sigma_n = g_F W diag(s_tau^2) W^T + sum_d sigma_d^2 sum_(a, b) C_ab J_a J_b^T,
+
+with ``d`` the position and the orientation, ``J_0, J_1, J_2`` the Jacobians of ``r`` with
+respect to that coordinate, its rate and its second derivative (at the estimate), and ``C``
+the 3 x 3 covariance of ``(F x, D1 x, D2 x)`` for unit white noise ``x`` through the wrench
+filter and the differentiator (measured by passing white noise through them, so every method
+of :data:`cdprid.signal.METHODS` gets its own gains). Ordinary least squares weighs every
+sample alike although ``Sigma_n`` changes by orders of magnitude along a trajectory (tensions
+that change the cable directions' weight, accelerations that scale the pose noise); the
+generalised least squares estimate whitens each sample by ``Sigma_n^-1/2`` (two steps: OLS
+for the Jacobians' theta, then GLS). The time correlation left by the filters is handled by
+the HAC covariance as before.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from cdprid.core._regression import measured_wrench, regressors
+from cdprid.model._rotations import quat_to_matrix, rotvec_to_quat
+from cdprid.signal import differentiate
+
+__all__ = ["noise_gains", "whitening", "EIV_NOTE"]
+
+EIV_NOTE = ("errors-in-variables weighting: each sample whitened by its residual covariance "
+            "(tension noise through W, pose noise through W and the differentiated motion), "
+            "noise levels estimated from the data")
+
+
+def noise_gains(differentiator: str, params: dict, dt: float, wf=None, n: int = 3000,
+                seed: int = 0) -> np.ndarray:
+    """``C`` (3, 3): the covariance of ``(F x, D1 x, D2 x)`` for unit white noise ``x``.
+
+    ``F`` is the wrench filter ``wf`` (identity when None), ``D1``, ``D2`` the
+    differentiator's first and second derivative; 10 % of each end is dropped (transients).
+    Units: 1, 1/s^2 and 1/s^4 on the diagonal.
+    """
+    x = np.random.default_rng(seed).normal(size=(n, 3))
+    v, a = (np.asarray(z) for z in differentiate(x, dt, method=differentiator, **params))
+    f = x if wf is None else np.asarray(wf(np.hstack([x, x]), np.ones(6)))[:, :3]
+    k = slice(n // 10, n - n // 10)
+    C = np.zeros((3, 3))
+    for j in range(3):
+        C += np.cov(np.stack([f[k, j], v[k, j], a[k, j]]))
+    return C / 3.0
+
+
+def _residual_fn(robot, model: str):
+    """``r(p, rotvec, v, a, omega, alpha; R0, tau, theta)`` of one sample (6,)."""
+
+    def r(u, R0, tau, theta):
+        p, dth, _, a, om, al = (u[3 * i:3 * i + 3] for i in range(6))
+        R = quat_to_matrix(rotvec_to_quat(dth)) @ R0
+        y = measured_wrench(robot, p[None], R[None], tau[None])[0]
+        Y = regressors(model, R[None], a[None], om[None], al[None], robot.gravity)[0]
+        return y - Y @ theta
+
+    return r
+
+
+def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
+              s_rot: float | None, C: np.ndarray, chunk: int = 4096) -> np.ndarray:
+    """Per-sample whitening matrices ``U_n`` (n, 6, 6), ``U_n^T U_n = Sigma_n^-1``.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    model : {"translation", "full"}
+    motion : Motion
+        The estimated motion (position, B_R_P, velocity, acceleration, omega, alpha).
+    tension : (n, m) tensions at the pose times
+    theta : (p,) the parameters at which the Jacobians are taken (the OLS estimate)
+    s_tau : (m,) tension noise std per pose sample, N
+    s_pos : float
+        Position noise std per axis, m.
+    s_rot : float or None
+        Orientation noise std per axis, rad (None: no orientation stream).
+    C : (3, 3)
+        :func:`noise_gains`.
+    chunk : int
+        Samples per evaluation block (bounded memory).
+    """
+    r = _residual_fn(robot, model)
+    jac = jax.jit(jax.vmap(jax.jacfwd(r), in_axes=(0, 0, 0, None)))
+    n = len(motion.t)
+    U = np.empty((n, 6, 6))
+    s2 = np.square(np.broadcast_to(np.asarray(s_tau, float), (np.shape(tension)[1],)))
+    Cj = jnp.asarray(C)
+    sig = [float(s_pos) ** 2, 0.0 if s_rot is None else float(s_rot) ** 2]
+    th = jnp.asarray(theta, float)
+    for i0 in range(0, n, chunk):
+        i1 = min(n, i0 + chunk)
+        u = np.hstack([motion.position[i0:i1], np.zeros((i1 - i0, 3)), motion.velocity[i0:i1],
+                       motion.acceleration[i0:i1], motion.omega[i0:i1], motion.alpha[i0:i1]])
+        tau = jnp.asarray(np.asarray(tension)[i0:i1], float)
+        J = jac(jnp.asarray(u), jnp.asarray(motion.B_R_P[i0:i1]), tau, th)  # (k, 6, 18)
+        U[i0:i1] = np.asarray(_whiten_block(J, tau, robot, motion.position[i0:i1],
+                                            motion.B_R_P[i0:i1], jnp.asarray(s2), Cj,
+                                            jnp.asarray(sig)))
+    return U
+
+
+@jax.jit
+def _cov_from_jac(J, Wm, s2, C, sig):
+    """Sigma (k, 6, 6) from the Jacobians (k, 6, 18) and the wrench matrices (k, 6, m)."""
+    # position: p (0:3), v (6:9), a (9:12); orientation: rotvec (3:6), omega (12:15), alpha (15:18)
+    pos = jnp.stack([J[..., 0:3], J[..., 6:9], J[..., 9:12]], axis=1)  # (k, 3, 6, 3)
+    rot = jnp.stack([J[..., 3:6], J[..., 12:15], J[..., 15:18]], axis=1)
+    S = sig[0] * jnp.einsum("ab,kaic,kbjc->kij", C, pos, pos)
+    S = S + sig[1] * jnp.einsum("ab,kaic,kbjc->kij", C, rot, rot)
+    return S + C[0, 0] * jnp.einsum("kim,m,kjm->kij", Wm, s2, Wm)
+
+
+def _whiten_block(J, tau, robot, p, R, s2, C, sig):
+    from cdprid.core._regression import wrench_matrices
+
+    Wm = wrench_matrices(robot, jnp.asarray(p), jnp.asarray(R))
+    S = np.asarray(_cov_from_jac(J, Wm, s2, C, sig))
+    # a ridge of 1e-9 of each sample's largest variance: rows a point-mass robot cannot load
+    ridge = 1e-9 * np.max(np.diagonal(S, axis1=1, axis2=2), axis=1) + 1e-300
+    S = S + ridge[:, None, None] * np.eye(6)
+    L = np.linalg.cholesky(S)
+    return np.linalg.inv(L)
+
+
+def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.ndarray,
+            names, covariance: str, chunk: int):
+    """Two-step errors-in-variables GLS of a streamed regression.
+
+    Step 1: ordinary least squares (the Jacobians' theta); step 2: every sample whitened by
+    :func:`whitening`. The returned :class:`cdprid.core.LSResult` has the GLS estimate and its
+    (HAC or i.i.d.) covariance, and the residuals and ``sigma_rho`` in newtons (unwhitened).
+
+    Parameters
+    ----------
+    reg : StreamedRegression
+        The kept samples' regression (``reg.t`` = ``motion.t[idx]``).
+    motion : Motion
+    tension : (n, m) tensions at the pose times (all samples)
+    idx : (k,) the kept samples' indices
+    noise : (s_tau, s_pos, s_rot)
+        Noise std per pose sample (see :func:`whitening`).
+    C : (3, 3) :func:`noise_gains`
+    """
+    import dataclasses
+    from types import SimpleNamespace
+
+    from cdprid.core._identification import least_squares_blocks
+
+    n = len(reg.t)
+    first = least_squares_blocks(reg.wrench_block, n, names, covariance="iid", chunk=chunk)
+    sub = SimpleNamespace(**{k: np.asarray(getattr(motion, k))[idx] for k in (
+        "t", "position", "B_R_P", "velocity", "acceleration", "omega", "alpha")})
+    U = whitening(robot, model, sub, np.asarray(tension)[idx], first.x, *noise, C)
+
+    def block(i0, i1):
+        Z, y = reg.wrench_block(i0, i1)
+        u = U[i0:i1]
+        return np.einsum("nij,njp->nip", u, Z), np.einsum("nij,nj->ni", u, y)
+
+    res = least_squares_blocks(block, n, names, covariance=covariance, chunk=chunk)
+    resid = np.empty((n, 6))
+    for i0 in range(0, n, chunk):
+        i1 = min(n, i0 + chunk)
+        Z, y = reg.wrench_block(i0, i1)
+        resid[i0:i1] = y - Z @ res.x
+    sigma = float(np.sqrt(np.sum(resid ** 2) / max(res.n_rows - len(res.x), 1)))
+    return dataclasses.replace(res, residual=resid.reshape(-1), sigma_rho=sigma)
