@@ -183,7 +183,7 @@ def table1(ds: Dataset, methods=("sihd2-cascade", "euler-filtfilt"), hac_lags: i
     truth = _truth_vector(ds)
     rows, reports = {}, {}
     for m in methods:
-        rep = identify_dataset(ds, differentiator=m)
+        rep = identify_dataset(ds, differentiator=m, weighting="none")  # the paper: OLS
         r = rep.result
         e = r.residual.reshape(-1, 6)
         sh = hac_std(rep.regression.A, e, hac_lags)

@@ -180,7 +180,8 @@ def _cmd_identify(args) -> int:
                         "writes --json.")
     if args.online:  # batch-only options are refused, not silently ignored
         ignored = [flag for flag, on in (("--physical", getattr(args, "physical", False)),
-                                         ("--weighting groups", args.weighting != "none"),
+                                         (f"--weighting {args.weighting}",
+                                          args.weighting is not None),
                                          ("--std iid", args.std != "hac"))
                    if on]
         if ignored:
@@ -211,7 +212,7 @@ def _cmd_identify(args) -> int:
         t_start=args.t_start,
         t_end=args.t_end,
         trim=args.trim,
-        weighting=args.weighting,
+        weighting=args.weighting or "eiv",
         covariance=args.std,
         wrench_filter=args.wrench_filter or "matched",
         inertia_about=args.inertia_about,
@@ -283,8 +284,11 @@ def _add_identify(sub) -> None:
     p.add_argument("--t-end", type=float, default=None, help="end of the time window, s")
     p.add_argument("--trim", type=float, default=TRIM_S,
                    help=f"seconds dropped at both ends after differentiation (default {TRIM_S})")
-    p.add_argument("--weighting", choices=["none", "groups"], default="none",
-                   help="'groups': weighted LS with separate force/moment row weights")
+    p.add_argument("--weighting", choices=["eiv", "none", "groups"], default=None,
+                   help="batch identify: 'eiv' (default) errors-in-variables GLS, each sample "
+                   "whitened by its residual covariance (tension and pose noise estimated from "
+                   "the data); 'none' the paper's ordinary least squares; 'groups' separate "
+                   "force/moment row weights")
     p.add_argument("--std", choices=["hac", "iid"], default="hac",
                    help="standard deviation shown as 'std': hac (default; accounts for the "
                    "autocorrelation of filtered residuals) or iid (the paper's eqs. 19-21)")

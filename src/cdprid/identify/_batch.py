@@ -352,7 +352,7 @@ def identify_dataset(
     t_start: float | None = None,
     t_end: float | None = None,
     trim: float = TRIM_S,
-    weighting: str = "none",
+    weighting: str = "eiv",
     matched_filter: bool | None = None,
     covariance: str = "hac",
     wrench_filter: str | None = None,
@@ -377,10 +377,11 @@ def identify_dataset(
         Time window (s) of the data used.
     trim : float
         Seconds dropped at each end of the window after differentiation.
-    weighting : {"none", "groups", "eiv"}
-        ``groups``: two-step weighted LS with separate force and moment row weights;
-        ``eiv``: errors-in-variables GLS, each sample whitened by its residual covariance
-        (tension and pose noise estimated from the data, see :mod:`cdprid.identify._eiv`).
+    weighting : {"eiv", "none", "groups"}
+        ``eiv`` (default): errors-in-variables GLS, each sample whitened by its residual
+        covariance (tension and pose noise estimated from the data, see
+        :mod:`cdprid.identify._eiv`); ``none``: the paper's ordinary least squares;
+        ``groups``: two-step weighted LS with separate force and moment row weights.
     matched_filter : bool, optional
         Older switch for ``wrench_filter`` (True = "matched", False = "none").
     covariance : {"hac", "iid"}

@@ -21,6 +21,7 @@ the HAC covariance as before.
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -54,17 +55,21 @@ def noise_gains(differentiator: str, params: dict, dt: float, wf=None, n: int = 
     return C / 3.0
 
 
-def _residual_fn(robot, model: str):
-    """``r(p, rotvec, v, a, omega, alpha; R0, tau, theta)`` of one sample (6,)."""
+def _residual(u, R0, tau, theta, robot, model: str):
+    """``r = W tau - Y theta`` of one sample (6,) as a function of its noisy inputs
+    ``u = (p, rotvec, v, a, omega, alpha)`` (18,) about the orientation ``R0``."""
+    p, dth, _, a, om, al = (u[3 * i:3 * i + 3] for i in range(6))
+    R = quat_to_matrix(rotvec_to_quat(dth)) @ R0
+    y = measured_wrench(robot, p[None], R[None], tau[None])[0]
+    Y = regressors(model, R[None], a[None], om[None], al[None], robot.gravity)[0]
+    return y - Y @ theta
 
-    def r(u, R0, tau, theta):
-        p, dth, _, a, om, al = (u[3 * i:3 * i + 3] for i in range(6))
-        R = quat_to_matrix(rotvec_to_quat(dth)) @ R0
-        y = measured_wrench(robot, p[None], R[None], tau[None])[0]
-        Y = regressors(model, R[None], a[None], om[None], al[None], robot.gravity)[0]
-        return y - Y @ theta
 
-    return r
+@eqx.filter_jit
+def _jacobians(u, R0, tau, theta, robot, model: str):
+    """Per-sample Jacobians (k, 6, 18) of :func:`_residual` (one compilation per shape)."""
+    return jax.vmap(jax.jacfwd(_residual), in_axes=(0, 0, 0, None, None, None))(
+        u, R0, tau, theta, robot, model)
 
 
 def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
@@ -89,8 +94,6 @@ def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
     chunk : int
         Samples per evaluation block (bounded memory).
     """
-    r = _residual_fn(robot, model)
-    jac = jax.jit(jax.vmap(jax.jacfwd(r), in_axes=(0, 0, 0, None)))
     n = len(motion.t)
     U = np.empty((n, 6, 6))
     s2 = np.square(np.broadcast_to(np.asarray(s_tau, float), (np.shape(tension)[1],)))
@@ -99,14 +102,29 @@ def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
     th = jnp.asarray(theta, float)
     for i0 in range(0, n, chunk):
         i1 = min(n, i0 + chunk)
+        k = _bucket(i1 - i0, chunk)  # padded: one compilation per size bucket
         u = np.hstack([motion.position[i0:i1], np.zeros((i1 - i0, 3)), motion.velocity[i0:i1],
                        motion.acceleration[i0:i1], motion.omega[i0:i1], motion.alpha[i0:i1]])
-        tau = jnp.asarray(np.asarray(tension)[i0:i1], float)
-        J = jac(jnp.asarray(u), jnp.asarray(motion.B_R_P[i0:i1]), tau, th)  # (k, 6, 18)
-        U[i0:i1] = np.asarray(_whiten_block(J, tau, robot, motion.position[i0:i1],
-                                            motion.B_R_P[i0:i1], jnp.asarray(s2), Cj,
-                                            jnp.asarray(sig)))
+        tau, R0, p = (_pad(np.asarray(x)[i0:i1], k) for x in (tension, motion.B_R_P,
+                                                              motion.position))
+        J = _jacobians(jnp.asarray(_pad(u, k)), jnp.asarray(R0), jnp.asarray(tau), th, robot,
+                       model)  # (k, 6, 18)
+        U[i0:i1] = _whiten_block(J, jnp.asarray(tau), robot, p, R0, jnp.asarray(s2), Cj,
+                                 jnp.asarray(sig))[:i1 - i0]
     return U
+
+
+def _bucket(k: int, chunk: int) -> int:
+    """The padded block size: the next power of two from 256, at most ``chunk``."""
+    return min(chunk, max(256, 1 << (int(k) - 1).bit_length()))
+
+
+def _pad(x, k: int):
+    """``x`` padded to ``k`` rows by repeating its last row."""
+    x = np.asarray(x)
+    if len(x) >= k:
+        return x
+    return np.concatenate([x, np.repeat(x[-1:], k - len(x), axis=0)])
 
 
 @jax.jit
@@ -125,8 +143,9 @@ def _whiten_block(J, tau, robot, p, R, s2, C, sig):
 
     Wm = wrench_matrices(robot, jnp.asarray(p), jnp.asarray(R))
     S = np.asarray(_cov_from_jac(J, Wm, s2, C, sig))
-    # a ridge of 1e-9 of each sample's largest variance: rows a point-mass robot cannot load
-    ridge = 1e-9 * np.max(np.diagonal(S, axis1=1, axis2=2), axis=1) + 1e-300
+    # a ridge of 1e-6 of each sample's largest variance: rows a point-mass robot cannot load
+    # and directions no noise reaches get a large but finite weight
+    ridge = 1e-6 * np.max(np.diagonal(S, axis1=1, axis2=2), axis=1) + 1e-300
     S = S + ridge[:, None, None] * np.eye(6)
     L = np.linalg.cholesky(S)
     return np.linalg.inv(L)
@@ -168,6 +187,9 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
         return np.einsum("nij,njp->nip", u, Z), np.einsum("nij,nj->ni", u, y)
 
     res = least_squares_blocks(block, n, names, covariance=covariance, chunk=chunk)
+    # the design's condition (the paper's cond(W_ID)) is the unweighted regressor's
+    res = dataclasses.replace(res, cond=first.cond, cond_scaled=first.cond_scaled,
+                              column_norms=first.column_norms)
     resid = np.empty((n, 6))
     for i0 in range(0, n, chunk):
         i1 = min(n, i0 + chunk)
