@@ -39,13 +39,18 @@ def not_named_sizes(prob, base, s, candidates, extra: dict) -> list:
         th, std = np.array(s.theta, float), np.zeros(len(s.theta))
         th[idx] = beta
         std[idx] = np.sqrt(np.clip(np.diag(V), 0, None))
-        out.append({
-            "effect": c.vocabulary_effect,
-            "parameters": vocab_params(c, th, prob.layout, extra),
-            "interval": vocab_interval(c, th, std, prob.layout, extra),
-            "p_value": float(p), "statistic": float(stat), "named": False,
-            "why": ("not significant at the search's threshold" if p > 1e-3 else
-                    "significant alone but not named: it did not improve the held-out "
-                    "residual enough, or its refit was implausible (see the progress log)"),
-        })
+        interval = vocab_interval(c, th, std, prob.layout, extra)
+        why = ("not significant at the search's threshold" if p > 1e-3 else
+               "significant alone but not named: it did not improve the held-out "
+               "residual enough, or its refit was implausible (see the progress log)")
+        negative = [k for k in DIAGNOSIS[c.effect].nonneg
+                    if k in interval and interval[k][1] < 0]
+        if negative:
+            why += (f"; {', '.join(negative)} is negative with 95 % confidence, the sign "
+                    "opposite to friction between the load cell and the platform (a load "
+                    "cell on the winch side of its pulley, or another effect)")
+        out.append({"effect": c.vocabulary_effect,
+                    "parameters": vocab_params(c, th, prob.layout, extra),
+                    "interval": interval, "p_value": float(p), "statistic": float(stat),
+                    "named": False, "why": why})
     return out
