@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import cdprid.excitation as ex
+from cdprid.base import UserError
 from cdprid.excitation import corner_parameters, robust_tension_margins, uncertainty_from_prior
 from cdprid.model import FOUR_POINT, SIX_TIGHT, SMALL_EIGHT, robot_from_dict
 from cdprid.model import _clearance as cl
@@ -381,3 +382,34 @@ def test_gentle_margin_is_monotone_in_tension_max(tmp_path, capsys):
         margins.append(res["min_tension_margin_N"])
     capsys.readouterr()
     assert margins[1] >= margins[0] - 1e-9
+
+
+def test_gentle_moves_home_to_a_robust_rest_point(tmp_path):
+    """Issue 25: --gentle finds a robust-feasible home when the workspace centre is not one.
+    A suspended point-mass robot whose box reaches up towards the exits: at the centre
+    (z = 0.9 m) the heaviest platform needs more than tension_max = 15 N, lower it does not.
+    Independent check: a linear program (scipy) finds tensions within the limits at the new
+    home for the lightest and the heaviest platform."""
+    from scipy.optimize import linprog
+
+    d = copy.deepcopy(FOUR)
+    d["limits"].update(tension_max=15.0, workspace_min=[-0.35, -0.3, 0.3],
+                       workspace_max=[0.35, 0.3, 1.5])
+    prob = ex.make_problem(robot_from_dict(d), "orbit", duration=8.0)
+    with pytest.raises(UserError):
+        ex.gentle_run(prob)
+    res = ex.gentle_run(prob, move_home=True)
+    home = np.asarray(res.problem.home)
+    assert res.optimised.certified and "Home moved" in res.note
+    assert home[2] < 0.9
+    A = np.array([c["exit"] for c in d["cable"]], float)
+    for mass in (3.0 * 0.8, 3.0 * 1.2):
+        u = (A - home) / np.linalg.norm(A - home, axis=1)[:, None]
+        lp = linprog(np.zeros(4), A_eq=u.T, b_eq=[0.0, 0.0, mass * 9.81],
+                     bounds=[(2.0, 15.0)] * 4)
+        assert lp.status == 0
+    # at the centre the heaviest platform has no such tensions
+    c = 0.5 * (np.array(d["limits"]["workspace_min"]) + np.array(d["limits"]["workspace_max"]))
+    u = (A - c) / np.linalg.norm(A - c, axis=1)[:, None]
+    lp = linprog(np.zeros(4), A_eq=u.T, b_eq=[0.0, 0.0, 3.6 * 9.81], bounds=[(2.0, 15.0)] * 4)
+    assert lp.status == 2  # infeasible

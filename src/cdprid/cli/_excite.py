@@ -128,7 +128,7 @@ def run(args) -> int:
         if init is not None:
             raise UserError("--gentle writes the default gentle first run; it does not take "
                             "--initial (drop one of them).")
-        res = ex.gentle_run(prob)
+        res = ex.gentle_run(prob, move_home=args.home is None, progress=True)
     else:
         res = ex.optimise_excitation(prob, n_starts=args.starts, seed=args.seed,
                                      initial_params=init, progress=True)

@@ -36,6 +36,7 @@ from cdprid.excitation._optimise import fit_to_limits as fit_to_limits
 from cdprid.excitation._optimise import gentle_run as gentle_run
 from cdprid.excitation._optimise import initial_design as initial_design
 from cdprid.excitation._optimise import optimise_excitation as optimise_excitation
+from cdprid.excitation._optimise import robust_homes as robust_homes
 from cdprid.excitation._optimise import start_points as start_points
 from cdprid.excitation._problem import CERTIFICATE_SCOPE as CERTIFICATE_SCOPE
 from cdprid.excitation._problem import GENTLE_FRACTION as GENTLE_FRACTION

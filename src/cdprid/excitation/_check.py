@@ -190,6 +190,21 @@ def _pose_arrays(robot, p, q, a, omega, alpha):
     return R, W, A
 
 
+def rest_margins(robot, points, lim: SafetyLimits, box: UncertaintyBox) -> np.ndarray:
+    """Proven lower bounds (n,) of the robust tension margin (N) of the platform at rest at
+    each of ``points`` (n, 3) with the nominal orientation, over the uncertainty box's
+    corners (the static part of :func:`certify_trajectory`)."""
+    p = np.atleast_2d(np.asarray(points, float))
+    n = len(p)
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    z = jnp.zeros((n, 3))
+    _, W, A = (np.asarray(x) for x in _pose_arrays(robot, jnp.asarray(p), jnp.asarray(q), z, z,
+                                                   z))
+    corners = np.vstack([box.x_nominal[None], box.corners])
+    marg, _ = robust_tension_margins(W, A, corners, lim.tension_min, lim.tension_max)
+    return marg.min(axis=0)
+
+
 @dataclasses.dataclass(frozen=True)
 class SafetySeries:
     """Time series of every checked quantity on one grid (for the certificate and figures)."""

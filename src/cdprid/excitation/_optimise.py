@@ -33,6 +33,7 @@ Families: :mod:`cdprid.excitation._families`.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from collections.abc import Callable
@@ -43,7 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base._errors import UserError
-from cdprid.excitation._check import limit_ratios
+from cdprid.excitation._check import limit_ratios, rest_margins
 from cdprid.excitation._evaluation import ExcitationResult, evaluate_design
 from cdprid.excitation._problem import GENTLE_FRACTION, ExcitationProblem, Fractions, _penalised
 from cdprid.excitation._safety import (
@@ -193,20 +194,70 @@ def initial_design(prob: ExcitationProblem) -> tuple[dict, str]:
     return params, rule
 
 
-def gentle_run(prob: ExcitationProblem) -> ExcitationResult:
+def gentle_run(prob: ExcitationProblem, move_home: bool = False,
+               progress: Callable | bool | None = None) -> ExcitationResult:
     """The certified gentle first run (:func:`initial_design`) as a result, not optimised
-    (``cdprid excite --gentle``); a UserError naming the failed checks when it is not safe."""
+    (``cdprid excite --gentle``); a UserError naming the failed checks when it is not safe.
+
+    With ``move_home`` (the user gave no ``--home``), a gentle run that fails at the
+    workspace centre is tried again about the rest points of the workspace with the largest
+    robust static tension margin (:func:`robust_homes`): home and orbit centre there, the
+    amplitude fitted to the box and the limits; the first certified one is returned, with a
+    note saying where home moved and why.
+    """
     t0 = time.perf_counter()
     params, rule = initial_design(prob)
     rep = evaluate_design(prob, prob.family.from_params(params))
+    note = "gentle first run (--gentle): the initial design, not optimised."
+    if not rep.certified and move_home:
+        failed = "; ".join(rep.certificate.failed)
+        for home in robust_homes(prob):
+            _log(f"excite --gentle: not certified about {np.round(prob.home, 3).tolist()} "
+                 f"({failed}); trying home {np.round(home, 3).tolist()}", progress)
+            p2 = dataclasses.replace(prob, home=np.asarray(home, float))
+            par2, rule2 = _gentle_about(p2, home)
+            rep2 = evaluate_design(p2, p2.family.from_params(par2))
+            if rep2.certified:
+                prob, rep, rule = p2, rep2, rule2
+                note += (f" Home moved to {np.round(home, 3).tolist()} m (no --home given): "
+                         f"about the workspace centre the gentle run failed ({failed}).")
+                break
     if not rep.certified:
         raise UserError("--gentle: the gentle first run does not pass every safety check ("
-                        + "; ".join(rep.certificate.failed) + "); relax the limits, move "
+                        + "; ".join(rep.certificate.failed) + ")"
+                        + (" about the workspace centre or any robust rest point tried"
+                           if move_home else "") + "; relax the limits, move "
                         "--home, or give an --initial design.")
     return ExcitationResult(prob, rep, rep, prob.homed(jnp.asarray(rep.z)), [],
-                            time.perf_counter() - t0, 0.0,
-                            "gentle first run (--gentle): the initial design, not optimised.",
-                            rule)
+                            time.perf_counter() - t0, 0.0, note, rule)
+
+
+def robust_homes(prob: ExcitationProblem, n_grid: int = 5, n_best: int = 6) -> list:
+    """Rest points of a grid over the workspace box (inset by 10 %), those whose robust
+    static tension margin is positive, largest margin first (at most ``n_best``)."""
+    lo, hi = np.asarray(prob.limits.workspace_min), np.asarray(prob.limits.workspace_max)
+    inset = 0.1 * (hi - lo)
+    axes = [np.linspace(a + d, b - d, n_grid) for a, b, d in zip(lo, hi, inset, strict=True)]
+    pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    marg = rest_margins(prob.robot, pts, prob.limits, prob.box)
+    order = [i for i in np.argsort(-marg) if marg[i] > 0][:n_best]
+    return [pts[i] for i in order]
+
+
+def _gentle_about(prob: ExcitationProblem, centre) -> tuple[dict, str]:
+    """The gentle design centred at ``centre`` (its amplitude fitted to the workspace box
+    about that point, then to the limits)."""
+    fam = prob.family
+    params = dict(fam.initial_params(prob.robot), centre=np.asarray(centre, float))
+    lo, hi = np.asarray(prob.limits.workspace_min), np.asarray(prob.limits.workspace_max)
+    c = np.asarray(centre, float)
+    room = float(min(np.min(c - lo), np.min(hi - c)))  # 1 at the box centre, less off it
+    params = fam.scale_amplitude(params, min(1.0, room / max(float(np.min(0.5 * (hi - lo))),
+                                                             1e-9)))
+    params, k = fit_to_limits(prob, params, GENTLE_FRACTION)
+    return params, (f"gentle first run about {np.round(centre, 3).tolist()} m: the paper's "
+                    f"orbit with its amplitude scaled by {k:.3g} so that every peak is at most "
+                    f"{100 * GENTLE_FRACTION:g} % of its limit")
 
 
 def start_points(prob: ExcitationProblem, n_starts: int = 4, seed: int = 0,
