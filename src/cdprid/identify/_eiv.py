@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core._regression import measured_wrench, regressors
+from cdprid.core._regression import measured_wrench, regressors, wrench_matrices
 from cdprid.model._rotations import quat_to_matrix, rotvec_to_quat
 from cdprid.signal import differentiate
 
@@ -100,17 +100,17 @@ def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
     Cj = jnp.asarray(C)
     sig = [float(s_pos) ** 2, 0.0 if s_rot is None else float(s_rot) ** 2]
     th = jnp.asarray(theta, float)
+    k = _bucket(min(n, chunk), chunk)  # every block padded to k rows: one trace
     for i0 in range(0, n, chunk):
         i1 = min(n, i0 + chunk)
-        k = _bucket(i1 - i0, chunk)  # padded: one compilation per size bucket
         u = np.hstack([motion.position[i0:i1], np.zeros((i1 - i0, 3)), motion.velocity[i0:i1],
                        motion.acceleration[i0:i1], motion.omega[i0:i1], motion.alpha[i0:i1]])
         tau, R0, p = (_pad(np.asarray(x)[i0:i1], k) for x in (tension, motion.B_R_P,
                                                               motion.position))
-        J = _jacobians(jnp.asarray(_pad(u, k)), jnp.asarray(R0), jnp.asarray(tau), th, robot,
-                       model)  # (k, 6, 18)
-        U[i0:i1] = _whiten_block(J, jnp.asarray(tau), robot, p, R0, jnp.asarray(s2), Cj,
-                                 jnp.asarray(sig))[:i1 - i0]
+        S = np.asarray(_sigma(jnp.asarray(_pad(u, k)), jnp.asarray(R0), jnp.asarray(tau),
+                              jnp.asarray(p), th, robot, model, jnp.asarray(s2), Cj,
+                              jnp.asarray(sig)))
+        U[i0:i1] = _inverse_sqrt(S)[:i1 - i0]
     return U
 
 
@@ -127,9 +127,12 @@ def _pad(x, k: int):
     return np.concatenate([x, np.repeat(x[-1:], k - len(x), axis=0)])
 
 
-@jax.jit
-def _cov_from_jac(J, Wm, s2, C, sig):
-    """Sigma (k, 6, 6) from the Jacobians (k, 6, 18) and the wrench matrices (k, 6, m)."""
+@eqx.filter_jit
+def _sigma(u, R0, tau, p, theta, robot, model: str, s2, C, sig):
+    """Sigma (k, 6, 6) of a block: the Jacobians of :func:`_residual`, the wrench matrices
+    and the noise levels (one compilation per block size and robot)."""
+    J = _jacobians(u, R0, tau, theta, robot, model)  # (k, 6, 18)
+    Wm = wrench_matrices(robot, p, R0)
     # position: p (0:3), v (6:9), a (9:12); orientation: rotvec (3:6), omega (12:15), alpha (15:18)
     pos = jnp.stack([J[..., 0:3], J[..., 6:9], J[..., 9:12]], axis=1)  # (k, 3, 6, 3)
     rot = jnp.stack([J[..., 3:6], J[..., 12:15], J[..., 15:18]], axis=1)
@@ -138,16 +141,12 @@ def _cov_from_jac(J, Wm, s2, C, sig):
     return S + C[0, 0] * jnp.einsum("kim,m,kjm->kij", Wm, s2, Wm)
 
 
-def _whiten_block(J, tau, robot, p, R, s2, C, sig):
-    from cdprid.core._regression import wrench_matrices
-
-    Wm = wrench_matrices(robot, jnp.asarray(p), jnp.asarray(R))
-    S = np.asarray(_cov_from_jac(J, Wm, s2, C, sig))
+def _inverse_sqrt(S):
+    """``U`` with ``U^T U = S^-1`` (k, 6, 6), from the Cholesky factor of ``S`` + a ridge."""
     # a ridge of 1e-6 of each sample's largest variance: rows a point-mass robot cannot load
     # and directions no noise reaches get a large but finite weight
     ridge = 1e-6 * np.max(np.diagonal(S, axis1=1, axis2=2), axis=1) + 1e-300
-    S = S + ridge[:, None, None] * np.eye(6)
-    L = np.linalg.cholesky(S)
+    L = np.linalg.cholesky(S + ridge[:, None, None] * np.eye(6))
     return np.linalg.inv(L)
 
 
