@@ -67,24 +67,28 @@ def test_sweep_skips_what_the_log_holds(tmp_path):
 
 
 def test_a_killed_sweep_completes_only_its_missing_runs(tmp_path):
-    """Kill a running sweep (SIGKILL, after its second record), start it again."""
+    """Kill a running sweep (SIGKILL, after its second record), start it again. The first
+    run blocks from its third spec on, so the kill always finds 2 records, however loaded
+    the machine (no race between the poll and the runs)."""
     marks = tmp_path / "marks"
     marks.mkdir()
     log = tmp_path / "log.jsonl"
     script = tmp_path / "sweep.py"
     script.write_text(textwrap.dedent(f"""
-        import sys, time
+        import os, sys, time
         sys.path.insert(0, {str(Path(__file__).parent)!r})
         from test_cluster import counted_run, _specs
         from cdprid.base import run_sweep
 
         def slow(spec):
-            time.sleep(0.5)
+            if os.environ.get("BLOCK_FROM_THIRD") and int(spec["key"].split("-")[1]) >= 2:
+                time.sleep(3600)  # killed here
             return counted_run(spec)
 
         run_sweep(_specs(8, marks={str(marks)!r}), slow, {str(log)!r}, progress=None)
     """))
-    proc = subprocess.Popen([sys.executable, str(script)])
+    proc = subprocess.Popen([sys.executable, str(script)],
+                            env={**os.environ, "BLOCK_FROM_THIRD": "1"})
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
         if log.exists() and len(load_log(log)) >= 2:
@@ -93,13 +97,14 @@ def test_a_killed_sweep_completes_only_its_missing_runs(tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=30)
     before = set(load_log(log))
-    assert 2 <= len(before) < 8
-    subprocess.run([sys.executable, str(script)], check=True, timeout=120)
+    assert before == {"run-0", "run-1"}
+    env = {k: v for k, v in os.environ.items() if k != "BLOCK_FROM_THIRD"}
+    subprocess.run([sys.executable, str(script)], check=True, timeout=120, env=env)
     after = load_log(log)
     assert set(after) == {f"run-{k}" for k in range(8)}
     executed = [p.name.split(".")[0] for p in marks.iterdir()]
-    # a run in flight at the kill may have run twice; every finished run ran once
-    assert all(executed.count(k) == 1 for k in before)
+    # the killed run was blocked before it started its work: every run executed once
+    assert sorted(executed) == [f"run-{k}" for k in range(8)]
     assert len([line for line in log.read_text().splitlines() if line.strip()]) >= 8
 
 
