@@ -47,6 +47,9 @@ SMALL = InertialParameters(4.5, np.array([0.01, -0.005, -0.04]), np.diag([0.03, 
 
 READING = [
     "## Reading", "",
+    "* The tables above are from the command at the top (the weighting and orientation noise "
+    "it names). The points below were measured in wave 2 with ordinary least squares and no "
+    "orientation noise; results/efficiency.md compares the weightings with orientation noise.",
     "* Eq. 20 understates the spread of m 3-6 times (coverage 21-29 %): the filtered residuals "
     "are correlated over ~2 s (HAC bandwidth ~180 samples). It overstates the spread of the "
     "first moments and inertia (RMS z 0.4-0.9) because one pooled sigma_rho serves force and "
