@@ -119,25 +119,32 @@ def test_eiv_is_closer_to_the_bound_than_ols(tmp_path, name):
 
 
 def test_residual_jacobians_match_finite_differences():
-    """The per-sample Jacobians the weighting uses, against central differences."""
+    """The per-sample Jacobians the weighting uses (the bound's, cdprid.core.sample_jacobians)
+    against central differences of the residual built from the public measured_wrench and
+    regressors (position, acceleration, rotation vector, angular rate, angular acceleration)."""
     import jax.numpy as jnp
 
-    from cdprid.identify._eiv import _jacobians, _residual
+    from cdprid.core import measured_wrench, regressors
+    from cdprid.core._crb import sample_jacobians
 
     robot = craft_like_robot()
     rng = np.random.default_rng(0)
-    u = np.concatenate([[0.1, -0.2, 1.0], 0.05 * rng.normal(size=3), rng.normal(size=12)])
-    R0 = np.eye(3)
+    p, a, w, al = np.array([0.1, -0.2, 1.0]), *rng.normal(size=(3, 3))
+    R = np.eye(3)
     tau = 30.0 + 5.0 * rng.random(robot.n_cables)
     theta = np.asarray(craft_like_truth().vector("full"))
-    J = np.asarray(_jacobians(jnp.asarray(u[None]), jnp.asarray(R0[None]),
-                              jnp.asarray(tau[None]), jnp.asarray(theta), robot, "full"))[0]
+    G = np.asarray(sample_jacobians(robot, "full", jnp.asarray(theta), *(
+        jnp.asarray(x[None]) for x in (tau, p, R, a, w, al)))[0])[0]
+
+    def residual(xi):
+        dp, da, dphi, dw, dal = (xi[3 * k:3 * k + 3] for k in range(5))
+        Rk = (np.eye(3) + np.array([[0, -dphi[2], dphi[1]], [dphi[2], 0, -dphi[0]],
+                                    [-dphi[1], dphi[0], 0]])) @ R
+        y = np.asarray(measured_wrench(robot, (p + dp)[None], Rk[None], tau[None]))[0]
+        Y = np.asarray(regressors("full", Rk[None], (a + da)[None], (w + dw)[None],
+                                  (al + dal)[None], robot.gravity))[0]
+        return y - Y @ theta
+
     h = 1e-6
-    fd = np.empty((6, 18))
-    for k in range(18):
-        e = np.zeros(18)
-        e[k] = h
-        f = [np.asarray(_residual(jnp.asarray(u + s * e), jnp.asarray(R0), jnp.asarray(tau),
-                                  jnp.asarray(theta), robot, "full")) for s in (1, -1)]
-        fd[:, k] = (f[0] - f[1]) / (2 * h)
-    np.testing.assert_allclose(J, fd, rtol=1e-6, atol=1e-6)
+    fd = np.stack([(residual(h * e) - residual(-h * e)) / (2 * h) for e in np.eye(15)], axis=1)
+    np.testing.assert_allclose(G, fd, rtol=1e-6, atol=1e-6)

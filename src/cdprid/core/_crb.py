@@ -33,7 +33,7 @@ from scipy.linalg import solveh_banded
 from cdprid.model._dynamics import regressor_full, regressor_translation
 from cdprid.model._geometry import wrench_matrix
 
-__all__ = ["CRBResult", "crb", "bspline_basis"]
+__all__ = ["CRBResult", "crb", "bspline_basis", "sample_jacobians"]
 
 #: most spline knots per coordinate (longer recordings get a wider spacing; see ``note``)
 MAX_KNOTS = 400
@@ -82,8 +82,12 @@ def _residual(robot, model: str, theta, tau, p, R, a, w, al, xi):
 
 
 @functools.partial(jax.jit, static_argnums=(1,))
-def _sample_jacobians(robot, model, theta, tau, p, R, a, w, al):
-    """Per-sample ``(G, Y, W)``: d residual / d xi (n, 6, 15), regressor, wrench matrix."""
+def sample_jacobians(robot, model, theta, tau, p, R, a, w, al):
+    """Per-sample ``(G, Y, W)``: d residual / d xi (n, 6, 15), regressor, wrench matrix.
+
+    ``xi`` perturbs position, acceleration, rotation vector (base frame), angular rate and
+    angular acceleration (3 each); shared by the bound and the errors-in-variables weighting
+    of identify (one trace for both when they ask for the same samples)."""
 
     def one(tk, pk, Rk, ak, wk, alk):
         f = functools.partial(_residual, robot, model, theta, tk, pk, Rk, ak, wk, alk)
@@ -158,7 +162,7 @@ def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, te
     K = int(np.floor(span / h)) + 4  # coefficients per coordinate
     rot = rotation_std is not None
     ndof = 6 if rot else 3
-    G, Y, W = (np.asarray(z) for z in _sample_jacobians(
+    G, Y, W = (np.asarray(z) for z in sample_jacobians(
         robot, model, jnp.asarray(theta, float), jnp.asarray(tension, float),
         jnp.asarray(position, float), jnp.asarray(R, float), jnp.asarray(acceleration, float),
         jnp.asarray(omega, float), jnp.asarray(alpha, float)))

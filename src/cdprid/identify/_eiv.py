@@ -21,16 +21,13 @@ the HAC covariance as before.
 
 from __future__ import annotations
 
-import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core._regression import measured_wrench, regressors, wrench_matrices
-from cdprid.model._rotations import quat_to_matrix, rotvec_to_quat
+from cdprid.core._crb import sample_jacobians
 from cdprid.signal import differentiate
 
-__all__ = ["noise_gains", "whitening", "EIV_NOTE"]
+__all__ = ["noise_gains", "whitening", "input_covariance", "eiv_fit", "EIV_NOTE"]
 
 EIV_NOTE = ("errors-in-variables weighting: each sample whitened by its residual covariance "
             "(tension noise through W, pose noise through W and the differentiated motion), "
@@ -55,33 +52,20 @@ def noise_gains(differentiator: str, params: dict, dt: float, wf=None, n: int = 
     return C / 3.0
 
 
-def _residual(u, R0, tau, theta, robot, model: str):
-    """``r = W tau - Y theta`` of one sample (6,) as a function of its noisy inputs
-    ``u = (p, rotvec, v, a, omega, alpha)`` (18,) about the orientation ``R0``."""
-    p, dth, _, a, om, al = (u[3 * i:3 * i + 3] for i in range(6))
-    R = quat_to_matrix(rotvec_to_quat(dth)) @ R0
-    y = measured_wrench(robot, p[None], R[None], tau[None])[0]
-    Y = regressors(model, R[None], a[None], om[None], al[None], robot.gravity)[0]
-    return y - Y @ theta
-
-
-@eqx.filter_jit
-def _jacobians(u, R0, tau, theta, robot, model: str):
-    """Per-sample Jacobians (k, 6, 18) of :func:`_residual` (one compilation per shape)."""
-    return jax.vmap(jax.jacfwd(_residual), in_axes=(0, 0, 0, None, None, None))(
-        u, R0, tau, theta, robot, model)
-
-
 def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
-              s_rot: float | None, C: np.ndarray, chunk: int = 4096) -> np.ndarray:
+              s_rot: float | None, C: np.ndarray, chunk: int = 16384) -> np.ndarray:
     """Per-sample whitening matrices ``U_n`` (n, 6, 6), ``U_n^T U_n = Sigma_n^-1``.
+
+    The Jacobians are those of the Cramer-Rao bound (:func:`cdprid.core.sample_jacobians`:
+    the residual with respect to position, acceleration, rotation vector, angular rate and
+    angular acceleration), evaluated ``chunk`` samples at a time.
 
     Parameters
     ----------
     robot : CableRobot
     model : {"translation", "full"}
     motion : Motion
-        The estimated motion (position, B_R_P, velocity, acceleration, omega, alpha).
+        The estimated motion (position, B_R_P, acceleration, omega, alpha).
     tension : (n, m) tensions at the pose times
     theta : (p,) the parameters at which the Jacobians are taken (the OLS estimate)
     s_tau : (m,) tension noise std per pose sample, N
@@ -97,48 +81,31 @@ def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
     n = len(motion.t)
     U = np.empty((n, 6, 6))
     s2 = np.square(np.broadcast_to(np.asarray(s_tau, float), (np.shape(tension)[1],)))
-    Cj = jnp.asarray(C)
-    sig = [float(s_pos) ** 2, 0.0 if s_rot is None else float(s_rot) ** 2]
+    Su = input_covariance(s_pos, s_rot, C)
     th = jnp.asarray(theta, float)
-    k = _bucket(min(n, chunk), chunk)  # every block padded to k rows: one trace
     for i0 in range(0, n, chunk):
         i1 = min(n, i0 + chunk)
-        u = np.hstack([motion.position[i0:i1], np.zeros((i1 - i0, 3)), motion.velocity[i0:i1],
-                       motion.acceleration[i0:i1], motion.omega[i0:i1], motion.alpha[i0:i1]])
-        tau, R0, p = (_pad(np.asarray(x)[i0:i1], k) for x in (tension, motion.B_R_P,
-                                                              motion.position))
-        S = np.asarray(_sigma(jnp.asarray(_pad(u, k)), jnp.asarray(R0), jnp.asarray(tau),
-                              jnp.asarray(p), th, robot, model, jnp.asarray(s2), Cj,
-                              jnp.asarray(sig)))
-        U[i0:i1] = _inverse_sqrt(S)[:i1 - i0]
+        G, _, W = (np.asarray(z) for z in sample_jacobians(robot, model, th, *(
+            jnp.asarray(np.asarray(x)[i0:i1], float) for x in (
+                tension, motion.position, motion.B_R_P, motion.acceleration, motion.omega,
+                motion.alpha))))
+        S = (np.einsum("nik,kl,njl->nij", G, Su, G)
+             + C[0, 0] * np.einsum("nim,m,njm->nij", W, s2, W))
+        U[i0:i1] = _inverse_sqrt(S)
     return U
 
 
-def _bucket(k: int, chunk: int) -> int:
-    """The padded block size: the next power of two from 256, at most ``chunk``."""
-    return min(chunk, max(256, 1 << (int(k) - 1).bit_length()))
-
-
-def _pad(x, k: int):
-    """``x`` padded to ``k`` rows by repeating its last row."""
-    x = np.asarray(x)
-    if len(x) >= k:
-        return x
-    return np.concatenate([x, np.repeat(x[-1:], k - len(x), axis=0)])
-
-
-@eqx.filter_jit
-def _sigma(u, R0, tau, p, theta, robot, model: str, s2, C, sig):
-    """Sigma (k, 6, 6) of a block: the Jacobians of :func:`_residual`, the wrench matrices
-    and the noise levels (one compilation per block size and robot)."""
-    J = _jacobians(u, R0, tau, theta, robot, model)  # (k, 6, 18)
-    Wm = wrench_matrices(robot, p, R0)
-    # position: p (0:3), v (6:9), a (9:12); orientation: rotvec (3:6), omega (12:15), alpha (15:18)
-    pos = jnp.stack([J[..., 0:3], J[..., 6:9], J[..., 9:12]], axis=1)  # (k, 3, 6, 3)
-    rot = jnp.stack([J[..., 3:6], J[..., 12:15], J[..., 15:18]], axis=1)
-    S = sig[0] * jnp.einsum("ab,kaic,kbjc->kij", C, pos, pos)
-    S = S + sig[1] * jnp.einsum("ab,kaic,kbjc->kij", C, rot, rot)
-    return S + C[0, 0] * jnp.einsum("kim,m,kjm->kij", Wm, s2, Wm)
+def input_covariance(s_pos: float, s_rot: float | None, C: np.ndarray) -> np.ndarray:
+    """Covariance (15, 15) of the noisy inputs of :func:`cdprid.core.sample_jacobians`
+    (position, acceleration, rotation vector, angular rate, angular acceleration):
+    ``sigma^2 C (x) I3`` over (pose, rate, second derivative) of each coordinate."""
+    S = np.zeros((15, 15))
+    for sig, blocks in ((s_pos, {0: 0, 2: 1}), (0.0 if s_rot is None else s_rot,
+                                                   {0: 2, 1: 3, 2: 4})):
+        for a, ba in blocks.items():
+            for b, bb in blocks.items():
+                S[3 * ba:3 * ba + 3, 3 * bb:3 * bb + 3] = sig ** 2 * C[a, b] * np.eye(3)
+    return S
 
 
 def _inverse_sqrt(S):
@@ -178,7 +145,8 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
     first = least_squares_blocks(reg.wrench_block, n, names, covariance="iid", chunk=chunk)
     sub = SimpleNamespace(**{k: np.asarray(getattr(motion, k))[idx] for k in (
         "t", "position", "B_R_P", "velocity", "acceleration", "omega", "alpha")})
-    U = whitening(robot, model, sub, np.asarray(tension)[idx], first.x, *noise, C)
+    U = whitening(robot, model, sub, np.asarray(tension)[idx], first.x, *noise, C,
+                  chunk=chunk)
 
     def block(i0, i1):
         Z, y = reg.wrench_block(i0, i1)

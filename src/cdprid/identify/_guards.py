@@ -189,7 +189,10 @@ def swapped_columns_warning(robot, report, tension) -> str | None:
     """Name two tension columns that look swapped: exchanging them lowers the residual of the
     same least-squares fit below :data:`SWAP_RESIDUAL_RATIO` of what it is (tensions in the
     wrong cable order gave a confident mzG off by 4 sigma with no warning)."""
-    from cdprid.core._regression import cable_wrench
+    import equinox as eqx
+    import jax.numpy as jnp
+
+    from cdprid.core._regression import wrench_matrices
     from cdprid.identify._batch import _wrench_filter
 
     motion, reg = report.motion, report.regression
@@ -204,19 +207,21 @@ def swapped_columns_warning(robot, report, tension) -> str | None:
     if tau.shape[0] != n:
         return None
 
-    def residual(t):
-        y = cable_wrench(robot, motion.position, motion.B_R_P, t)
+    # W evaluated once: exchanging tau_i and tau_j adds (W_i - W_j)(tau_j - tau_i)
+    W = np.asarray(eqx.filter_jit(wrench_matrices)(robot, jnp.asarray(motion.position),
+                                                   jnp.asarray(motion.B_R_P)))
+    y0 = np.einsum("nkm,nm->nk", W, tau)
+
+    def residual(y):
         y = np.asarray(wf(y) if wf is not None else y)[idx].reshape(-1)
         x, *_ = np.linalg.lstsq(A, y, rcond=None)
         return float(np.sqrt(np.mean((y - A @ x) ** 2)))
 
-    base = residual(tau)
+    base = residual(y0)
     best = (base, None)
     for i in range(m):
         for j in range(i + 1, m):
-            t2 = tau.copy()
-            t2[:, [i, j]] = t2[:, [j, i]]
-            r = residual(t2)
+            r = residual(y0 + (W[:, :, i] - W[:, :, j]) * (tau[:, j] - tau[:, i])[:, None])
             if r < best[0]:
                 best = (r, (i, j))
     if best[1] is not None and best[0] < SWAP_RESIDUAL_RATIO * base:
