@@ -23,7 +23,8 @@ pytest.importorskip("ipykernel")
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 SHARED = ROOT.parent / "shared"
-TIMEOUT_S = 240  # per cell
+TIMEOUT_S = 1200  # per cell: a guard against a hang, not a speed goal (a loaded 2-core machine
+# runs the heavy cells several times slower; benchmarks/ hold the speed goals)
 
 
 def _needs_shared(nb) -> bool:
