@@ -365,7 +365,7 @@ def test_signal_during_write_leaves_nothing_that_parses(tmp_path, signame, code)
                             stdout=subprocess.PIPE, text=True)
     if _wait_for_part_file(proc, tmp_path):
         proc.send_signal(getattr(signal, signame))
-    _, err = proc.communicate(timeout=120)
+    _, err = proc.communicate(timeout=600)  # a hang guard, generous for a loaded machine
     assert "Traceback" not in err
     if proc.returncode == 0:  # finished between the check and the signal: output complete
         assert np.loadtxt(out, delimiter=",", skiprows=1).shape == (300_000, 7)
