@@ -148,3 +148,11 @@ def test_residual_jacobians_match_finite_differences():
     h = 1e-6
     fd = np.stack([(residual(h * e) - residual(-h * e)) / (2 * h) for e in np.eye(15)], axis=1)
     np.testing.assert_allclose(G, fd, rtol=1e-6, atol=1e-6)
+
+
+def test_json_names_the_weighting(tmp_path):
+    robot = robot_from_dict(SIX_SUSPENDED)
+    ds = _dataset(tmp_path, robot, SMALL, SensorNoise(position_m=3e-4, tension_N=0.5),
+                  duration=16.0)
+    assert identify_dataset(ds, bound=False).as_json()["weighting"] == "eiv"
+    assert identify_dataset(ds, weighting="none", bound=False).as_json()["weighting"] == "none"

@@ -182,7 +182,8 @@ class IdentificationReport:
             "n_samples": self.n_samples,
             "differentiator": self.differentiator,
             "differentiator_params": self.params,
-            "weighting": "groups" if r.weights is not None else "none",
+            "weighting": ("groups" if r.weights is not None
+                          else "eiv" if EIV_NOTE in self.notes else "none"),
             "covariance": r.covariance,
             "hac_bandwidth_samples": r.hac_bandwidth if r.covariance == "hac" else None,
             "wrench_filter": self.wrench_filter,
