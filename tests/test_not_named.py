@@ -29,3 +29,10 @@ def test_clean_data_report_friction_and_delay_sizes_that_cover_zero(tmp_path):
     lo, hi = items["time_delay"]["interval"]["delay_s"]
     assert lo < 0 < hi and hi - lo < 0.002
     assert all(np.isfinite(u["p_value"]) for u in items.values())
+    # the report's section: every number with 3 significant digits
+    from cdprid.report.diagnosis import format_values, not_named_lines
+
+    text = "\n".join(not_named_lines(res))
+    assert "## Checked and not named" in text and "pulley_friction" in text
+    assert format_values({"a": 0.0010070784, "b": [-0.000398256, 7.7255e-4], "c": "all"}) == \
+        "a 0.00101, b [-0.000398, 0.000773], c all"

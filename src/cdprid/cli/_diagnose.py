@@ -26,7 +26,7 @@ def _run(args) -> int:
     from cdprid.diagnosis import diagnose
     from cdprid.io import read_dataset
     from cdprid.io.dataset import dataset_inputs
-    from cdprid.report.diagnosis import save_report
+    from cdprid.report.diagnosis import format_values, save_report
 
     check_distinct({"--json": args.json, "--report": args.report})
     inputs = dataset_inputs(args.dataset)
@@ -64,8 +64,8 @@ def _run(args) -> int:
         print(f"unexplained: {u['where']}: {u['size']:.3g} N rms, like {u['correlates_with']} "
               f"(p = {u['p_value']:.2e})")
     for u in res.info.get("not_named", []):
-        print(f"not named: {u['effect']} {u['parameters']}  interval {u['interval']}  "
-              f"(p = {u['p_value']:.2g} alone: {u['why']})")
+        print(f"not named: {u['effect']} {format_values(u['parameters'])}, 95 % interval "
+              f"{format_values(u['interval'])} (p = {u['p_value']:.2g} alone: {u['why']})")
     if args.json:
         print(f"wrote {write_json(args.json, res.as_json(), force=args.force)}")
     if args.report:

@@ -19,9 +19,20 @@ def not_named_lines(result) -> list[str]:
              "correction.", "", "| effect | size | 95 % interval | p | why not named |",
              "|---|---|---|---|---|"]
     for u in items:
-        lines.append(f"| {u['effect']} | {u['parameters']} | {u['interval']} | "
-                     f"{u['p_value']:.2g} | {u['why']} |")
+        lines.append(f"| {u['effect']} | {format_values(u['parameters'])} | "
+                     f"{format_values(u['interval'])} | {u['p_value']:.2g} | {u['why']} |")
     return lines + [""]
+
+
+def format_values(d: dict) -> str:
+    """``key value, key [lo, hi]`` with 3 significant digits (numbers and lists of them)."""
+    def one(v):
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(one(x) for x in v) + "]"
+        if isinstance(v, float):
+            return f"{v:.3g}"
+        return str(v)
+    return ", ".join(f"{k} {one(v)}" for k, v in d.items())
 
 
 def unexplained_lines(result) -> list[str]:
