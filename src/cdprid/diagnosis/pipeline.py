@@ -205,7 +205,7 @@ def diagnose(
     settings = {"train_until": train_until, "taut_threshold_N": taut_N,
                 "n_candidates": len(candidates), "alpha": alpha}
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, settings)
-    info.update({"not_named": not_named_sizes(prob, base, s, candidates, extra),
+    info.update({"not_named": not_named_sizes(prob, base, s, candidates, extra, thr_first),
                  "unexplained_rule": rule, "lengths": el_info, "clock_profile": clock_info,
                  "wall_time_s": time.perf_counter() - t0})
     if sub is not None:

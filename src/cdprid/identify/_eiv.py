@@ -44,7 +44,7 @@ def noise_gains(differentiator: str, params: dict, dt: float, wf=None, n: int = 
     """
     x = np.random.default_rng(seed).normal(size=(n, 3))
     v, a = (np.asarray(z) for z in differentiate(x, dt, method=differentiator, **params))
-    f = x if wf is None else np.asarray(wf(np.hstack([x, x]), np.ones(6)))[:, :3]
+    f = x if wf is None else np.asarray(wf(x, np.ones(3)))
     k = slice(n // 10, n - n // 10)
     C = np.zeros((3, 3))
     for j in range(3):
