@@ -45,6 +45,7 @@ from cdprid.core._regression import (
     regressors,
 )
 from cdprid.identify._eiv import EIV_NOTE, eiv_fit, noise_gains
+from cdprid.identify._linear_match import linear_match_regression, settled, uses_linear_match
 from cdprid.io.align import AlignedSignals, align
 from cdprid.io.dataset import Dataset
 from cdprid.model._dynamics import PARAMETER_NAMES
@@ -414,8 +415,8 @@ def identify_dataset(
     motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
     wf, note, w2 = _wrench_filter(ds.robot, differentiator, params, sig.dt, wrench_filter)
     warns, notes = warns + w2, notes + ([note] if note else [])
-    keep = _trimmed(motion.t, trim, ds.path)
-    reg = _streamed_regression(ds.robot, motion, sig.tension, model, wf, keep, int(chunk))
+    reg, wf, keep = _regression(ds, sig, motion, model, differentiator, wrench_filter, wf,
+                                _trimmed(motion.t, trim, ds.path), trim, int(chunk), notes, warns)
     res = _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weighting,
                covariance, int(chunk), notes)
     warns += excitation_warnings(res.names, res.column_norms, res.cond_scaled)
@@ -425,6 +426,19 @@ def identify_dataset(
     return IdentificationReport(res, model, differentiator, params, int(keep.sum()), sig, motion,
                                 reg, tuple(notes), tuple(warns), inertia_about, wrench_filter,
                                 rot, bnd)
+
+
+def _regression(ds, sig, motion, model, differentiator, wrench_filter, wf, keep, trim, chunk,
+                notes: list, warns: list):
+    """Regression, wrench filter and kept samples: :mod:`cdprid.identify._linear_match` for the
+    full model with a causal differentiator (its note replaces the matched filter's), else
+    :func:`_streamed_regression`."""
+    if not uses_linear_match(model, METHODS[differentiator].causal, wrench_filter):
+        return _streamed_regression(ds.robot, motion, sig.tension, model, wf, keep, chunk), wf, keep
+    reg, lm, note, w4 = linear_match_regression(ds.robot, motion, sig.quaternion, sig.tension,
+                                                model, keep, trim, chunk)
+    notes[-1:], warns[len(warns):] = [note], w4
+    return reg, lm, settled(keep, motion.segments, len(lm.taps))
 
 
 def _trimmed(t, trim: float, path):
