@@ -72,11 +72,11 @@ def test_fir_reproduces_a_linear_causal_filter():
                 "euler-butter-causal")
     keep = (t > 1.0) & (t < t[-1] - 1.0)
     lm = fit_linear_match(mo, keep, 1.0)
-    assert lm.fit_residual < 1e-3
+    assert lm.fit_residual < 5e-3
     u = np.cos(2 * np.pi * 0.7 * t)[:, None] + 0.3 * np.sin(2 * np.pi * 1.1 * t)[:, None]
     ref = acceleration_filter(u, dt, method="euler-butter-causal")
     k = t > 2.0
-    assert np.max(np.abs(lm(u)[k] - ref[k])) < 1e-2 * np.max(np.abs(u))  # one sample of lag: 7 %
+    assert np.max(np.abs(lm(u)[k] - ref[k])) < 2e-2 * np.max(np.abs(u))  # one sample of lag: 7 %
     np.testing.assert_allclose(lm(np.full((n, 2), 4.0)), 4.0, atol=1e-9)  # DC passes
 
 
@@ -104,3 +104,39 @@ def test_reference_rates_match_the_trajectory_oracle():
     for est, true in ((om, tr.omega), (al, tr.alpha), (a, tr.a)):
         true = np.asarray(true)
         np.testing.assert_allclose(est[k], true[k], atol=5e-3 * np.max(np.abs(true)))
+
+
+def test_online_full_model_unbiased_on_noise_free_rotation():
+    """The online path: rows of sample k - 3 through the FIR fitted to the SIHD cascade on a
+    reference motion (was m -0.05 %, mzG -3.4 %, principal inertias +8 to +29 %)."""
+    from cdprid.identify import online_identify
+
+    robot = robot_from_dict(SIX_SUSPENDED)
+    sim = simulate(robot, preset("rich", robot, rotation_amplitude=0.09),
+                   noise=SensorNoise.off())
+    sig = {"t": sim.pose_t, "position": sim.position, "quaternion": sim.quaternion,
+           "tension": sim.tension}
+    x = np.asarray(online_identify(sig, robot, model="full").x_final)
+    truth = np.asarray(craft_like_truth().vector("full"))
+    assert abs(x[0] / truth[0] - 1) < 0.005
+    assert abs(x[3] / truth[3] - 1) < 0.02
+    np.testing.assert_allclose(_inertia_eigs(x), _inertia_eigs(truth), rtol=0.05)
+
+
+def test_fir_fit_is_well_conditioned():
+    """The taps stay of the size of a second difference (a free 100-tap fit gave norm 1e9) and
+    the acceleration response decays above the motion's band."""
+    from cdprid.identify._linear_match import reference_fir
+    from cdprid.signal import METHODS
+
+    dt = 0.01
+    c = reference_fir("sihd2-cascade", dict(METHODS["sihd2-cascade"].params), dt)
+    assert np.linalg.norm(c) < 10.0 / dt ** 2
+    j = np.arange(len(c))
+
+    def gain(f):
+        return abs(np.sum(c * np.exp(-2j * np.pi * f * dt * j))) / (2 * np.pi * f) ** 2
+
+    assert abs(gain(0.02) - 1) < 0.01
+    assert gain(10.0) < 0.25 and gain(25.0) < 0.25  # the free fit: 1654 at 2 Hz
+    np.testing.assert_allclose([c.sum(), (j * c).sum()], 0.0, atol=1e-6 / dt ** 2)

@@ -266,6 +266,7 @@ def hac_covariance_blocks(
     bandwidth: float | None = None,
     leverage: bool | None = None,
     chunk: int = 2048,
+    min_bandwidth: float = 1.0,
 ) -> tuple[Float[np.ndarray, "p p"], float]:
     """:func:`hac_covariance` in bounded memory: the design is asked for block by block.
 
@@ -283,6 +284,9 @@ def hac_covariance_blocks(
     chunk : int
         Samples asked from ``design`` per call (``chunk - L + 1`` Bartlett windows, at least
         256, per block; memory about ``chunk p^2`` floats).
+    min_bandwidth : float
+        Floor of the data-driven bandwidth, samples: the memory of a filter every row passed
+        (its residuals are correlated over it, which an AR(1) plug-in underestimates).
 
     Returns
     -------
@@ -294,7 +298,7 @@ def hac_covariance_blocks(
     if leverage is None:
         leverage = bandwidth is None
     if bandwidth is None:
-        bandwidth = andrews_bandwidth(S)
+        bandwidth = min(max(andrews_bandwidth(S), float(min_bandwidth)), max(1.0, len(S) / 4))
     R = np.asarray(R, float)
     Rinv = np.linalg.solve(R, np.eye(p))
     bread = Rinv @ Rinv.T

@@ -197,7 +197,7 @@ def _residuals_and_scores(block, n: int, chunk: int, x, w, k: int, p: int):
 
 def least_squares_blocks(block, n: int, names=None, weights=None, groups=None,
                          covariance: str = "hac", bandwidth: float | None = None,
-                         chunk: int = 16384) -> LSResult:
+                         chunk: int = 16384, min_bandwidth: float = 1.0) -> LSResult:
     """:func:`least_squares` in bounded memory: the regression is asked for block by block.
 
     The stacked regressor is never formed: its R factor (with ``Q^T Y``) is accumulated by a
@@ -218,6 +218,8 @@ def least_squares_blocks(block, n: int, names=None, weights=None, groups=None,
         As in :func:`least_squares` (``weights`` and ``groups`` per stacked row, length n k).
     chunk : int
         Time samples per block.
+    min_bandwidth : float
+        Floor of the data-driven HAC bandwidth (:func:`cdprid.core.hac_covariance_blocks`).
 
     Returns
     -------
@@ -249,7 +251,7 @@ def least_squares_blocks(block, n: int, names=None, weights=None, groups=None,
             return Z if w is None else Z * w[i0 * k:i1 * k].reshape(-1, k)[..., None]
 
         cov, bw = hac_covariance_blocks(design, S, R, bandwidth=bandwidth,
-                                        chunk=max(chunk, 2048))
+                                        chunk=max(chunk, 2048), min_bandwidth=min_bandwidth)
     return LSResult(
         names=tuple(names),
         x=x,

@@ -503,23 +503,23 @@ def noise_levels(ds: Dataset, sig: AlignedSignals) -> tuple:
 def _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weighting, covariance,
          chunk, notes: list) -> LSResult:
     """The regression's least-squares fit with the chosen weighting (:data:`WEIGHTINGS`)."""
+    mb = float(len(wf.taps)) if hasattr(wf, "taps") else 1.0  # the linear match's memory
     if weighting == "eiv":
         notes.append(EIV_NOTE)
         return _eiv_result(ds, sig, motion, keep, reg, model, differentiator, params, wf,
-                           covariance, chunk)
+                           covariance, chunk, mb)
     return least_squares_blocks(reg.wrench_block, len(reg.t), PARAMETER_NAMES[model],
                                 groups=reg.groups if weighting == "groups" else None,
-                                covariance=covariance, chunk=chunk)
+                                covariance=covariance, chunk=chunk, min_bandwidth=mb)
 
 
 def _eiv_result(ds, sig, motion, keep, reg, model, differentiator, params, wf, covariance,
-                chunk) -> LSResult:
-    """``--weighting eiv``: :func:`cdprid.identify._eiv.eiv_fit` with the data's noise."""
+                chunk, min_bandwidth=1.0) -> LSResult:  # --weighting eiv, the data's noise
     s_tau, _, s_pos, s_rot = noise_levels(ds, sig)
     C = noise_gains(differentiator, params, sig.dt, wf)
     return eiv_fit(reg, ds.robot, model, motion, sig.tension, np.flatnonzero(keep),
                    (s_tau, max(s_pos, 1e-12), s_rot), C, PARAMETER_NAMES[model], covariance,
-                   chunk)
+                   chunk, min_bandwidth)
 
 
 def recording_bound(ds: Dataset, sig: AlignedSignals, motion: Motion, keep, model: str,

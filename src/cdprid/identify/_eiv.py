@@ -45,6 +45,8 @@ def noise_gains(differentiator: str, params: dict, dt: float, wf=None, n: int = 
     x = np.random.default_rng(seed).normal(size=(n, 3))
     v, a = (np.asarray(z) for z in differentiate(x, dt, method=differentiator, **params))
     f = x if wf is None else np.asarray(wf(x, np.ones(3)))
+    if hasattr(wf, "position"):  # the linear match: accelerations are its FIR of the poses
+        a = np.asarray(wf.position(x))
     k = slice(n // 10, n - n // 10)
     C = np.zeros((3, 3))
     for j in range(3):
@@ -118,7 +120,7 @@ def _inverse_sqrt(S):
 
 
 def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.ndarray,
-            names, covariance: str, chunk: int):
+            names, covariance: str, chunk: int, min_bandwidth: float = 1.0):
     """Two-step errors-in-variables GLS of a streamed regression.
 
     Step 1: ordinary least squares (the Jacobians' theta); step 2: every sample whitened by
@@ -135,6 +137,8 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
     noise : (s_tau, s_pos, s_rot)
         Noise std per pose sample (see :func:`whitening`).
     C : (3, 3) :func:`noise_gains`
+    min_bandwidth : float
+        Floor of the HAC bandwidth (the memory of the rows' filter, samples).
     """
     import dataclasses
     from types import SimpleNamespace
@@ -153,7 +157,8 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
         u = U[i0:i1]
         return np.einsum("nij,njp->nip", u, Z), np.einsum("nij,nj->ni", u, y)
 
-    res = least_squares_blocks(block, n, names, covariance=covariance, chunk=chunk)
+    res = least_squares_blocks(block, n, names, covariance=covariance, chunk=chunk,
+                               min_bandwidth=min_bandwidth)
     # the design's condition (the paper's cond(W_ID)) is the unweighted regressor's
     res = dataclasses.replace(res, cond=first.cond, cond_scaled=first.cond_scaled,
                               column_norms=first.column_norms)

@@ -40,12 +40,18 @@ from cdprid.core._motion import angular_rates
 from cdprid.core._regression import cable_wrench
 from cdprid.model._rotations import quat_to_matrix
 
-__all__ = ["FIR_SECONDS", "FIT_WARN", "LinearMatch", "fit_linear_match", "linear_match_regression",
-           "matched_regression", "reference_rates", "settled", "uses_linear_match"]
+__all__ = ["FIR_SECONDS", "FIT_WARN", "LinearMatch", "fir_length", "fit_linear_match",
+           "linear_match_regression", "matched_regression", "reference_fir", "reference_rates",
+           "settled", "uses_linear_match"]
 
 FIR_SECONDS = 1.0
 """Longest memory of the fitted FIR (s); capped by the trim, so its start-up never reaches a
 kept sample."""
+
+RIDGE = 1e-6
+"""Ridge weight of the kernel fit, relative to the mean diagonal of its normal matrix: the
+hat coefficients are pulled towards zero (a smooth kernel of unit sum), so that taps the
+motion does not determine stay small."""
 
 FIT_WARN = 0.05
 """Relative rms residual of the FIR fit above which the differentiator is too nonlinear on
@@ -124,7 +130,7 @@ def fit_linear_match(motion: Motion, keep, trim: float) -> LinearMatch:
         Seconds trimmed at every segment edge; the FIR is at most that long.
     """
     dt = float(np.median(np.diff(motion.t)))
-    L = int(max(8, round(min(FIR_SECONDS, trim) / dt) - 1))
+    L = fir_length(dt, trim)
     rows, target = [], []
     for a, b in motion.segments:
         p, ah = motion.position[a:b], motion.acceleration[a:b]
@@ -140,14 +146,83 @@ def fit_linear_match(motion: Motion, keep, trim: float) -> LinearMatch:
     if not rows:
         raise InputError(f"no gap-free segment is longer than {2 * L * dt:.3g} s: too short for "
                          "the causal differentiator's matched filter; use euler-filtfilt.")
-    X, y = np.concatenate(rows), np.concatenate(target)
-    j = np.arange(L + 1, dtype=float)
-    _, _, vt = np.linalg.svd(np.stack([np.ones_like(j), j]))
-    N = vt[2:].T  # taps that annihilate constants and ramps
-    z = np.linalg.lstsq(X @ N, y, rcond=None)[0]
-    c = N @ z
-    res = float(np.sqrt(np.mean((y - X @ c) ** 2) / max(np.mean(y ** 2), 1e-300)))
+    c, res = _fit_taps(np.concatenate(rows), np.concatenate(target), L, dt)
     return LinearMatch(c, res, tuple(motion.segments), dt)
+
+
+def _fit_taps(X: np.ndarray, y: np.ndarray, L: int, dt: float) -> tuple[np.ndarray, float]:
+    """Least-squares taps ``c`` (L + 1,) of ``y ~ X c``, and the relative rms residual.
+
+    ``c`` is the causal second difference ``(1, -2, 1) / dt^2`` convolved with a smooth
+    acceleration kernel ``g`` (L - 1 taps) of unit sum: ``c`` annihilates constants and ramps
+    and passes a constant acceleration unchanged, exactly. ``g`` is a combination of hat
+    functions on lag knots dense near zero (:func:`_hat_basis`): a free FIR of 100 taps is
+    undetermined outside the motion's band, and least squares gave taps of norm 1e9 whose
+    response grew without bound above it.
+    """
+    B = _hat_basis(L - 1)
+    D = np.zeros((L + 1, L - 1))
+    for i in range(L - 1):
+        D[i:i + 3, i] = np.array([1.0, -2.0, 1.0]) / dt ** 2
+    T = D @ B  # taps per basis function
+    s = B.sum(axis=0)  # the kernel's sum per basis function
+    b0 = s / (s @ s)
+    _, _, vt = np.linalg.svd(s[None, :])
+    N = vt[1:].T
+    Z = X @ T @ N
+    r = y - X @ (T @ b0)
+    G = Z.T @ Z
+    mu = RIDGE * np.trace(G) / len(G)
+    z = np.linalg.solve(G + mu * (N.T @ N), Z.T @ r - mu * (N.T @ b0))
+    c = T @ (b0 + N @ z)
+    res = float(np.sqrt(np.mean((y - X @ c) ** 2) / max(np.mean(y ** 2), 1e-300)))
+    return c, res
+
+
+def _hat_basis(n: int) -> np.ndarray:
+    """(n, k) piecewise-linear hat functions of lag on knots 0, 1, 2, 3, 4, 6, 8, 11, ...
+    (spacing growing by about a third), the last at ``n - 1``."""
+    knots, k, step = [0.0], 0.0, 1.0
+    while k + step < n - 1:
+        k += step
+        knots.append(k)
+        step = step * 1.35 if k >= 4 else 1.0
+    knots = sorted(set(float(round(v)) for v in knots))
+    if knots[-1] < n - 1:
+        knots.append(float(n - 1))
+    j = np.arange(n, dtype=float)
+    return np.stack([np.interp(j, knots, np.eye(len(knots))[i]) for i in range(len(knots))], 1)
+
+
+def fir_length(dt: float, trim: float = FIR_SECONDS) -> int:
+    """Number of FIR taps minus one: :data:`FIR_SECONDS` (at most ``trim``) of samples."""
+    return int(max(8, round(min(FIR_SECONDS, trim) / dt) - 1))
+
+
+def reference_fir(method: str, params: dict, dt: float) -> np.ndarray:
+    """Taps fitted to ``method``'s response on a reference motion, for online use.
+
+    The reference is a 40 s multisine per axis (0.1 m at 0.15-1.2 Hz, the band of platform
+    orbits), so the taps are known before the first sample. Any taps keep the online
+    regression exact on noise-free data (every term passes the same filter); fitting them to
+    the differentiator keeps its noise behaviour.
+    """
+    from cdprid.signal._differentiators import differentiate
+
+    n = int(round(40.0 / dt))
+    t = np.arange(n) * dt
+    rng = np.random.default_rng(0)
+    f = rng.uniform(0.15, 1.2, (3, 4))
+    ph = rng.uniform(0.0, 2 * np.pi, (3, 4))
+    p = np.stack([sum(0.1 / (1 + k) * np.sin(2 * np.pi * f[i, k] * t + ph[i, k])
+                      for k in range(4)) for i in range(3)], 1)
+    _, a = differentiate(p, dt, method=method, **params)
+    L = fir_length(dt)
+    idx = np.flatnonzero(t >= max(5.0, (L + 1) * dt))
+    lags = idx[:, None] - np.arange(L + 1)[None, :]
+    X = np.concatenate([p[lags, i] for i in range(3)])
+    y = np.concatenate([np.asarray(a)[idx, i] for i in range(3)])
+    return _fit_taps(X, y, L, dt)[0]
 
 
 def settled(keep, segments, taps: int) -> np.ndarray:

@@ -27,6 +27,12 @@ filter (section 7). This module does it sample by sample, in ONE ``jax.lax.scan`
      wrench channels are scaled to acceleration units first (force rows divided by
      ``|F_0| / |g|``, the mass seen at the first sample; moment rows additionally by the
      platform radius ``max |P_b|``) — an approximation, measured in ``benchmarks/online.py``.
+     For the **full model**, matched filtering is rotation-consistent instead
+     (:mod:`cdprid.identify._linear_match`): every regressor term and ``y`` pass one causal
+     FIR (fitted at :func:`online_init` to the cascade's response on a reference motion),
+     the rotation terms are formed from centred differences of samples ``k - 6 .. k``, and the
+     rows ``(A, y)`` output at sample ``k`` are those of sample ``k - 3``. The cascade's own
+     motion is still reported.
    - ``"delay"``: ``y_k`` is delayed by ``wrench_delay`` samples (a ring buffer), which matches
      the phase at one frequency but not the attenuation.
    - ``"none"``: no compensation.

@@ -11,12 +11,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base._errors import InputError
+from cdprid.identify._linear_match import reference_fir
 from cdprid.identify._online_types import (
     _SIHD,
     WRENCH_FILTERS,
     CascadeState,
     DelayState,
     IntegralStage,
+    LinearMatchState,
     MatchedFilterState,
     OnlineConfig,
     OnlineOutput,
@@ -91,8 +93,10 @@ def online_init(
     p = len(PARAMETER_NAMES[model])
     f64 = jnp.float64
     x0 = jnp.zeros(p, f64) if x0 is None else jnp.asarray(x0, f64).reshape(p)
+    fir = (reference_fir(_SIHD, g, dt) if _linear_match_on(model, wrench_filter)
+           else np.zeros(0))
     cfg = _online_config(robot, dt, model, forgetting, g, wrench_filter, delay, x0,
-                         prior_weight, warmup, excitation_window, excitation_threshold)
+                         prior_weight, warmup, excitation_window, excitation_threshold, fir)
     z3, z4 = (jnp.zeros(n, f64) for n in (3, 4))
     wf = _wrench_filter_init(wrench_filter, delay, f64)
     return OnlineState(
@@ -107,11 +111,67 @@ def online_init(
         M=jnp.zeros((p, p), f64),
         m_rows=jnp.zeros((), f64),
         rot=RotationFilterState(*(_integral_stage_init(n, f64) for n in (9, 9, 4, 4, 4))),
+        lm=(_linear_match_init(robot.n_cables, len(fir), p, f64)
+            if _linear_match_on(model, wrench_filter) else ()),
     )
 
 
+def _linear_match_on(model: str, wrench_filter: str) -> bool:
+    """The full model with matched filtering takes the rotation-consistent path."""
+    return model == "full" and wrench_filter == "matched"
+
+
+def _linear_match_init(m: int, taps: int, p: int, dtype) -> LinearMatchState:
+    k = 6 * p + 6
+    z = jnp.zeros(k, dtype)
+    return LinearMatchState(jnp.zeros((7, 3), dtype), jnp.zeros((7, 4), dtype),
+                            jnp.zeros((7, 6), dtype), jnp.eye(3, dtype=dtype), z, z, z,
+                            jnp.zeros((taps, k), dtype), jnp.zeros((taps, 3), dtype))
+
+
+_CENTRE = 3
+"""The rotation-consistent rows are those of sample ``k - 3`` (centred differences over
+``k - 6 .. k``)."""
+
+
+def _push(buf, x):
+    return jnp.concatenate([x[None], buf[:-1]])
+
+
+def _linear_match_rows(st: LinearMatchState, p, q, wtau, k, cfg):
+    """Rows ``(A, y)`` of sample ``k - 3`` with every term through the FIR ``cfg.fir``
+    (:class:`LinearMatchState`); also whether the FIR's history is full."""
+    h, g, c = cfg.dt, cfg.robot.gravity, cfg.fir
+    first = k == 0
+    pos, quat, wt = (jnp.where(first, jnp.broadcast_to(x, b.shape), _push(b, x))
+                     for b, x in ((st.pos, p), (st.quat, q), (st.wtau, wtau)))
+    a_ref = (pos[0] - pos[2] - pos[4] + pos[6]) / (8.0 * h * h)
+    qd = (quat[2] - quat[4]) / (2.0 * h)
+    qdd = (quat[0] - quat[2] - quat[4] + quat[6]) / (8.0 * h * h)
+    om, al = angular_rates_from_quat(quat[_CENTRE], qd, qdd)
+    R0 = jnp.where(first, quat_to_matrix(q), st.R0)
+    z = jnp.zeros(3, h.dtype)
+    base = regressor_full(R0, z, z, z, g)
+    rem = (regressor_full(quat_to_matrix(quat[_CENTRE]), a_ref, om, al, g)
+           - regressor_full(R0, a_ref, z, z, g) + base)
+    u = jnp.concatenate([rem.ravel(), wt[_CENTRE]])
+    valid = k >= 2 * _CENTRE
+    u0 = jnp.where(k == 2 * _CENTRE, u, st.u0)
+    du = u - u0
+    i1 = st.i1 + 0.5 * h * (du + st.u_prev)
+    i2 = st.hist[0] + 0.5 * h * (i1 + st.i1)
+    new = LinearMatchState(pos, quat, wt, R0, u0, du, i1, _push(st.hist, i2),
+                           _push(st.phist, pos[_CENTRE]))
+    new = new._replace(**{f: jnp.where(valid, getattr(new, f), getattr(st, f))
+                          for f in ("u0", "u_prev", "i1", "hist", "phist")})
+    filt = c @ new.hist + new.u0
+    A = regressor_full(R0, c @ new.phist, z, z, g) - base + filt[:-6].reshape(base.shape)
+    full = k >= 2 * _CENTRE + len(c)
+    return new, A, filt[-6:], full
+
+
 def _online_config(robot, dt, model, forgetting, g, wrench_filter, delay, x0, prior_weight,
-                   warmup, excitation_window, excitation_threshold) -> OnlineConfig:
+                   warmup, excitation_window, excitation_threshold, fir) -> OnlineConfig:
     """The :class:`OnlineConfig` of :func:`online_init`'s (checked) arguments, in float64."""
     f64 = jnp.float64
     return OnlineConfig(
@@ -125,6 +185,7 @@ def _online_config(robot, dt, model, forgetting, g, wrench_filter, delay, x0, pr
         warmup=jnp.asarray(warmup, f64),
         excitation_forgetting=jnp.asarray(math.exp(-dt / excitation_window), f64),
         excitation_threshold=jnp.asarray(excitation_threshold, f64),
+        fir=jnp.asarray(fir, f64),
         model=model,
         wrench_filter=wrench_filter,
         wrench_delay=delay,
@@ -237,6 +298,37 @@ def _matched_filter(wf, y, first, gains, h, cfg):
     return MatchedFilterState(I1, st1, I2, st2, u, f1, scale), f2 * scale
 
 
+def _cascade_rows(state: OnlineState, B_R_P, q, qd, qdd, a, wtau, first):
+    """Rows ``(A, y)`` of this sample from the SIHD cascade's motion, ``W tau`` through the
+    chosen wrench filter (the translation model; the full model without matched filtering)."""
+    cfg = state.config
+    robot, h, gains = cfg.robot, cfg.dt, cfg.gains
+    if cfg.wrench_filter == "matched":  # every pose term through the wrench's filter F
+        rot, R_f, q_f, qd_f = _rotation_terms(state.rot, B_R_P, q, qd, first, gains, h)
+        q_f = q_f / jnp.linalg.norm(q_f)
+    else:
+        rot, R_f, q_f, qd_f = state.rot, B_R_P, q, qd
+    if cfg.model == "full":
+        om, al = angular_rates_from_quat(q, qd, qdd)  # reported: the cascade's own estimate
+        om_f, al_f = angular_rates_from_quat(q_f, qd_f, qdd)  # in the regressor: through F
+        A = regressor_full(R_f, a, om_f, al_f, robot.gravity)
+    else:
+        om = al = jnp.zeros(3, h.dtype)
+        A = regressor_translation(R_f, a, robot.gravity)
+    # measured wrench and its lag compensation
+    y = wtau
+    if cfg.wrench_filter == "matched":
+        wf, y = _matched_filter(state.wf, y, first, gains, h, cfg)
+    elif cfg.wrench_filter == "delay":
+        buf = state.wf.buffer
+        buf = jnp.where(first, jnp.broadcast_to(y, buf.shape), buf)
+        y, buf = buf[0], jnp.concatenate([buf[1:], y[None]], axis=0)
+        wf = DelayState(buf)
+    else:
+        wf = state.wf
+    return rot, wf, A, y, om, al
+
+
 def _online_step(state: OnlineState, sample: OnlineSample):
     cfg = state.config
     robot, h, gains = cfg.robot, cfg.dt, cfg.gains
@@ -251,33 +343,17 @@ def _online_step(state: OnlineState, sample: OnlineSample):
     q = jnp.where(q @ q_prev < 0, -q, q)  # sign continuity
     B_R_P = quat_to_matrix(q)
     sihd_q, qd, qdd = _cascade(state.sihd_q, q, first, gains, h)
-    if cfg.wrench_filter == "matched":  # every pose term through the wrench's filter F
-        rot, R_f, q_f, qd_f = _rotation_terms(state.rot, B_R_P, q, qd, first, gains, h)
-        q_f = q_f / jnp.linalg.norm(q_f)
-    else:
-        rot, R_f, q_f, qd_f = state.rot, B_R_P, q, qd
-    if cfg.model == "full":
+    wtau = wrench_matrix(robot, p_meas, B_R_P) @ tau
+    if _linear_match_on(cfg.model, cfg.wrench_filter):  # rows of sample k - 3, one FIR
+        lm, A, y, full = _linear_match_rows(state.lm, p_meas, q, wtau, state.k, cfg)
         om, al = angular_rates_from_quat(q, qd, qdd)  # reported: the cascade's own estimate
-        om_f, al_f = angular_rates_from_quat(q_f, qd_f, qdd)  # in the regressor: through F
-        A = regressor_full(R_f, a, om_f, al_f, robot.gravity)
+        rot, wf = state.rot, state.wf
     else:
-        om = al = jnp.zeros(3, h.dtype)
-        A = regressor_translation(R_f, a, robot.gravity)
-
-    # 2.-3. measured wrench and its lag compensation
-    y = wrench_matrix(robot, p_meas, B_R_P) @ tau
-    if cfg.wrench_filter == "matched":
-        wf, y = _matched_filter(state.wf, y, first, gains, h, cfg)
-    elif cfg.wrench_filter == "delay":
-        buf = state.wf.buffer
-        buf = jnp.where(first, jnp.broadcast_to(y, buf.shape), buf)
-        y, buf = buf[0], jnp.concatenate([buf[1:], y[None]], axis=0)
-        wf = DelayState(buf)
-    else:
-        wf = state.wf
+        rot, wf, A, y, om, al = _cascade_rows(state, B_R_P, q, qd, qdd, a, wtau, first)
+        lm, full = state.lm, True
 
     # 4. recursive least squares (square-root information form)
-    use = state.k.astype(h.dtype) * h >= cfg.warmup - 1e-9 * h
+    use = (state.k.astype(h.dtype) * h >= cfg.warmup - 1e-9 * h) & full
     S, n_rows = _rls_update(state.S, state.n_rows, A, y, cfg.forgetting, use)
     x, sigma, sigma_rho = _rls_solution(S, n_rows)
 
@@ -289,7 +365,7 @@ def _online_step(state: OnlineState, sample: OnlineSample):
     exc = jnp.sqrt(jnp.maximum(lam_min, 0.0))
     ok = (exc >= cfg.excitation_threshold) & (m_rows > 0)
 
-    new = OnlineState(cfg, state.k + 1, sihd_p, sihd_q, q, wf, S, n_rows, M, m_rows, rot)
+    new = OnlineState(cfg, state.k + 1, sihd_p, sihd_q, q, wf, S, n_rows, M, m_rows, rot, lm)
     return new, OnlineOutput(v, a, om, al, A, y, x, sigma, sigma_rho, exc, ok, use)
 
 
@@ -316,6 +392,8 @@ def _online_scan(state, samples):
     # The full model's (11, 11) factor is too large for XLA's small-buffer path, so it gains
     # nothing from blocking: plain scan.
     block = 2 if cfg.model == "translation" else 0
+    if _linear_match_on(cfg.model, cfg.wrench_filter):  # rows of k - 3: not the motion's
+        return scan_blocked(_online_step, state, samples, block, return_carry=True)
     new, out = scan_blocked(_step_without_regressor, state, samples, block, return_carry=True)
     q = samples.quaternion.astype(cfg.dt.dtype)
     B_R_P = jax.vmap(quat_to_matrix)(q)

@@ -45,6 +45,9 @@ class OnlineConfig(eqx.Module):
         Per-sample forgetting of the excitation information matrix.
     excitation_threshold : array ()
         Minimum RMS regressor entry along the weakest direction, m/s^2.
+    fir : array (L + 1,)
+        Taps of the rotation-consistent matched filter of the full model (position ->
+        acceleration, :func:`cdprid.identify._linear_match.reference_fir`; empty otherwise).
     model : str
         ``"translation"`` (4 parameters) or ``"full"`` (10).
     wrench_filter : str
@@ -62,6 +65,7 @@ class OnlineConfig(eqx.Module):
     warmup: jnp.ndarray
     excitation_forgetting: jnp.ndarray
     excitation_threshold: jnp.ndarray
+    fir: jnp.ndarray
     model: str = eqx.field(static=True, default="translation")
     wrench_filter: str = eqx.field(static=True, default="matched")
     wrench_delay: int = eqx.field(static=True, default=0)
@@ -119,6 +123,39 @@ class MatchedFilterState(NamedTuple):
     scale: jnp.ndarray
 
 
+class LinearMatchState(NamedTuple):
+    """Rotation-consistent matched filter of the full model (:mod:`cdprid.identify._linear_match`).
+
+    The rows are those of sample ``k - 3``: its accelerations and angular rates come from
+    centred differences over samples ``k - 6 .. k`` (never from the sample itself), every
+    regressor term and ``W tau`` pass the causal FIR ``config.fir`` through their running double
+    integral, and the translational acceleration is the FIR applied to the positions.
+
+    Attributes
+    ----------
+    pos, quat, wtau : arrays (7, 3), (7, 4), (7, 6)
+        The last 7 positions, sign-continuous quaternions and wrenches, newest first.
+    R0 : array (3, 3)
+        First orientation (the constant reference of the linear part).
+    u0, u_prev, i1 : arrays (6 p + 6,)
+        First value of the filtered channels, previous value minus ``u0``, running integral.
+    hist : array (L + 1, 6 p + 6)
+        Double integrals of the channels, newest first.
+    phist : array (L + 1, 3)
+        Positions of the row samples, newest first.
+    """
+
+    pos: jnp.ndarray
+    quat: jnp.ndarray
+    wtau: jnp.ndarray
+    R0: jnp.ndarray
+    u0: jnp.ndarray
+    u_prev: jnp.ndarray
+    i1: jnp.ndarray
+    hist: jnp.ndarray
+    phist: jnp.ndarray
+
+
 class DelayState(NamedTuple):
     """State of the delayed wrench (``wrench_filter="delay"``): the (D, 6) ring buffer."""
 
@@ -150,6 +187,8 @@ class OnlineState(eqx.Module):
         Its weighted number of rows.
     rot : RotationFilterState
         The wrench's matched filter applied to the rotation terms of the regressor.
+    lm : LinearMatchState or tuple
+        The full model's rotation-consistent matched filter (``()`` otherwise).
     """
 
     config: OnlineConfig
@@ -163,6 +202,7 @@ class OnlineState(eqx.Module):
     M: jnp.ndarray
     m_rows: jnp.ndarray
     rot: RotationFilterState
+    lm: LinearMatchState | tuple = ()
 
 
 class OnlineSample(NamedTuple):
