@@ -53,6 +53,11 @@ RIDGE = 1e-6
 hat coefficients are pulled towards zero (a smooth kernel of unit sum), so that taps the
 motion does not determine stay small."""
 
+REFERENCE_NOISE_M = 3e-4
+"""Position noise (m) added to the reference motion of :func:`reference_fir`, so that the taps
+reproduce the differentiator's response to measurement noise as well as to motion (without it
+the taps above the motion's band are arbitrary, and passed 15 times the noise)."""
+
 FIT_WARN = 0.05
 """Relative rms residual of the FIR fit above which the differentiator is too nonlinear on
 this recording for a linear matched filter (a warning says so)."""
@@ -203,7 +208,8 @@ def reference_fir(method: str, params: dict, dt: float) -> np.ndarray:
     """Taps fitted to ``method``'s response on a reference motion, for online use.
 
     The reference is a 40 s multisine per axis (0.1 m at 0.15-1.2 Hz, the band of platform
-    orbits), so the taps are known before the first sample. Any taps keep the online
+    orbits) plus :data:`REFERENCE_NOISE_M` of white noise, so the taps are known before the
+    first sample. Any taps keep the online
     regression exact on noise-free data (every term passes the same filter); fitting them to
     the differentiator keeps its noise behaviour.
     """
@@ -216,6 +222,7 @@ def reference_fir(method: str, params: dict, dt: float) -> np.ndarray:
     ph = rng.uniform(0.0, 2 * np.pi, (3, 4))
     p = np.stack([sum(0.1 / (1 + k) * np.sin(2 * np.pi * f[i, k] * t + ph[i, k])
                       for k in range(4)) for i in range(3)], 1)
+    p = p + REFERENCE_NOISE_M * rng.normal(size=p.shape)
     _, a = differentiate(p, dt, method=method, **params)
     L = fir_length(dt)
     idx = np.flatnonzero(t >= max(5.0, (L + 1) * dt))
