@@ -92,13 +92,16 @@ def run(spec: dict) -> dict:
 
 
 def _online(ds, robot, crb, truth) -> dict:
-    """Online identification (full model) of the whole recording: its final estimate and std."""
+    """Online identification (full model) of the whole recording: its final estimate and HAC
+    std (as ``identify --online --json`` reports it)."""
     from cdprid.identify import online_identify
     from cdprid.io import align
 
+    from cdprid.core import std_from_cov
+
     res = online_identify(align(ds), robot, model="full")
     return {"model": "full", "x": np.asarray(res.x_final).tolist(),
-            "std": np.asarray(res.std_final).tolist(), "crb": crb,
+            "std": std_from_cov(res.hac_cov_final()[0]).tolist(), "crb": crb,
             "truth": list(map(float, truth.vector("full")))}
 
 

@@ -4,6 +4,9 @@ sensor nuisances, physical consistency.
 
 # ruff: noqa: F401  (explicit re-exports)
 
+from cdprid.core._bandwidth import BUDGET as BUDGET
+from cdprid.core._bandwidth import BandwidthChoice as BandwidthChoice
+from cdprid.core._bandwidth import choose_cutoff as choose_cutoff
 from cdprid.core._covariance import andrews_bandwidth as andrews_bandwidth
 from cdprid.core._covariance import hac_covariance as hac_covariance
 from cdprid.core._covariance import hac_covariance_blocks as hac_covariance_blocks

@@ -221,6 +221,7 @@ def hac_covariance(
     bandwidth: float | None = None,
     R: Float[np.ndarray, "p p"] | None = None,
     leverage: bool | None = None,
+    min_bandwidth: float = 1.0,
 ) -> tuple[Float[np.ndarray, "p p"], float]:
     """HAC (Newey-West / Bartlett) sandwich covariance of LS coefficients.
 
@@ -242,6 +243,8 @@ def hac_covariance(
         (``Z^T Z (Z^T Z - G_w)^-1 m_w``, see the module notes). Default: True when the bandwidth
         is data-driven (the std ``identify`` reports), False when a bandwidth is given (the
         textbook Newey-West sum, as ``diagnose``'s fixed-lag tests use it).
+    min_bandwidth : float
+        Floor of the data-driven bandwidth (:func:`hac_covariance_blocks`).
 
     Returns
     -------
@@ -256,7 +259,8 @@ def hac_covariance(
     S = np.einsum("nkp,nk->np", Z, e)
     if R is None:
         R = np.linalg.qr(Z.reshape(-1, p), mode="r")
-    return hac_covariance_blocks(lambda i0, i1: Z[i0:i1], S, R, bandwidth, leverage)
+    return hac_covariance_blocks(lambda i0, i1: Z[i0:i1], S, R, bandwidth, leverage,
+                                 min_bandwidth=min_bandwidth)
 
 
 def hac_covariance_blocks(

@@ -34,7 +34,6 @@ from cdprid.core._motion import (  # noqa: F401  (re-exported by cdprid.identify
     estimate_motion,
     rotation_angle_deg,
 )
-from cdprid.core._noise import estimate_noise
 from cdprid.core._physical import inertia_about_com, physical_fit, physical_warnings
 from cdprid.core._regression import (
     CHUNK,
@@ -44,7 +43,8 @@ from cdprid.core._regression import (
     regressor_blocks,
     regressors,
 )
-from cdprid.identify._eiv import EIV_NOTE, eiv_fit, noise_gains
+from cdprid.identify._auto import resolve_params
+from cdprid.identify._eiv import EIV_NOTE, eiv_fit, noise_gains, noise_levels
 from cdprid.identify._linear_match import linear_match_regression, settled, uses_linear_match
 from cdprid.io.align import AlignedSignals, align
 from cdprid.io.dataset import Dataset
@@ -202,9 +202,10 @@ class IdentificationReport:
         return out
 
 
-def _choose_model(model: str, sig: AlignedSignals, path) -> tuple[str, float, list]:
+def _choose_model(model: str, sig: AlignedSignals, path, warns0=()) -> tuple[str, float, list]:
+    """``model`` resolved ("auto"), the rotation (deg) and the warnings (after ``warns0``)."""
     rot = rotation_angle_deg(sig.quaternion) if sig.has_rotation else 0.0
-    warns = []
+    warns = list(warns0)
     if model == "full" and not sig.has_rotation:
         raise InputError(
             f"{path}: the full model needs orientations (qw, qx, qy, qz in pose.csv) "
@@ -408,10 +409,10 @@ def identify_dataset(
     """
     wrench_filter = _check_options(model, differentiator, weighting, wrench_filter,
                                    matched_filter, inertia_about)
-    params = dict(params or {})
     sig = align(ds, t_start, t_end)
     notes = list(sig.notes)
-    model, rot, warns = _choose_model(model, sig, ds.path)
+    params, w0 = resolve_params(ds, sig, differentiator, params, notes)
+    model, rot, warns = _choose_model(model, sig, ds.path, w0)
     motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
     wf, note, w2 = _wrench_filter(ds.robot, differentiator, params, sig.dt, wrench_filter)
     warns, notes = warns + w2, notes + ([note] if note else [])
@@ -478,26 +479,6 @@ def _check_options(model, differentiator, weighting, wrench_filter, matched_filt
     if inertia_about not in ("P", "G"):
         raise InputError(f"inertia_about must be 'P' or 'G', got {inertia_about!r}.")
     return wrench_filter
-
-
-def noise_levels(ds: Dataset, sig: AlignedSignals) -> tuple:
-    """Noise levels estimated from the data: ``(s_tau (m,) per pose sample, tension samples
-    per pose sample, position std (m), orientation std (rad) or None)``.
-
-    Tension noise per cable from the raw stream (4th differences), scaled to a pose sample
-    by the tension samples per pose sample; position and orientation noise from the pose
-    stream.
-    """
-    tt = np.asarray(ds.tension_t, float)
-    per_pose = max(1.0, sig.dt / float(np.median(np.diff(tt)))) if len(tt) > 1 else 1.0
-    s_tau = estimate_noise(np.asarray(ds.tension, float)) / np.sqrt(per_pose)
-    s_pos = float(np.median(estimate_noise(sig.position)))
-    s_rot = None
-    if ds.quaternion is not None:
-        q = np.asarray(sig.quaternion, float)
-        q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
-        s_rot = float(np.median(estimate_noise(2.0 * q[:, 1:])))  # small angles: 2 q_xyz
-    return s_tau, per_pose, s_pos, s_rot
 
 
 def _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weighting, covariance,

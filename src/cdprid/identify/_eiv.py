@@ -25,9 +25,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.core._crb import sample_jacobians
+from cdprid.core._noise import estimate_noise
 from cdprid.signal import differentiate
 
-__all__ = ["noise_gains", "whitening", "input_covariance", "eiv_fit", "EIV_NOTE"]
+__all__ = ["noise_gains", "noise_levels", "whitening", "input_covariance", "eiv_fit", "EIV_NOTE"]
 
 EIV_NOTE = ("errors-in-variables weighting: each sample whitened by its residual covariance "
             "(tension noise through W, pose noise through W and the differentiated motion), "
@@ -169,3 +170,23 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
         resid[i0:i1] = y - Z @ res.x
     sigma = float(np.sqrt(np.sum(resid ** 2) / max(res.n_rows - len(res.x), 1)))
     return dataclasses.replace(res, residual=resid.reshape(-1), sigma_rho=sigma)
+
+
+def noise_levels(ds, sig) -> tuple:
+    """Noise levels estimated from the data: ``(s_tau (m,) per pose sample, tension samples
+    per pose sample, position std (m), orientation std (rad) or None)``.
+
+    Tension noise per cable from the raw stream (4th differences), scaled to a pose sample
+    by the tension samples per pose sample; position and orientation noise from the pose
+    stream.
+    """
+    tt = np.asarray(ds.tension_t, float)
+    per_pose = max(1.0, sig.dt / float(np.median(np.diff(tt)))) if len(tt) > 1 else 1.0
+    s_tau = estimate_noise(np.asarray(ds.tension, float)) / np.sqrt(per_pose)
+    s_pos = float(np.median(estimate_noise(sig.position)))
+    s_rot = None
+    if ds.quaternion is not None:
+        q = np.asarray(sig.quaternion, float)
+        q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
+        s_rot = float(np.median(estimate_noise(2.0 * q[:, 1:])))  # small angles: 2 q_xyz
+    return s_tau, per_pose, s_pos, s_rot

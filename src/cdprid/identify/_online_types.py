@@ -346,7 +346,12 @@ class OnlineResult:
         k = np.arange(u.sum())
         w = np.sqrt(self.forgetting ** (k[-1] - k))[:, None]
         e = (y - np.einsum("nrp,p->nr", A, self.x_final)) * w
-        cov, bw = hac_covariance(A * w[:, :, None], e)
+        mb = 1.0
+        if self.model == "full" and self.wrench_filter == "matched":  # the FIR's memory
+            from cdprid.identify._linear_match import fir_length
+
+            mb = float(fir_length(float(np.median(np.diff(self.t)))) + 1)
+        cov, bw = hac_covariance(A * w[:, :, None], e, min_bandwidth=mb)
         return cov, bw
 
     def as_json(self) -> dict:
