@@ -143,8 +143,8 @@ def main(argv=None) -> int:
     ap.add_argument("--jsonl", default=str(ROOT / "results" / "efficiency_runs.jsonl"))
     ap.add_argument("--out", default=str(ROOT / "results" / "efficiency.md"))
     ap.add_argument("--methods", default=None,
-                    help="comma-separated starts of method labels to run (default: all), "
-                         "e.g. 'euler-filtfilt,rts'")
+                    help="semicolon-separated starts of method labels to run (default: all), "
+                         "e.g. 'euler-filtfilt, cutoff;rts'")
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--scheduler", default=None)
     args = ap.parse_args(argv)
@@ -152,7 +152,7 @@ def main(argv=None) -> int:
     from cdprid.model import PARAMETER_NAMES
 
     robots = args.robots.split(",")
-    keep = tuple(m.strip() for m in (args.methods or "").split(",") if m.strip())
+    keep = tuple(m.strip() for m in (args.methods or "").split(";") if m.strip())
     labels = [k for k in METHODS if not keep or k.startswith(keep)]
     tag = f"|{args.methods}" if args.methods else ""
     specs = [{"key": f"{r}|{1000 + k}{tag}", "robot": r, "seed": 1000 + k, "methods": labels}
