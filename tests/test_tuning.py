@@ -334,3 +334,20 @@ def test_cli_bad_bound_options_exit_2(argv, capsys):
     assert main(["tune", *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("cdprid: error:")
+
+
+def test_tune_result_is_frozen_and_carries_one_status():
+    """Issue 22: results are immutable and every solver reports the package's one status."""
+    import dataclasses
+
+    import optimistix as optx
+
+    from cdprid.base import Status
+    from cdprid.tuning._tuning import TuneResult
+
+    assert dataclasses.fields(TuneResult) and TuneResult.__dataclass_params__.frozen
+    assert Status.of_optimistix(optx.RESULTS.successful) is Status.CONVERGED
+    assert Status.of_optimistix(optx.RESULTS.nonlinear_max_steps_reached) is Status.MAX_STEPS
+    assert Status.of_optimistix(optx.RESULTS.nonlinear_divergence) is Status.FAILED
+    assert Status.CONVERGED.ok and not Status.MAX_STEPS.ok
+    assert Status.MAX_STEPS.value == "max steps"

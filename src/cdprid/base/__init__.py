@@ -20,5 +20,6 @@ from cdprid.base._outputs import save_figure as save_figure
 from cdprid.base._outputs import write_json as write_json
 from cdprid.base._outputs import write_text as write_text
 from cdprid.base._progress import Progress as Progress
+from cdprid.base._status import Status as Status
 from cdprid.base._sweep import load_log as load_log
 from cdprid.base._sweep import run_sweep as run_sweep

@@ -44,6 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base._errors import UserError
+from cdprid.base._status import Status
 from cdprid.excitation._check import limit_ratios, rest_margins
 from cdprid.excitation._evaluation import ExcitationResult, evaluate_design
 from cdprid.excitation._problem import GENTLE_FRACTION, ExcitationProblem, Fractions, _penalised
@@ -276,7 +277,6 @@ def start_points(prob: ExcitationProblem, n_starts: int = 4, seed: int = 0,
 def _run_starts(prob, starts, max_steps, progress):
     """One compiled BFGS solve per start; [(penalised, z, objective, penalty, steps, status,
     seconds)] (the first start's seconds include the compilation)."""
-    import optimistix as optx
 
     t = jnp.asarray(prob.grid(prob.rate_opt_hz))
     t_fine = jnp.asarray(prob.grid(prob.rate_opt_hz * prob.fine_factor))
@@ -286,7 +286,7 @@ def _run_starts(prob, starts, max_steps, progress):
         t1 = time.perf_counter()
         z, val, f, pen, steps, result = _solve(z0, probm, t, t_fine, max_steps)
         z = jax.block_until_ready(z)
-        status = "converged" if result == optx.RESULTS.successful else "stopped early"
+        status = "converged" if Status.of_optimistix(result).ok else "stopped early"
         dt = time.perf_counter() - t1
         sols.append((float(val), np.asarray(z), float(f), float(pen), int(steps), status, dt))
         _log(f"excite: start {i + 1}/{len(starts)}: penalised objective {float(val):.4f} "

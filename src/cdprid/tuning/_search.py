@@ -11,6 +11,7 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base._status import Status
 from cdprid.tuning._response import ResponseBounds, acceleration_response, response_penalty
 from cdprid.tuning._sihd_params import PAPER_PARAMS, _order, default_params, theta_from_params
 
@@ -62,7 +63,7 @@ def _minimise(loss_j, method, init, noise_std, zeta_min, fa, max_steps, constrai
     solver = optx.BFGS(rtol=1e-5, atol=1e-6)
     per = max(1, max_steps // 2) if constrain else max_steps
     paths = [(1.0, 1.0), CONTINUATION] if constrain else [(1.0,)]
-    out, steps, status = (v_start, best[1]), 0, ""
+    out, steps, status, code = (v_start, best[1]), 0, "", Status.CONVERGED
     for path in paths:
         th = best[1]
         for w in path:
@@ -71,14 +72,15 @@ def _minimise(loss_j, method, init, noise_std, zeta_min, fa, max_steps, constrai
             if math.isfinite(float(loss_j(sol.value, wj))):
                 th = sol.value
             steps += int(sol.stats.get("num_steps", 0))
-            status = ("converged" if sol.result == optx.RESULTS.successful
+            code = Status.of_optimistix(sol.result)
+            status = ("converged" if code.ok
                       else "not converged: " + optx.RESULTS[sol.result].split(".")[0])
         v = float(loss_j(th, one))
         if math.isfinite(v) and v < out[0]:
             out = (v, th)
     say(f"tune {method}: end loss {out[0]:.4f} after {steps} BFGS steps ({len(paths)} path(s); "
         f"last solve {status}; the lowest of start and ends is kept)")
-    return out[1], steps, status
+    return out[1], steps, status, code
 
 
 def _golden(f, lo, hi, iters):

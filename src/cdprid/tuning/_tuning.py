@@ -65,6 +65,7 @@ import jax
 import numpy as np
 
 from cdprid.base._errors import InputError
+from cdprid.base._status import Status
 from cdprid.tuning._losses import ParamProblem as ParamProblem
 from cdprid.tuning._losses import _accel_loss as _accel_loss
 from cdprid.tuning._losses import _groups as _groups
@@ -106,9 +107,10 @@ BASELINE_GRIDS = {
 }
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(frozen=True)
 class TuneResult:
-    """Outcome of :func:`tune`/:func:`tune_baseline`; ``as_json()`` is the CLI's JSON."""
+    """Outcome of :func:`tune`/:func:`tune_baseline` (immutable); ``as_json()`` is the CLI's
+    JSON. ``status`` is the solver's :class:`cdprid.base.Status`."""
 
     method: str
     params: dict
@@ -128,6 +130,7 @@ class TuneResult:
     extra: dict = dataclasses.field(default_factory=dict)
     response: FrequencyResponse | None = None
     warnings: list = dataclasses.field(default_factory=list)
+    status: Status = Status.CONVERGED
 
     def as_json(self) -> dict:
         d = {
@@ -145,6 +148,7 @@ class TuneResult:
             "wall_s": round(self.wall_s, 3),
             "cpu_s": round(self.cpu_s, 3),
             "steps": self.steps,
+            "status": self.status.value,
         }
         d.update(self.extra)
         if self.response is not None:
@@ -193,7 +197,7 @@ def _check_tune_args(method: str, objective: str, noise_std: float) -> None:
 def _optimise_theta(method, objective, sigs, noise_std, train_seeds, weight, zeta_min, bounds,
                     constrain, h, init, fa, max_steps, say):
     """Build the ``objective``'s loss (in 64-bit), jit it and minimise it (:func:`_minimise`):
-    ``(theta, BFGS steps, solver status)``."""
+    ``(theta, BFGS steps, solver status sentence, Status)``."""
     with jax.enable_x64(True):
         if objective == "accel":
             loss = _accel_loss(method, sigs, noise_std, train_seeds, zeta_min, bounds,
@@ -272,15 +276,15 @@ def tune(
     fa = 1.0 if constrain else None
     h = float(sigs[0].dt)
 
-    th, steps, status = _optimise_theta(method, objective, sigs, noise_std, train_seeds, weight,
-                                        zeta_min, bounds, constrain, h, init, fa, max_steps,
-                                        say)
+    th, steps, status, code = _optimise_theta(method, objective, sigs, noise_std, train_seeds,
+                                              weight, zeta_min, bounds, constrain, h, init, fa,
+                                              max_steps, say)
     params = params_from_theta(method, th, zeta_min, fa)
     res = _finish(method, params, noise_std, sigs, train_seeds, test_seeds, objective,
                   (t_wall, t_cpu), steps, bounds, heldout, say)
-    res.extra["solver_status"] = status
-    res.extra["constrained"] = bool(constrain)
-    return res
+    return dataclasses.replace(res, status=code,
+                               extra={**res.extra, "solver_status": status,
+                                      "constrained": bool(constrain)})
 
 
 def response_warnings(method: str, resp: FrequencyResponse) -> list[str]:
@@ -403,9 +407,8 @@ def tune_baseline(
         params["window_s"] = w * dt
     res = _finish(method, params, noise_std, sigs, train_seeds, test_seeds, "accel",
                   (t_wall, t_cpu), n_grid + refine + 2, bounds, heldout, say)
-    res.extra["constrained"] = bool(constrain)
     say(f"tune {method}: {name} = {params[name]:.4g}")
-    return res
+    return dataclasses.replace(res, extra={**res.extra, "constrained": bool(constrain)})
 
 
 def tune_method(method: str, noise_std: float, **kw) -> TuneResult:
