@@ -28,7 +28,6 @@ import functools
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy.linalg import solveh_banded
 
 from cdprid.model._dynamics import regressor_full, regressor_translation
 from cdprid.model._geometry import wrench_matrix
@@ -109,6 +108,11 @@ def _pinv_sym(S: np.ndarray, rel: float = 1e-10) -> np.ndarray:
     return np.einsum("nij,nj,nkj->nik", V, inv, V)
 
 
+DENSE_KNOTS = 1500
+"""Up to this many nuisance knots (150 s at 0.1 s spacing) the Schur complement is solved
+densely; above, by scipy's banded Cholesky (the dense matrix would grow as the square)."""
+
+
 def _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc: int, bw: int):
     """The Schur complement ``I_tt - I_tc I_cc^-1 I_ct`` of the nuisance coefficients,
     the per-sample blocks scatter-added into ``I_tc`` and the banded ``I_cc`` (bandwidth
@@ -121,6 +125,10 @@ def _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc: int, bw: int):
     Icc = np.bincount(flat, weights=Icc_loc.ravel(), minlength=nc * nc).reshape(nc, nc)
     ridge = 1e-12 * float(np.max(np.diag(Icc)))
     Icc[np.diag_indices(nc)] += ridge
+    if nc <= DENSE_KNOTS:  # a dense solve is instant here, and keeps scipy off identify's path
+        return Itt - Itc @ np.linalg.solve(Icc, Itc.T)
+    from scipy.linalg import solveh_banded
+
     # I_cc is banded (a sample touches 4 consecutive knots): banded Cholesky solve
     ab = np.zeros((bw + 1, nc))
     for d in range(bw + 1):

@@ -189,10 +189,7 @@ def swapped_columns_warning(robot, report, tension) -> str | None:
     """Name two tension columns that look swapped: exchanging them lowers the residual of the
     same least-squares fit below :data:`SWAP_RESIDUAL_RATIO` of what it is (tensions in the
     wrong cable order gave a confident mzG off by 4 sigma with no warning)."""
-    import equinox as eqx
-    import jax.numpy as jnp
-
-    from cdprid.core._regression import wrench_matrices
+    from cdprid.core._regression import cable_wrench
     from cdprid.identify._batch import _wrench_filter
 
     motion, reg = report.motion, report.regression
@@ -207,9 +204,11 @@ def swapped_columns_warning(robot, report, tension) -> str | None:
     if tau.shape[0] != n:
         return None
 
-    # W evaluated once: exchanging tau_i and tau_j adds (W_i - W_j)(tau_j - tau_i)
-    W = np.asarray(eqx.filter_jit(wrench_matrices)(robot, jnp.asarray(motion.position),
-                                                   jnp.asarray(motion.B_R_P)))
+    # W evaluated once: exchanging tau_i and tau_j adds (W_i - W_j)(tau_j - tau_i); its
+    # columns by the identification's own compiled W tau with unit tensions (no new trace)
+    eye = np.eye(m)
+    W = np.stack([cable_wrench(robot, motion.position, motion.B_R_P,
+                               np.broadcast_to(eye[i], (n, m))) for i in range(m)], axis=2)
     y0 = np.einsum("nkm,nm->nk", W, tau)
 
     def residual(y):
