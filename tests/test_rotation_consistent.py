@@ -140,3 +140,26 @@ def test_fir_fit_is_well_conditioned():
     assert abs(gain(0.02) - 1) < 0.01
     assert gain(10.0) < 0.25 and gain(25.0) < 0.25  # the free fit: 1654 at 2 Hz
     np.testing.assert_allclose([c.sum(), (j * c).sum()], 0.0, atol=1e-6 / dt ** 2)
+
+
+def test_eight_cable_redundant_robot_rotating_10_deg(tmp_path):
+    """A third robot (8 cables, redundant, 40 N pretension, a small 4.5 kg platform) rotating
+    about 10 deg: kalman and online within the same tolerances."""
+    from cdprid.identify import online_identify
+    from cdprid.model import EIGHT_REDUNDANT, InertialParameters
+
+    robot = robot_from_dict(EIGHT_REDUNDANT)
+    truth = InertialParameters(4.5, np.array([0.01, -0.005, -0.04]),
+                               np.diag([0.03, 0.035, 0.05]))
+    sim = simulate(robot, preset("rich", robot, duration=26.0, rotation_amplitude=0.1), truth,
+                   noise=SensorNoise.off(), tau_ref=40.0)
+    t = np.asarray(truth.vector("full"))
+    ds = read_dataset(write_simulation(sim, tmp_path / "d"))
+    sig = {"t": sim.pose_t, "position": sim.position, "quaternion": sim.quaternion,
+           "tension": sim.tension}
+    for x in (np.asarray(identify_dataset(ds, model="full", differentiator="kalman",
+                                          bound=False).result.x),
+              np.asarray(online_identify(sig, robot, model="full").x_final)):
+        assert abs(x[0] / t[0] - 1) < 0.005
+        assert abs(x[3] / t[3] - 1) < 0.02
+        np.testing.assert_allclose(_inertia_eigs(x), _inertia_eigs(t), rtol=0.05)
