@@ -85,4 +85,7 @@ def _rotation_state(quat_fn, t):
     return q, omega, alpha
 
 
-_IDENTITY = (jnp.array([1.0, 0.0, 0.0, 0.0]), jnp.zeros(3), jnp.zeros(3))
+def _identity():
+    """``(q, omega, alpha)`` of no rotation, created when called (an array made at import time
+    would start JAX's backend on ``import cdprid`` and be float32 before x64 is enabled)."""
+    return jnp.array([1.0, 0.0, 0.0, 0.0]), jnp.zeros(3), jnp.zeros(3)

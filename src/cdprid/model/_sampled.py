@@ -6,7 +6,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.model._rotation_paths import _IDENTITY, Rotation, _rotation_state
+from cdprid.model._rotation_paths import Rotation, _identity, _rotation_state
 from cdprid.model._rotations import quat_multiply
 from cdprid.model._smoothstep import _derivs
 from cdprid.model._trajectories import TrajectoryState, _evaluate_padded
@@ -111,7 +111,7 @@ class SampledTrajectory(eqx.Module):
         elif self.rotation is not None:
             q, w, al = _rotation_state(self.rotation.quat, t)
         else:
-            q, w, al = _IDENTITY
+            q, w, al = _identity()
         return p, v, a, j, q, w, al
 
     def evaluate(self, t) -> TrajectoryState:

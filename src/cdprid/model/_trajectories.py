@@ -42,7 +42,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base._errors import InputError
-from cdprid.model._rotation_paths import _IDENTITY, Rotation, _rotation_state, small_rotation
+from cdprid.model._rotation_paths import Rotation, _identity, _rotation_state, small_rotation
 from cdprid.model._smoothstep import _binom, smoothstep7_derivs
 
 POSITION_COLUMNS = ("t", "x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az")
@@ -206,7 +206,7 @@ class Trajectory(TimedTrajectory):
     def _one(self, t):
         p, v, a, j = self._position_derivs(t, 3)
         if self.rotation is None:
-            q, w, al = _IDENTITY
+            q, w, al = _identity()
         else:
             q, w, al = _rotation_state(self.rotation.quat, t)
         return p, v, a, j, q, w, al
