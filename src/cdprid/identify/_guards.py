@@ -211,18 +211,26 @@ def swapped_columns_warning(robot, report, tension) -> str | None:
                                np.broadcast_to(eye[i], (n, m))) for i in range(m)], axis=2)
     y0 = np.einsum("nkm,nm->nk", W, tau)
 
-    def residual(y):
-        y = np.asarray(wf(y) if wf is not None else y)[idx].reshape(-1)
-        x, *_ = np.linalg.lstsq(A, y, rcond=None)
-        return float(np.sqrt(np.mean((y - A @ x) ** 2)))
+    Q = np.linalg.qr(A)[0]  # one projection for every candidate: residual = y - Q Q^T y
+    pairs = [(i, j) for i in range(m) for j in range(i + 1, m)]
 
-    base = residual(y0)
-    best = (base, None)
-    for i in range(m):
-        for j in range(i + 1, m):
-            r = residual(y0 + (W[:, :, i] - W[:, :, j]) * (tau[:, j] - tau[:, i])[:, None])
-            if r < best[0]:
-                best = (r, (i, j))
+    def rms_residual(y):  # y (n_kept * 6, k) -> (k,)
+        return np.sqrt(np.mean((y - Q @ (Q.T @ y)) ** 2, axis=0))
+
+    def filtered(y):  # (n, 6 k) -> (n_kept * 6, k)
+        f = np.asarray(wf(y) if wf is not None else y)[idx]
+        return f.reshape(len(idx), 6, -1).reshape(len(idx) * 6, -1)
+
+    deltas = [(W[:, :, i] - W[:, :, j]) * (tau[:, j] - tau[:, i])[:, None] for i, j in pairs]
+    if report.differentiator == "euler-filtfilt" or hasattr(wf, "taps"):  # a linear filter:
+        f0 = filtered(y0)  # every candidate's filtered wrench is f0 plus its filtered change
+        fd = filtered(np.stack(deltas, axis=2).reshape(n, -1))
+        res = rms_residual(f0 + fd)
+    else:  # a homogeneous differentiator's describing function depends on the amplitude
+        res = np.array([rms_residual(filtered(y0 + d))[0] for d in deltas])
+    base = float(rms_residual(filtered(y0))[0])
+    k = int(np.argmin(res))
+    best = (float(res[k]), pairs[k]) if res[k] < base else (base, None)
     if best[1] is not None and best[0] < SWAP_RESIDUAL_RATIO * base:
         i, j = best[1]
         return (f"tension columns tau_{i + 1} and tau_{j + 1} look swapped: exchanging them "
