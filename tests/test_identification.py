@@ -241,7 +241,8 @@ def test_auto_model_and_matched_filter_unbiased_on_rotating_data(rotating_ds, me
                                     pytest.param("kalman", marks=pytest.mark.slow)])
 def test_streamed_identify_equals_the_materialised_regression(rotating_ds, method):
     """identify evaluates the regressor block by block (bounded memory, issue 17); the oracle
-    holds every array: W tau and the pose-only regressor terms filtered whole, stacked LS."""
+    holds every array: W tau and the pose-only regressor terms filtered whole, stacked LS (for
+    the causal kalman, the rotation-consistent linear match evaluated in one block)."""
     import dataclasses
 
     from cdprid.core import build_regression, estimate_motion, regressors
@@ -257,16 +258,27 @@ def test_streamed_identify_equals_the_materialised_regression(rotating_ds, metho
     def wf(y):  # linear methods: the amplitude normalisation cancels
         return acceleration_filter(y, sig.dt, method)
 
-    reg = build_regression(ds.robot, motion, sig.tension, "full", wf)
-    n = len(motion.t)
-    z = jnp.zeros((n, 3))
-    Ag = np.asarray(regressors("full", jnp.asarray(motion.B_R_P), z, z, z, ds.robot.gravity))
-    A = reg.A - Ag + wf(Ag.reshape(n, -1)).reshape(Ag.shape)
     keep = (motion.t >= motion.t[0] + 1.0) & (motion.t <= motion.t[-1] - 1.0)
+    mb = 1.0
+    if method == "euler-filtfilt":
+        reg = build_regression(ds.robot, motion, sig.tension, "full", wf)
+        n = len(motion.t)
+        z = jnp.zeros((n, 3))
+        Ag = np.asarray(regressors("full", jnp.asarray(motion.B_R_P), z, z, z, ds.robot.gravity))
+        A, y = reg.A - Ag + wf(Ag.reshape(n, -1)).reshape(Ag.shape), reg.y
+    else:  # a causal method: the rotation-consistent linear match, built in one block
+        from cdprid.identify._linear_match import fit_linear_match, matched_regression, settled
+
+        lm = fit_linear_match(motion, keep, 1.0)
+        reg = matched_regression(ds.robot, motion, sig.quaternion, sig.tension, "full", keep, lm,
+                                 10 ** 6)
+        keep = settled(keep, motion.segments, len(lm.taps))
+        A, y, mb = np.empty((len(keep), 6, 10)), np.empty((len(keep), 6)), float(len(lm.taps))
+        A[keep], y[keep] = reg.A, reg.y
     for weighting in ("none", "groups"):
         groups = np.tile([0, 0, 0, 1, 1, 1], int(keep.sum())) if weighting == "groups" else None
-        ref = least_squares(A[keep].reshape(-1, 10), reg.y[keep].reshape(-1), groups=groups,
-                            rows_per_sample=6)
+        ref = least_squares(A[keep].reshape(-1, 10), y[keep].reshape(-1), groups=groups,
+                            rows_per_sample=6, min_bandwidth=mb)
         rep = identify_dataset(ds, differentiator=method, weighting=weighting, chunk=257)
         res = rep.result
         assert rep.model == "full" and rep.n_samples == keep.sum()

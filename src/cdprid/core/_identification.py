@@ -270,7 +270,8 @@ def least_squares_blocks(block, n: int, names=None, weights=None, groups=None,
 
 
 def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None, rows_per_sample: int = 1,
-                  covariance: str = "hac", bandwidth: float | None = None) -> LSResult:
+                  covariance: str = "hac", bandwidth: float | None = None,
+                  min_bandwidth: float = 1.0) -> LSResult:
     """Ordinary or weighted least squares with the paper's statistics.
 
     Parameters
@@ -295,6 +296,8 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None, rows_per_sa
         kept (``cov_iid``).
     bandwidth : float, optional
         HAC bandwidth in time samples; default data-driven (Andrews 1991).
+    min_bandwidth : float
+        Floor of the data-driven bandwidth (the memory of a filter every row passed).
 
     Returns
     -------
@@ -323,4 +326,5 @@ def least_squares(W_ID, Y_ID, names=None, weights=None, groups=None, rows_per_sa
     A3, y2 = A.reshape(N // k, k, p), y.reshape(N // k, k)
     return least_squares_blocks(lambda i0, i1: (A3[i0:i1], y2[i0:i1]), N // k, names,
                                 weights=weights, groups=groups, covariance=covariance,
-                                bandwidth=bandwidth, chunk=max(1, 65536 // k))
+                                bandwidth=bandwidth, chunk=max(1, 65536 // k),
+                                min_bandwidth=min_bandwidth)
