@@ -4,7 +4,6 @@
 
 from cdprid.base._defaults import CUTOFF_HZ as CUTOFF_HZ
 from cdprid.base._defaults import FILTER_ORDER as FILTER_ORDER
-from cdprid.base._defaults import FRICTION_SPEED_M_S as FRICTION_SPEED_M_S
 from cdprid.base._defaults import REST_SPEED_M_S as REST_SPEED_M_S
 from cdprid.base._defaults import TAUT_THRESHOLD_N as TAUT_THRESHOLD_N
 from cdprid.base._defaults import TRIM_S as TRIM_S

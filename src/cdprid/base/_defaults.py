@@ -31,11 +31,3 @@ REST_SPEED_M_S: float = 0.02
 UACDPR FreeMotion02: in its stillest 0.7 s the speed (Euler + 4 Hz) has median 9.5 mm/s and
 maximum 19 mm/s (marker noise and vibration), so 5 mm/s finds no rest window at all; 20 mm/s
 finds t = 4.90-5.60 s."""
-
-FRICTION_SPEED_M_S: float = 0.003
-"""Cable speed (m/s) below which the diagnosis's Coulomb-friction regressor fades to zero:
-``tanh(dl/dt / FRICTION_SPEED_M_S)`` instead of ``sign(dl/dt)``. At rest the estimated speed is
-a tiny number of random sign, so ``sign`` put the full Coulomb level there while the load cell
-reads no friction (or an unknown static one); on the `rich` trajectory (7 % of the time at rest)
-that biased a 2 N Coulomb level to 1.81 N with a spurious 0.6 N s/m viscous term, even without
-noise. 3 mm/s is a few times the speed's noise at 0.3 mm / 100 Hz / 4 Hz."""

@@ -17,7 +17,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._defaults import FRICTION_SPEED_M_S
 from cdprid.effects._effects import DIAGNOSIS, tilt_gravity
 from cdprid.model._dynamics import regressor_full, regressor_translation
 from cdprid.model._geometry import CableRobot, cable_vectors, pulley_leave_point, wrench_matrix
@@ -126,7 +125,7 @@ def measured_side(d: DiagData, th):
     """
     tau = tension_at(d, d.t + th["delay"])
     tau = (tau - th["offset"] - th["drift"] * d.clock[:, None]) / (1.0 + th["gain"])
-    tau = tau + (th["coulomb"] + th["coulomb_all"]) * jnp.tanh(d.ldot / FRICTION_SPEED_M_S) \
+    tau = tau + (th["coulomb"] + th["coulomb_all"]) * jnp.sign(d.ldot) \
         + (th["pvisc"] + th["pvisc_all"]) * d.ldot
     rob = shifted_robot(d.robot, th)
     g = tilt_gravity(d.robot.gravity, th["tilt"])

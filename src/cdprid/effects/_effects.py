@@ -49,9 +49,7 @@ from 1). How each effect is modelled by :func:`cdprid.simulation.simulate`:
     exit point and the platform (``dl/dt = -W_i^T [v; omega]``, > 0 paying out), the load
     cell reads ``tau - coulomb_N sign(dl/dt) - viscous_Ns_per_m dl/dt`` before gain,
     offset and noise: hauling the cable in, the winch side needs more than the platform
-    side gets. Both coefficients are >= 0. The diagnosis fits ``sign`` as
-    ``tanh(dl/dt / 3 mm/s)`` (``cdprid.base.FRICTION_SPEED_M_S``): zero at rest, where the
-    sign of a tiny estimated speed is random.
+    side gets. Both coefficients are >= 0.
 ``cable_elasticity {cable, EA_N}``
     Cable ``cable`` stretches under its tension (Hooke's law, EA_N its axial stiffness E A
     in N): the winch encoder, which measures the unstrained length paid out, reads
@@ -81,7 +79,6 @@ import json
 
 import numpy as np
 
-from cdprid.base._defaults import FRICTION_SPEED_M_S
 from cdprid.base._errors import InputError
 from cdprid.effects import _tension_drift
 from cdprid.effects._form import DiagnosisForm
@@ -464,20 +461,16 @@ def _drag_model(y, d, q):
     return y + jnp.concatenate([d.v * q["drag"], jnp.zeros_like(d.v)], axis=1)
 
 
-def moving_sign(ldot):
-    """The Coulomb-friction regressor: ``tanh(ldot / FRICTION_SPEED_M_S)``, the sign of a
-    moving cable and zero at rest (see :data:`cdprid.base.FRICTION_SPEED_M_S`)."""
+def _friction_tension(tau, q, c):
     import jax.numpy as jnp
 
-    return jnp.tanh(ldot / FRICTION_SPEED_M_S)
-
-
-def _friction_tension(tau, q, c):
-    return tau + q["coulomb"] * moving_sign(c["ldot"]) + q["pvisc"] * c["ldot"]
+    return tau + q["coulomb"] * jnp.sign(c["ldot"]) + q["pvisc"] * c["ldot"]
 
 
 def _common_friction_tension(tau, q, c):
-    return tau + q["coulomb_all"] * moving_sign(c["ldot"]) + q["pvisc_all"] * c["ldot"]
+    import jax.numpy as jnp
+
+    return tau + q["coulomb_all"] * jnp.sign(c["ldot"]) + q["pvisc_all"] * c["ldot"]
 
 
 def _pulley_params(flip: bool):
