@@ -39,7 +39,6 @@ from cdprid.core import Motion, StreamedRegression, regressor_blocks
 from cdprid.core._motion import angular_rates
 from cdprid.core._regression import cable_wrench
 from cdprid.model._rotations import quat_to_matrix
-from cdprid.signal._differentiators import double_integral
 
 __all__ = ["FIR_SECONDS", "FIT_WARN", "LinearMatch", "fir_length", "fit_linear_match",
            "linear_match_regression", "matched_regression", "reference_fir", "reference_rates",
@@ -104,7 +103,7 @@ class LinearMatch:
         out = np.empty_like(u2)
         for a, b in self.segments:
             mu = u2[a:b].mean(axis=0)
-            out[a:b] = _fir(self.taps, double_integral(u2[a:b] - mu, self.dt)) + mu
+            out[a:b] = _fir(self.taps, _double_integral(u2[a:b] - mu, self.dt)) + mu
         return out[:, 0] if squeeze else out.reshape(u.shape)
 
 
@@ -115,6 +114,12 @@ def _fir(c: np.ndarray, x: np.ndarray) -> np.ndarray:
         if j < n:
             out[j:] += cj * x[:n - j]
     return out
+
+
+def _double_integral(u: np.ndarray, dt: float) -> np.ndarray:
+    z = np.zeros((1,) + u.shape[1:])
+    i1 = np.concatenate([z, np.cumsum(0.5 * dt * (u[1:] + u[:-1]), 0)])
+    return np.concatenate([z, np.cumsum(0.5 * dt * (i1[1:] + i1[:-1]), 0)])
 
 
 def fit_linear_match(motion: Motion, keep, trim: float) -> LinearMatch:

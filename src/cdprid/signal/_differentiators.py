@@ -272,15 +272,6 @@ def differentiate(y, dt, method="sihd2-cascade", **params) -> tuple[np.ndarray, 
     return np.ascontiguousarray(d1), np.ascontiguousarray(d2)
 
 
-def double_integral(u, dt: float) -> np.ndarray:
-    """Trapezoidal double integral of time-first channels ``u`` (n, k), zero at the first
-    sample: what a differentiator's acceleration filter is fed (``acceleration_filter`` and the
-    linear match of ``cdprid.identify``)."""
-    z = np.zeros((1,) + u.shape[1:])
-    i1 = np.concatenate([z, np.cumsum(0.5 * dt * (u[1:] + u[:-1]), 0)])
-    return np.concatenate([z, np.cumsum(0.5 * dt * (i1[1:] + i1[:-1]), 0)])
-
-
 def acceleration_filter(y, dt, method: str = "euler-filtfilt", scale=None, **params) -> np.ndarray:
     """Pass a signal through the filter that ``method`` applies to accelerations.
 
@@ -327,7 +318,8 @@ def acceleration_filter(y, dt, method: str = "euler-filtfilt", scale=None, **par
                                                                    (x.shape[1],))
     mu = x.mean(axis=0)
     u = (x - mu) / s
-    i2 = double_integral(u, dt)
+    i1 = np.concatenate([np.zeros((1, u.shape[1])), np.cumsum(0.5 * dt * (u[1:] + u[:-1]), 0)])
+    i2 = np.concatenate([np.zeros((1, u.shape[1])), np.cumsum(0.5 * dt * (i1[1:] + i1[:-1]), 0)])
     _, a = differentiate(i2, dt, method=method, **params)
     out = a * s + mu
     return out[:, 0] if squeeze else out
