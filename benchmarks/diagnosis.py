@@ -553,6 +553,11 @@ def main() -> int:
     ap.add_argument("--scheduler", default=None,
                     help="run on an existing Dask cluster (scheduler address)")
     ap.add_argument("--quiet", action="store_true", help="no line per run")
+    ap.add_argument("--max-runs", type=int, default=None,
+                    help="run at most N of the missing runs, then write the tables and exit "
+                         "(a shell loop that restarts the script recycles the process: long "
+                         "serial sweeps otherwise exhaust LLVM's section memory after ~130 "
+                         "runs)")
     args = ap.parse_args()
     from cdprid.base import run_sweep
 
@@ -561,6 +566,11 @@ def main() -> int:
     if not args.from_jsonl:
         specs = [{"key": run_key(k, lab, rb, sd), "kind": k, "label": lab, "robot": rb,
                   "seed": sd, "kw": kw} for k, lab, rb, sd, kw in runs]
+        if args.max_runs is not None:
+            from cdprid.base import load_log
+
+            logged = load_log(args.jsonl)
+            specs = [s for s in specs if s["key"] not in logged][:args.max_runs]
         run_sweep(specs, run_spec, args.jsonl, workers=args.workers,
                   scheduler=args.scheduler, progress=None if args.quiet else _say)
     done = {r["key"]: r for r in _records(args.jsonl)}
