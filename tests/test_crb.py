@@ -126,19 +126,32 @@ def test_no_estimate_beats_the_bound_monte_carlo(tmp_path):
     assert np.all(spread <= 3.0 * b), spread / b
 
 
-def test_schur_complement_dense_and_banded_agree(monkeypatch):
-    """Short recordings solve the nuisance block densely (scipy stays off identify's start-up
-    path); long ones by banded Cholesky: the two agree."""
+@pytest.mark.parametrize("d", [3, 6])
+def test_block_banded_solve_equals_a_dense_solve(d):
+    """The nuisance block (a sample touches 4 consecutive knots of d coordinates) solved by
+    block Cholesky equals numpy's dense solve; and the Schur complement built from
+    per-sample blocks equals the one written out densely."""
     from cdprid.core import _crb
 
-    rng = np.random.default_rng(0)
-    n, nc, p, bw = 400, 120, 4, 3
-    cols = np.minimum(np.arange(n)[:, None] * nc // n + np.arange(4)[None, :], nc - 1)
-    J = rng.normal(size=(n, 6, 4))
+    rng = np.random.default_rng(d)
+    K, n, p = 40, 500, 4
+    nc = K * d
+    i0 = np.minimum(np.arange(n) * (K - 3) // n, K - 4)
+    cols = ((i0[:, None] + np.arange(4)[None, :])[:, :, None] * d
+            + np.arange(d)[None, None, :]).reshape(n, 4 * d)
+    J = rng.normal(size=(n, 6, 4 * d))
+    Icc_loc = np.einsum("nkc,nkd->ncd", J, J) + 1e-3 * np.eye(4 * d)
     Itc_loc = np.einsum("nkp,nkc->npc", rng.normal(size=(n, 6, p)), J)
-    Icc_loc = np.einsum("nkc,nkd->ncd", J, J)
+    Icc = np.zeros((nc, nc))
+    Itc = np.zeros((p, nc))
+    for k in range(n):
+        Icc[np.ix_(cols[k], cols[k])] += Icc_loc[k]
+        Itc[:, cols[k]] += Itc_loc[k]
+    B = rng.normal(size=(nc, 5))
+    np.testing.assert_allclose(_crb.block_banded_solve(Icc, B, d, 3), np.linalg.solve(Icc, B),
+                               rtol=1e-8, atol=1e-10)
     Itt = 50.0 * np.eye(p)
-    dense = _crb._schur_banded(Itt, Itc_loc, Icc_loc, cols, nc, bw)
-    monkeypatch.setattr(_crb, "DENSE_KNOTS", 0)
-    banded = _crb._schur_banded(Itt, Itc_loc, Icc_loc, cols, nc, bw)
-    np.testing.assert_allclose(dense, banded, rtol=1e-9, atol=1e-9 * np.abs(dense).max())
+    ridge = 1e-12 * np.max(np.diag(Icc)) * np.eye(nc)
+    dense = Itt - Itc @ np.linalg.solve(Icc + ridge, Itc.T)
+    got = _crb._schur_banded(Itt, Itc_loc, Icc_loc, cols, nc, d)
+    np.testing.assert_allclose(got, dense, rtol=1e-9, atol=1e-9 * np.abs(dense).max())

@@ -32,7 +32,7 @@ import numpy as np
 from cdprid.model._dynamics import regressor_full, regressor_translation
 from cdprid.model._geometry import wrench_matrix
 
-__all__ = ["CRBResult", "crb", "bspline_basis", "sample_jacobians"]
+__all__ = ["CRBResult", "crb", "bspline_basis", "block_banded_solve", "sample_jacobians"]
 
 #: most spline knots per coordinate (longer recordings get a wider spacing; see ``note``)
 MAX_KNOTS = 400
@@ -64,37 +64,39 @@ def bspline_basis(u: np.ndarray):
     return i, b, d1, d2
 
 
-def _residual(robot, model: str, theta, tau, p, R, a, w, al, xi):
-    """Cable side minus model at one sample with the motion perturbed by ``xi`` (15,):
-    position, acceleration, rotation vector (base frame), angular rate, angular accel."""
-    dp, da, dphi, dw, dal = (xi[3 * k:3 * k + 3] for k in range(5))
-    # first order in the rotation vector is all the Jacobian at xi = 0 needs
-    Rk = (jnp.eye(3) + jnp.array([[0.0, -dphi[2], dphi[1]], [dphi[2], 0.0, -dphi[0]],
-                                  [-dphi[1], dphi[0], 0.0]])) @ R
-    W = wrench_matrix(robot, p + dp, Rk)
-    g = robot.gravity
-    if model == "full":
-        Y = regressor_full(Rk, a + da, w + dw, al + dal, g)
-    else:
-        Y = regressor_translation(Rk, a + da, g)
-    return W @ tau - Y @ theta
+def _small_rotation(dphi, R):
+    """``(I + [dphi]x) R``: first order in the rotation vector is all a Jacobian at 0 needs."""
+    return (jnp.eye(3) + jnp.array([[0.0, -dphi[2], dphi[1]], [dphi[2], 0.0, -dphi[0]],
+                                    [-dphi[1], dphi[0], 0.0]])) @ R
+
+
+def _regressor(robot, model: str, R, a, w, al):
+    return (regressor_full(R, a, w, al, robot.gravity) if model == "full"
+            else regressor_translation(R, a, robot.gravity))
 
 
 @functools.partial(jax.jit, static_argnums=(1,))
 def sample_jacobians(robot, model, theta, tau, p, R, a, w, al):
     """Per-sample ``(G, Y, W)``: d residual / d xi (n, 6, 15), regressor, wrench matrix.
 
-    ``xi`` perturbs position, acceleration, rotation vector (base frame), angular rate and
-    angular acceleration (3 each); shared by the bound and the errors-in-variables weighting
-    of identify (one trace for both when they ask for the same samples)."""
+    The residual is the cable side minus the model, ``W(p, R) tau - Y(R, a, omega, alpha)
+    theta``; ``xi`` perturbs position, acceleration, rotation vector (base frame), angular rate
+    and angular acceleration (3 each). The cable side is differentiated in the 6 pose
+    directions only (the pulley geometry is the costly part; the 9 rate directions do not
+    reach it), the model side in its 12. Shared by the bound and the errors-in-variables
+    weighting of identify (one trace for both when they ask for the same samples)."""
 
     def one(tk, pk, Rk, ak, wk, alk):
-        f = functools.partial(_residual, robot, model, theta, tk, pk, Rk, ak, wk, alk)
-        G = jax.jacfwd(f)(jnp.zeros(15))
-        W = wrench_matrix(robot, pk, Rk)
-        Y = (regressor_full(Rk, ak, wk, alk, robot.gravity) if model == "full"
-             else regressor_translation(Rk, ak, robot.gravity))
-        return G, Y, W
+        def cable(x):  # (dp, dphi)
+            return wrench_matrix(robot, pk + x[:3], _small_rotation(x[3:], Rk)) @ tk
+
+        def body(x):  # (dphi, da, domega, dalpha)
+            return _regressor(robot, model, _small_rotation(x[:3], Rk), ak + x[3:6],
+                              wk + x[6:9], alk + x[9:]) @ theta
+
+        Gc, Gm = jax.jacfwd(cable)(jnp.zeros(6)), jax.jacfwd(body)(jnp.zeros(12))
+        G = jnp.concatenate([Gc[:, :3], -Gm[:, 3:6], Gc[:, 3:] - Gm[:, :3], -Gm[:, 6:]], axis=1)
+        return G, _regressor(robot, model, Rk, ak, wk, alk), wrench_matrix(robot, pk, Rk)
 
     return jax.vmap(one)(tau, p, R, a, w, al)
 
@@ -105,18 +107,48 @@ def _pinv_sym(S: np.ndarray, rel: float = 1e-10) -> np.ndarray:
     w, V = np.linalg.eigh(S)
     cut = rel * np.max(w, axis=1, keepdims=True)
     inv = np.where(w > cut, 1.0 / np.where(w > cut, w, 1.0), 0.0)
-    return np.einsum("nij,nj,nkj->nik", V, inv, V)
+    return np.matmul(V * inv[:, None, :], V.transpose(0, 2, 1))
 
 
-DENSE_KNOTS = 1500
-"""Up to this many nuisance knots (150 s at 0.1 s spacing) the Schur complement is solved
-densely; above, by scipy's banded Cholesky (the dense matrix would grow as the square)."""
+def block_banded_solve(A: np.ndarray, B: np.ndarray, d: int, nb: int) -> np.ndarray:
+    """Solve ``A X = B`` for a symmetric positive definite block-banded ``A``.
+
+    ``A`` is ``(K d, K d)`` with blocks of size ``d`` and ``nb`` non-zero blocks on each side
+    of the diagonal (the spline nuisance: a sample touches 4 consecutive knots, ``nb = 3``);
+    block Cholesky, then forward and back substitution: ``O(K nb^2 d^3)``, with no scipy.
+    """
+    K = A.shape[0] // d
+
+    def blk(i, j):
+        return A[i * d:(i + 1) * d, j * d:(j + 1) * d]
+
+    L = {}
+    for i in range(K):
+        for j in range(max(0, i - nb), i):
+            acc = blk(i, j) - sum((L[i, k] @ L[j, k].T for k in range(max(0, i - nb), j)),
+                                  np.zeros((d, d)))
+            L[i, j] = np.linalg.solve(L[j, j], acc.T).T
+        acc = blk(i, i) - sum((L[i, k] @ L[i, k].T for k in range(max(0, i - nb), i)),
+                              np.zeros((d, d)))
+        L[i, i] = np.linalg.cholesky(acc)
+    Bb = np.asarray(B, float).reshape(K, d, -1)
+    y = np.empty_like(Bb)
+    for i in range(K):
+        r = Bb[i] - sum((L[i, k] @ y[k] for k in range(max(0, i - nb), i)), np.zeros_like(Bb[i]))
+        y[i] = np.linalg.solve(L[i, i], r)
+    x = np.empty_like(Bb)
+    for i in reversed(range(K)):
+        r = y[i] - sum((L[k, i].T @ x[k] for k in range(i + 1, min(K, i + nb + 1))),
+                       np.zeros_like(Bb[i]))
+        x[i] = np.linalg.solve(L[i, i].T, r)
+    return x.reshape(np.shape(B))
 
 
-def _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc: int, bw: int):
+def _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc: int, ndof: int):
     """The Schur complement ``I_tt - I_tc I_cc^-1 I_ct`` of the nuisance coefficients,
-    the per-sample blocks scatter-added into ``I_tc`` and the banded ``I_cc`` (bandwidth
-    ``bw``: a sample touches 4 consecutive knots), solved by banded Cholesky."""
+    the per-sample blocks scatter-added into ``I_tc`` and the block-banded ``I_cc`` (blocks
+    of ``ndof``, 3 off the diagonal: a sample touches 4 consecutive knots), solved by
+    :func:`block_banded_solve`."""
     p = Itt.shape[0]
     # scatter-add of the local blocks (bincount: one pass over the samples)
     Itc = np.stack([np.bincount(cols.ravel(), weights=Itc_loc[:, j, :].ravel(), minlength=nc)
@@ -125,15 +157,7 @@ def _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc: int, bw: int):
     Icc = np.bincount(flat, weights=Icc_loc.ravel(), minlength=nc * nc).reshape(nc, nc)
     ridge = 1e-12 * float(np.max(np.diag(Icc)))
     Icc[np.diag_indices(nc)] += ridge
-    if nc <= DENSE_KNOTS:  # a dense solve is instant here, and keeps scipy off identify's path
-        return Itt - Itc @ np.linalg.solve(Icc, Itc.T)
-    from scipy.linalg import solveh_banded
-
-    # I_cc is banded (a sample touches 4 consecutive knots): banded Cholesky solve
-    ab = np.zeros((bw + 1, nc))
-    for d in range(bw + 1):
-        ab[d, :nc - d] = np.diagonal(Icc, -d)
-    return Itt - Itc @ solveh_banded(ab, Itc.T, lower=True)
+    return Itt - Itc @ block_banded_solve(Icc, Itc.T, ndof, 3)
 
 
 def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, tension,
@@ -175,7 +199,7 @@ def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, te
         jnp.asarray(position, float), jnp.asarray(R, float), jnp.asarray(acceleration, float),
         jnp.asarray(omega, float), jnp.asarray(alpha, float)))
     s2 = np.square(np.broadcast_to(np.asarray(tension_std, float), (W.shape[2],)))
-    Sig = np.einsum("nim,m,njm->nij", W, s2, W)
+    Sig = np.matmul(W * s2, W.transpose(0, 2, 1))
     P = _pinv_sym(Sig)
     i0, b, d1, d2 = bspline_basis((t - t[0]) / h)
     i0 = np.clip(i0, 0, K - 4)
@@ -193,10 +217,11 @@ def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, te
     cols = ((i0[:, None] + np.arange(4)[None, :])[:, :, None] * ndof
             + np.arange(ndof)[None, None, :]).reshape(n, 4 * ndof)
     nc = K * ndof
-    PL = np.einsum("nij,njk->nik", P, L)
-    Itt = np.einsum("nip,nij,njq->pq", Y, P, Y)
-    Itc_loc = -np.einsum("nip,nik->npk", Y, PL)  # (n, p, 24)
-    Icc_loc = np.einsum("nik,nil->nkl", L, PL)  # (n, 24, 24)
+    PL = np.matmul(P, L)  # matmul: BLAS (einsum is not)
+    Yt = Y.transpose(0, 2, 1)
+    Itt = np.einsum("nip,niq->pq", Y, np.matmul(P, Y), optimize=True)
+    Itc_loc = -np.matmul(Yt, PL)  # (n, p, 24)
+    Icc_loc = np.matmul(L.transpose(0, 2, 1), PL)  # (n, 24, 24)
     # pose observations: the spline values seen with noise
     obs = np.zeros((n, 4 * ndof, 4 * ndof))
     sd = np.array([position_std] * 3 + ([rotation_std] * 3 if rot else []), float)
@@ -205,7 +230,7 @@ def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, te
         idx = np.arange(4) * ndof + d
         obs[:, idx[:, None], idx[None, :]] += inv_var[d] * b[:, :, None] * b[:, None, :]
     Icc_loc = Icc_loc + obs
-    S = _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc, 4 * ndof - 1)
+    S = _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc, ndof)
     cov = np.linalg.pinv(0.5 * (S + S.T))
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     noise = {"tension_N": [float(v) for v in np.sqrt(s2)], "position_m": float(position_std),

@@ -92,8 +92,8 @@ def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
             jnp.asarray(np.asarray(x)[i0:i1], float) for x in (
                 tension, motion.position, motion.B_R_P, motion.acceleration, motion.omega,
                 motion.alpha))))
-        S = (np.einsum("nik,kl,njl->nij", G, Su, G)
-             + C[0, 0] * np.einsum("nim,m,njm->nij", W, s2, W))
+        S = (np.matmul(G @ Su, G.transpose(0, 2, 1))
+             + C[0, 0] * np.matmul(W * s2, W.transpose(0, 2, 1)))
         U[i0:i1] = _inverse_sqrt(S)
     return U
 
@@ -156,7 +156,7 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
     def block(i0, i1):
         Z, y = reg.wrench_block(i0, i1)
         u = U[i0:i1]
-        return np.einsum("nij,njp->nip", u, Z), np.einsum("nij,nj->ni", u, y)
+        return np.matmul(u, Z), np.matmul(u, y[:, :, None])[:, :, 0]
 
     res = least_squares_blocks(block, n, names, covariance=covariance, chunk=chunk,
                                min_bandwidth=min_bandwidth)

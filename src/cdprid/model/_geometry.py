@@ -483,8 +483,12 @@ def unit_vectors(robot: CableRobot, B_p, B_R_P):
     return L / jnp.linalg.norm(L, axis=1, keepdims=True)
 
 
+@jax.jit
 def wrench_matrix(robot: CableRobot, B_p, B_R_P):
     """Wrench matrix W (6, m) of eq. (2) at one pose: ``W tau`` = cable force and moment about P.
+
+    Jitted: the regression, the guards and the Jacobians of the bound trace it once per
+    robot and shape, not once each (start-up time).
 
     Parameters
     ----------

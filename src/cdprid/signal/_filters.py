@@ -152,12 +152,12 @@ def lfilter(b: Float[np.ndarray, " o"], a: Float[np.ndarray, " o"],
     X = np.zeros((nb * L, k))
     X[:n] = x2
     X = X.reshape(nb, L, k)
-    U = np.einsum("rl,blk->brk", Ctrl, X)
+    U = np.matmul(Ctrl, X)  # (nb, r, k); matmul: BLAS, einsum is not
     S = np.empty((nb, r, k))
     for j in range(nb):
         S[j] = s
         s = AL @ s + U[j]
-    Y = np.einsum("lm,bmk->blk", T, X) + np.einsum("lr,brk->blk", O, S)
+    Y = np.matmul(T, X) + np.matmul(O, S)
     return Y.reshape(nb * L, k)[:n].reshape(x.shape)
 
 
