@@ -36,8 +36,49 @@ def timed(args, cwd):
     return time.perf_counter() - t0, cpu, r1.ru_maxrss / 1024
 
 
-def _startup(d: Path) -> list[str]:
-    """`cdprid --help`, `import cdprid` and `cdprid identify` (empty vs filled JAX cache)."""
+def _baseline_tree(rev: str, d: Path) -> Path:
+    """A detached worktree of ``rev`` (its ``src`` is timed beside this one's)."""
+    tree = d / f"baseline-{rev}"
+    subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), rev],
+                   capture_output=True, check=True)
+    return tree
+
+
+def _side_by_side(d: Path, rev: str, n: int = 5) -> list[str]:
+    """``cdprid identify`` with a filled cache at this tree and at ``rev``, alternated in one
+    run (ABAB: the machine's load falls on both alike); least wall and CPU of ``n`` each."""
+    tree = _baseline_tree(rev, d)
+    try:
+        res = {}
+        for _ in range(n + 1):  # the first round fills each tree's cache
+            for name, src in (("this", ROOT / "src"), (rev, tree / "src")):
+                env = {**os.environ, "PYTHONPATH": str(src), "CDPRID_QUIET": "1",
+                       "CDPRID_CACHE_DIR": str(d / f"cache-{name}")}
+                t0 = time.perf_counter()
+                r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                subprocess.run(CDPRID + ["identify", str(d / "st")], cwd=ROOT, env=env,
+                               capture_output=True, check=True)
+                r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+                res.setdefault(name, []).append((time.perf_counter() - t0, cpu))
+    finally:
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
+                       capture_output=True)
+    this, base = ([min(v[1:], key=lambda wc: wc[i])[i] for i in (0, 1)] for v in
+                  (res["this"], res[rev]))
+    print(f"side by side: identify (filled cache) this {this[0]:.2f} s wall / {this[1]:.2f} s "
+          f"CPU, {rev} {base[0]:.2f} / {base[1]:.2f}", flush=True)
+    return ["", f"Side by side in the same run (`--baseline {rev}`; `cdprid identify` with a "
+            f"filled cache, the two trees alternated, least of {n} each):", "",
+            "| tree | wall [s] | CPU [s] |", "|---|---:|---:|",
+            f"| this commit | {this[0]:.2f} | {this[1]:.2f} |",
+            f"| {rev} | {base[0]:.2f} | {base[1]:.2f} |",
+            f"| ratio | {this[0] / base[0]:.2f} | {this[1] / base[1]:.2f} |"]
+
+
+def _startup(d: Path, baseline: str | None = None) -> list[str]:
+    """`cdprid --help`, `import cdprid` and `cdprid identify` (empty vs filled JAX cache);
+    with ``baseline`` (a git revision) identify is also timed at that revision, alternated."""
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "CDPRID_QUIET": "1"}
 
     def run(argv, extra=None):
@@ -73,7 +114,8 @@ def _startup(d: Path) -> list[str]:
         print(f"{n:50s} wall {w:6.2f} s  CPU {c:6.2f} s  {g}", flush=True)
     load = os.getloadavg()[0]
     lines = ["## Start-up time (issue 13)", "",
-             f"Command: `python benchmarks/speed.py --only startup`; least CPU of 3 fresh "
+             "Command: `python benchmarks/speed.py --only startup"
+             + (f" --baseline {baseline}" if baseline else "") + "`; least CPU of 3 fresh "
              f"processes (identify with an empty cache: one run); load average {load:.1f} at "
              "the end of the run (2 cores shared: wall times on a busy machine are upper "
              "bounds; CPU = user + system time of the process, less sensitive to the load).",
@@ -87,6 +129,8 @@ def _startup(d: Path) -> list[str]:
               "the first time it is imported, least of 3; scipy 0 means it is not imported):", "",
               "| package | import time [s] |", "|---|---:|"]
     lines += [f"| {n} | {v:.2f} |" for n, v in imp]
+    if baseline:
+        lines += _side_by_side(d, baseline)
     return lines
 
 
@@ -132,11 +176,13 @@ def main() -> int:
 
     ap = argparse.ArgumentParser(description="Speed of the main commands.")
     ap.add_argument("--only", choices=["commands", "startup"], default=None)
+    ap.add_argument("--baseline", default=None, metavar="REV",
+                    help="also time identify at this git revision, alternated with this tree")
     args = ap.parse_args()
     out = ROOT / "results" / "benchmarks.md"
     if args.only in (None, "startup"):
         with tempfile.TemporaryDirectory() as tmp:
-            _merge(out, "## Start-up time", "\n".join(_startup(Path(tmp))))
+            _merge(out, "## Start-up time", "\n".join(_startup(Path(tmp), args.baseline)))
         if args.only == "startup":
             print(f"wrote {out}")
             return 0
