@@ -13,6 +13,7 @@ import functools
 import numpy as np
 from scipy import stats
 
+from cdprid.base._status import Status
 from cdprid.diagnosis.base import BaseFit
 from cdprid.diagnosis.candidates import (
     Candidate,
@@ -125,6 +126,7 @@ class Selection:
     accepted: tuple  # Candidate, one per finding
     findings: tuple  # Finding
     th_cov: np.ndarray
+    status: Status = Status.CONVERGED  # how the last nonlinear refit ended
 
 
 def start(prob: Problem, base: BaseFit) -> Selection:
@@ -158,7 +160,7 @@ def refit(prob: Problem, s: Selection, theta=None, active_idx=None, rotational=N
     rot = s.rotational if rotational is None else rotational
     x0 = s.x if x is None else x
     for _ in range(4):
-        th, x_new, th_cov, lin = refit_gauss_newton(functools.partial(design, prob), theta,
+        th, x_new, th_cov, lin, status = refit_gauss_newton(functools.partial(design, prob), theta,
                                                     x0, active, rot, prob.wrow, prob.train,
                                                     prob.lags)
         neg = [i for i in active if i in prob.layout.nonneg and th[i] < 0]
@@ -170,7 +172,7 @@ def refit(prob: Problem, s: Selection, theta=None, active_idx=None, rotational=N
     if lin is not None:
         seed_design(prob, th, x_new, rot, lin)
     return dataclasses.replace(s, theta=th, x=x_new, rotational=rot,
-                               active_idx=tuple(active), th_cov=th_cov)
+                               active_idx=tuple(active), th_cov=th_cov, status=status)
 
 
 def with_vocabulary(prob: Problem, s: Selection, extra: dict) -> Selection:
@@ -301,6 +303,8 @@ def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: f
         if not set(idx) & set(t.active_idx):
             return None, None, float("nan"), "refits to its bounds (every parameter at 0)"
     why = refit_rejected(prob, t, c, extra)
+    if t.status is Status.FAILED:
+        why = "refit finds no step that lowers the training cost (not converged)"
     if why:
         return None, None, float("nan"), why
     vocab = vocab_params(c, t.theta, layout, extra, t.th_cov)
