@@ -543,6 +543,9 @@ def main() -> int:
                     help="one noise level, one size per effect (the third smallest)")
     ap.add_argument("--robots", default="four,six,craft8")
     ap.add_argument("--kinds", default="clean,oov,pair,single")
+    ap.add_argument("--effects", default=None,
+                    help="comma-separated effects: only their single-effect runs (and pairs "
+                         "naming them); default all")
     ap.add_argument("--out", default="results/diagnosis.md")
     ap.add_argument("--jsonl", default="results/diagnosis_runs.jsonl",
                     help="every run's record is appended here; runs already there are skipped")
@@ -563,6 +566,11 @@ def main() -> int:
 
     runs = [r for r in plan(args.robots.split(","), args.seeds, args.quick)
             if r[0] in args.kinds.split(",")]
+    if args.effects:
+        keep = args.effects.split(",")
+        runs = [r for r in runs if r[0] in ("clean", "oov")
+                or (r[0] == "single" and r[1].split()[0] in keep)
+                or (r[0] == "pair" and any(e in r[1] for e in keep))]
     if not args.from_jsonl:
         specs = [{"key": run_key(k, lab, rb, sd), "kind": k, "label": lab, "robot": rb,
                   "seed": sd, "kw": kw} for k, lab, rb, sd, kw in runs]
