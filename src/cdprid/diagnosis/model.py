@@ -92,6 +92,15 @@ class DiagData(eqx.Module):
     clock: jnp.ndarray
     tau_t0: float = eqx.field(static=True)
     tau_dt: float = eqx.field(static=True)
+    #: the expected sign of each cable's sliding speed (in [-1, 1], (n, m)); the
+    #: Coulomb terms use it (see :func:`cdprid.diagnosis.problem.sliding_sign`); ``None``:
+    #: ``sign(ldot)``
+    slide: jnp.ndarray | None = None
+
+
+def slide_of(d: DiagData):
+    """The friction sign of every sample and cable, ``(n, m)``."""
+    return jnp.sign(d.ldot) if d.slide is None else d.slide
 
 
 def tension_at(d: DiagData, s):
@@ -125,7 +134,7 @@ def measured_side(d: DiagData, th):
     """
     tau = tension_at(d, d.t + th["delay"])
     tau = (tau - th["offset"] - th["drift"] * d.clock[:, None]) / (1.0 + th["gain"])
-    tau = tau + (th["coulomb"] + th["coulomb_all"]) * jnp.sign(d.ldot) \
+    tau = tau + (th["coulomb"] + th["coulomb_all"]) * slide_of(d) \
         + (th["pvisc"] + th["pvisc_all"]) * d.ldot
     rob = shifted_robot(d.robot, th)
     g = tilt_gravity(d.robot.gravity, th["tilt"])
@@ -189,21 +198,22 @@ def local_blocks(local) -> dict:
 
 
 def cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c, ldot_c,
-                       t_c=0.0):
+                       t_c=0.0, slide_c=None):
     """Wrench (6,) of one cable on the platform, with its own effect parameters.
 
     ``local``: every theta block for this cable (:data:`LOCAL_BLOCKS`; per-cable blocks hold
     this cable's values, global blocks the common ones); ``local_c`` the same at the
     linearisation point. The effects act through the hooks of
     :data:`cdprid.effects.DIAGNOSIS`, in table order: ``tension`` on the reading ``tau_c``
-    (its rate ``taud_c``, the cable rate ``ldot_c``, the clock ``t_c``), ``geometry`` on
+    (its rate ``taud_c``, the cable rate ``ldot_c``, the clock ``t_c``, the friction sign
+    ``slide_c``, by default ``sign(ldot_c)``), ``geometry`` on
     the exit point, the
     attachment and the pulley radius, ``leave`` on the leave point, ``gravity`` and ``load``
     (a force at the attachment).
     """
     q = local_blocks(local)
     c = {"at": local_blocks(local_c), "taud": taud_c, "ldot": ldot_c, "R": R, "p": p, "k": k,
-         "ref": ref, "t": t_c}
+         "ref": ref, "t": t_c, "slide": jnp.sign(ldot_c) if slide_c is None else slide_c}
     forms = DIAGNOSIS.values()
     tau = tau_c
     for form in forms:
@@ -260,18 +270,18 @@ def meas_and_jac(d, theta, layout):
     taud_c = tension_rate_at(d, d.t + th["delay"])
     rob = d.robot
 
-    def per_sample(p, R, tc, tdc, ld, clk):
-        def per_cable(lc, A, b, r, k, ref, ti, tdi, li):
+    def per_sample(p, R, tc, tdc, ld, clk, sl):
+        def per_cable(lc, A, b, r, k, ref, ti, tdi, li, si):
             f = functools.partial(cable_contribution, A=A, b=b, r=r, k=k, ref=ref, p=p, R=R,
                                   tau_c=ti, taud_c=tdi, g0=rob.gravity, local_c=lc, ldot_c=li,
-                                  t_c=clk)
+                                  t_c=clk, slide_c=si)
             return f(lc), jax.jacfwd(f)(lc)
 
         w, J = jax.vmap(per_cable)(loc, rob.B_A, rob.P_b, rob.pulley_radius, rob.pulley_axis,
-                                   rob.pulley_reference, tc, tdc, ld)
+                                   rob.pulley_reference, tc, tdc, ld, sl)
         return w.sum(0), J  # (6,), (m, 6, len)
 
-    y, Jl = jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot, d.clock)
+    y, Jl = jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot, d.clock, slide_of(d))
     n = y.shape[0]
     J = jnp.zeros((n, 6, layout.size))
     Jl = jnp.moveaxis(Jl, 1, 3)  # (n, 6, len, m)

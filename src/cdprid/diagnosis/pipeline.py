@@ -242,7 +242,7 @@ def _structure(prob) -> dict:
     """The residual structure signals (filtered and row-weighted like the regression)."""
     return {k: prob.filt(F) * prob.wrow[None, :, None] for k, F in structure_features(
         prob.W_all, prob.v, prob.om, prob.tension, prob.position, np.asarray(prob.d.clock),
-        prob.use).items()}
+        prob.use, slide=prob.d.slide).items()}
 
 
 def _base_stage(prob, notes: list, say):

@@ -30,6 +30,7 @@ from cdprid.diagnosis.model import (
 from cdprid.diagnosis.testing import blocks, cv_sse
 from cdprid.io.align import align
 from cdprid.io.dataset import Dataset
+from cdprid.model._geometry import cable_lengths
 from cdprid.model._rotations import quat_to_matrix
 from cdprid.signal._baselines import zero_phase_filter
 from cdprid.signal._differentiators import differentiate
@@ -85,6 +86,60 @@ class Problem:
         x = np.asarray(x)
         y = zero_phase_filter(x.reshape(x.shape[0], -1), self.dt, self.cutoff_hz, 2)
         return y.reshape(x.shape)
+
+
+#: floor of the sliding-speed std, m/s (motion capture better than this is not trusted)
+SLIDE_NOISE_M_S = 1e-3
+
+
+def _gauss_derivative(x, dt: float, sigma_s: float):
+    """Derivative of ``x`` (n, k) by a sampled Gaussian-derivative kernel, and the kernel.
+
+    The kernel has no overshoot (unlike a Butterworth), so a sign change of the true rate is
+    not doubled by ringing; it is exact on linear signals (normalised so), and the ends are
+    extended by odd reflection.
+    """
+    half = max(1, int(math.ceil(4.0 * sigma_s / dt)))
+    tk = np.arange(-half, half + 1) * dt
+    g = np.exp(-0.5 * (tk / sigma_s) ** 2)
+    h = -tk * g
+    h /= np.sum(-h * tk)  # sum_k h_k (t - t_k) = 1: exact on x = t
+    n = x.shape[0]
+    if n <= half:
+        raise UserError(f"the recording holds {n} pose samples; too few to differentiate.")
+    xp = np.pad(x, ((half, half), (0, 0)), mode="reflect", reflect_type="odd")
+    out = np.stack([np.convolve(xp[:, j], h, mode="valid") for j in range(x.shape[1])], 1)
+    return out, h
+
+
+def sliding_sign(lengths, dt: float, cutoff_hz: float):
+    """The expected sign of each cable's sliding speed over its pulley, given the data.
+
+    The rate of the nominal cable lengths ``lengths`` (n, m) by a Gaussian derivative whose
+    -3 dB frequency is ``cutoff_hz``; its noise std per cable is the lengths' white-noise
+    level (from third differences, robust) times the kernel's norm, at least
+    :data:`SLIDE_NOISE_M_S`. The Coulomb regressor is ``E[sign(dl/dt) | estimate] =
+    erf(speed / (sqrt(2) std))``: near reversals, where the estimated sign is a coin toss,
+    it goes to 0. The sign of the estimate itself would attenuate a fitted Coulomb level (an
+    errors-in-variables bias), and a sign set to 0 in a dead zone inflates it once the
+    regression is filtered; the conditional expectation leaves a residual uncorrelated with
+    the regressor (``tests/test_sliding.py`` measures the three).
+
+    Returns
+    -------
+    sign : (n, m) in [-1, 1]
+    speed : (n, m) the sliding speed, m/s
+    std : (m,) its noise std, m/s
+    """
+    from scipy.special import erf
+
+    lengths = np.asarray(lengths, float)
+    sigma_s = math.sqrt(math.log(2.0)) / (2.0 * math.pi * cutoff_hz)
+    speed, h = _gauss_derivative(lengths, dt, sigma_s)
+    d3 = np.diff(lengths, 3, axis=0)
+    noise = 1.4826 * np.median(np.abs(d3 - np.median(d3, 0)), 0) / math.sqrt(20.0)
+    std = np.maximum(noise * math.sqrt(float(np.sum(h**2))), SLIDE_NOISE_M_S)
+    return erf(speed / (math.sqrt(2.0) * std)), speed, std
 
 
 def _motion(sig, cutoff_hz):
@@ -144,12 +199,15 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     W_all = np.asarray(jax.jit(wrench_matrices)(robot, jnp.asarray(sig.position),
                                                  jnp.asarray(R)))
     ldot = -np.einsum("nim,ni->nm", W_all, np.concatenate([v, om], axis=1))
+    lengths = np.asarray(jax.jit(jax.vmap(cable_lengths, in_axes=(None, 0, 0)))(
+        robot, jnp.asarray(sig.position), jnp.asarray(R)))
+    slide, _, _ = sliding_sign(lengths, dt, cutoff_hz)
     clk = (np.asarray(sig.t) - float(ds.tension_t[0]) if clock is None
            else np.asarray(clock(np.asarray(sig.t)), float))
     d = DiagData(robot, jnp.asarray(sig.t), jnp.asarray(sig.position), jnp.asarray(R),
                  jnp.asarray(v), jnp.asarray(a), jnp.asarray(om), jnp.asarray(al),
                  jnp.asarray(tau_grid), jnp.asarray(ldot), jnp.asarray(clk), float(grid_t[0]),
-                 tdt)
+                 tdt, jnp.asarray(slide))
     margin = max(trim, 0.1)
     use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
            & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))

@@ -19,7 +19,7 @@ from cdprid.diagnosis.testing import partial_wald
 STRUCTURE_SIGNALS = ("sign of cable velocity", "tension level", "pose", "time (slow drift)")
 
 
-def structure_features(W_all, v, om, tension, position, t, use) -> dict:
+def structure_features(W_all, v, om, tension, position, t, use, slide=None) -> dict:
     """Generic residual-structure regressors, unfiltered, ``(n, 6, q)`` each.
 
     These are not effects of the vocabulary: they describe what a remaining residual is
@@ -28,6 +28,8 @@ def structure_features(W_all, v, om, tension, position, t, use) -> dict:
     ``W_i (z_i^2 - 1)`` with z_i the standardised tension (a load cell that is not linear);
     ``pose`` is a force linear in the position, per force axis; ``time (slow drift)`` is a
     force that drifts as Legendre polynomials of degree 1-3 in time, per force axis.
+    ``slide`` (n, m), if given, replaces ``sign(dl/dt)`` (the expected sign of
+    :func:`cdprid.diagnosis.problem.sliding_sign`, which the friction effects use).
 
     Parameters
     ----------
@@ -58,7 +60,8 @@ def structure_features(W_all, v, om, tension, position, t, use) -> dict:
             P[:, j, 3 * j + k] = pc[:, k]
             D[:, j, 3 * j + k] = legendre[k]
     return {
-        "sign of cable velocity": W_all * np.sign(ldot)[:, None, :],
+        "sign of cable velocity": W_all * (np.sign(ldot) if slide is None
+                                           else np.asarray(slide))[:, None, :],
         "tension level": W_all * (tz**2 - 1.0)[:, None, :],
         "pose": P,
         "time (slow drift)": D,

@@ -464,13 +464,15 @@ def _drag_model(y, d, q):
 def _friction_tension(tau, q, c):
     import jax.numpy as jnp
 
-    return tau + q["coulomb"] * jnp.sign(c["ldot"]) + q["pvisc"] * c["ldot"]
+    slide = c.get("slide", jnp.sign(c["ldot"]))  # expected sign, see diagnosis.problem
+    return tau + q["coulomb"] * slide + q["pvisc"] * c["ldot"]
 
 
 def _common_friction_tension(tau, q, c):
     import jax.numpy as jnp
 
-    return tau + q["coulomb_all"] * jnp.sign(c["ldot"]) + q["pvisc_all"] * c["ldot"]
+    slide = c.get("slide", jnp.sign(c["ldot"]))
+    return tau + q["coulomb_all"] * slide + q["pvisc_all"] * c["ldot"]
 
 
 def _pulley_params(flip: bool):
