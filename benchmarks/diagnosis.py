@@ -248,7 +248,8 @@ def run_case(truth: list, seed: int, workdir: Path, robot_name: str = "craft8",
                             or any(in_interval(n, p, f) for f in found if f["effect"] == n)
                             for n, p in truth],
             "base_model": res.info.get("base_model"),
-            "unexplained": unexpl, "diagnose_s": dt, "diagnose_cpu_s": cpu}
+            "unexplained": unexpl, "competing": res.as_json().get("competing_models", []),
+            "diagnose_s": dt, "diagnose_cpu_s": cpu}
 
 
 def run_one(effect: str, seed: int, workdir: Path) -> dict:

@@ -55,6 +55,11 @@ def _run(args) -> int:
               f"p = {f.p_value:.2e}{alias}")
     print(f"extended model: m = {res.extended_parameters['m']['value']:.5g} kg, held-out force "
           f"residual rms {res.extended_heldout_rms:.4g} N")
+    for c in res.competing:
+        print(f"competing model: {c['by']} {format_values(c['parameters'])} instead of "
+              f"{c['replaces']}: held-out force residual rms {c['heldout_force_rms_N']:.4g} N "
+              f"({100 * c['relative_difference']:+.2f} %, p = {c['p_worse']:.2g} that it is "
+              "worse): the data cannot tell the two models apart")
     w = res.info.get("weight_at_rest")
     if w:
         print(f"weight at rest ({w['n_samples']} samples): {w['raw_kg']:.4g} kg from the raw "

@@ -25,6 +25,7 @@ from cdprid.diagnosis.base import BaseFit, NoiseLevels, base_fit, noise_levels, 
 from cdprid.diagnosis.budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis.candidates import candidate_list
 from cdprid.diagnosis.clock import clock_stage
+from cdprid.diagnosis.competing import competing_models
 from cdprid.diagnosis.lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis.problem import Problem, force_heldout_rms, measured, prepare
 from cdprid.diagnosis.result import DiagnosisResult
@@ -179,9 +180,8 @@ def diagnose(
     progress : callable, optional
         Called with progress strings.
     max_samples : int
-        Sample budget (bounded memory): a longer recording is analysed on evenly spaced
-        contiguous blocks (:func:`cdprid.diagnosis.budget.subset`); the result's ``notes``
-        and ``info["subset"]`` say which.
+        Sample budget: a longer recording is analysed on evenly spaced contiguous blocks
+        (:func:`cdprid.diagnosis.budget.subset`; ``notes`` and ``info["subset"]`` say which).
 
     Returns
     -------
@@ -198,13 +198,14 @@ def diagnose(
         np.random.default_rng(seed), say)
     feats = _structure(prob)
     s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
+    competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say)
     Z, y, _, _ = linear_model(prob, s)
     unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
     _say_unexplained(unexplained, say)
     findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
-    settings = {"train_until": train_until, "taut_threshold_N": taut_N,
-                "n_candidates": len(candidates), "alpha": alpha}
-    ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, settings)
+    ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
+        "train_until": train_until, "taut_threshold_N": taut_N,
+        "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
     info.update({"not_named": not_named_sizes(prob, base, s, candidates, extra, thr_first),
                  "unexplained_rule": rule, "lengths": el_info, "clock_profile": clock_info,
                  "wall_time_s": time.perf_counter() - t0})
@@ -213,7 +214,7 @@ def diagnose(
     say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
     return DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
                            ext_params, ext_ho, ranking, info, _arrays(prob, base, resid),
-                           unexplained=unexplained, notes=notes)
+                           unexplained=unexplained, notes=notes, competing=competing)
 
 
 def _timed_say(progress, t0):

@@ -343,6 +343,30 @@ def heldout_rms(prob: Problem, Z, y) -> float:
     return float(np.sqrt(np.mean(r * r)))
 
 
+def heldout_residuals(prob: Problem, Z, y):
+    """Held-out residuals (weighted units) of every held-out sample: ``(index, r (k, 6))``.
+
+    The same predictions as :func:`heldout_rms` (``sqrt(mean(r**2))`` equals it): blocked CV
+    over the used samples with a guard of ``lags`` samples around each fold, or the
+    train/test split.
+    """
+    p = Z.shape[2]
+    if prob.test is None:
+        idx = np.nonzero(prob.use)[0]
+        parts = []
+        for lo, hi in blocks(len(idx), prob.n_folds):
+            tr = np.ones(len(idx), bool)
+            tr[max(0, lo - prob.lags):hi + prob.lags] = False
+            beta, *_ = np.linalg.lstsq(Z[idx[tr]].reshape(-1, p), y[idx[tr]].reshape(-1),
+                                       rcond=None)
+            parts.append(y[idx[lo:hi]] - np.einsum("nip,p->ni", Z[idx[lo:hi]], beta))
+        return idx, np.concatenate(parts, axis=0)
+    beta, *_ = np.linalg.lstsq(Z[prob.train].reshape(-1, p), y[prob.train].reshape(-1),
+                               rcond=None)
+    idx = np.nonzero(prob.test)[0]
+    return idx, y[idx] - np.einsum("nip,p->ni", Z[idx], beta)
+
+
 def force_heldout_rms(prob: Problem, Z, y) -> float:
     """Held-out RMS of the force rows in newtons (weighted fit, unweighted residual)."""
     wrow = prob.wrow

@@ -54,6 +54,9 @@ class DiagnosisResult:
     unexplained: list = dataclasses.field(default_factory=list)
     #: sentences the user must read with the numbers (e.g. a budgeted subset of the recording)
     notes: list = dataclasses.field(default_factory=list)
+    #: complete alternative models within the noise of the final one
+    #: (:func:`cdprid.diagnosis.competing.competing_models`), best first
+    competing: list = dataclasses.field(default_factory=list)
 
     def as_json(self) -> dict:
         return {
@@ -73,6 +76,7 @@ class DiagnosisResult:
                             for u in self.unexplained],
             "ranking": self.ranking,
             "not_named": list(self.info.get("not_named", [])),
+            "competing_models": list(self.competing),
             "notes": list(self.notes),
             "info": {k: v for k, v in self.info.items()
                      if k not in ("information_criterion", "not_named")},

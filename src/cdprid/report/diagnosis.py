@@ -24,6 +24,31 @@ def not_named_lines(result) -> list[str]:
     return lines + [""]
 
 
+def competing_lines(result) -> list[str]:
+    """The ``Competing models`` section: complete alternatives within the noise of the final
+    model (one finding replaced by one of its aliases, everything refitted)."""
+    items = getattr(result, "competing", None) or []
+    tried = result.info.get("competing_models_tried", 0)
+    if not items:
+        return ["", "## Competing models", "",
+                f"None: {tried} alternative model(s) (a finding replaced by one of its aliases, "
+                "refitted) predict the held-out data worse than the final model."
+                if tried else "No finding has an alias to try.", ""]
+    lines = ["", "## Competing models", "",
+             f"{len(items)} of {tried} alternative complete models (a finding replaced by one of "
+             "its aliases, every effect refitted) predict the held-out data as well as the final "
+             "model: the held-out RMS differs by less than the search's gate, or a "
+             "Diebold-Mariano test does not find the alternative worse (p_worse > 0.05). The "
+             "data cannot choose between them; a recording that separates the effects can.", "",
+             "| instead of | this model has | with | held-out force rms, N | difference | "
+             "p_worse |", "|---|---|---|---|---|---|"]
+    for m in items:
+        lines.append(f"| {m['replaces']} | {m['by']} | {format_values(m['parameters'])} | "
+                     f"{m['heldout_force_rms_N']:.4g} | {100 * m['relative_difference']:+.2f} % "
+                     f"| {m['p_worse']:.2g} |")
+    return lines + [""]
+
+
 def format_values(d: dict) -> str:
     """``key value, key [lo, hi]`` with 3 significant digits (numbers and lists of them)."""
     def one(v):
@@ -200,7 +225,7 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
                      f"(weighted units); p (Bonferroni) = {f.p_value:.2e}"
                      + (f"; indistinguishable on this data from: {', '.join(f.aliases)}"
                         if f.aliases else ""))
-    lines += not_named_lines(result) + unexplained_lines(result)
+    lines += competing_lines(result) + not_named_lines(result) + unexplained_lines(result)
     lines += ["## Extended model", "", "| parameter | estimate | std (HAC) | change vs base |",
               "|---|---|---|---|"]
     for k, v in result.extended_parameters.items():
