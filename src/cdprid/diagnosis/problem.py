@@ -369,21 +369,5 @@ def heldout_residuals(prob: Problem, Z, y):
 
 def force_heldout_rms(prob: Problem, Z, y) -> float:
     """Held-out RMS of the force rows in newtons (weighted fit, unweighted residual)."""
-    wrow = prob.wrow
-    p = Z.shape[2]
-    if prob.test is None:
-        tot, cnt = 0.0, 0
-        idx = np.nonzero(prob.use)[0]
-        for lo, hi in blocks(len(idx), prob.n_folds):
-            tr = np.ones(len(idx), bool)
-            tr[max(0, lo - prob.lags):hi + prob.lags] = False
-            beta, *_ = np.linalg.lstsq(Z[idx[tr]].reshape(-1, p), y[idx[tr]].reshape(-1),
-                                       rcond=None)
-            r = (y[idx[lo:hi]] - np.einsum("nip,p->ni", Z[idx[lo:hi]], beta)) / wrow[None, :]
-            tot += float(np.sum(r[:, :3] ** 2))
-            cnt += r[:, :3].size
-        return math.sqrt(tot / cnt)
-    beta, *_ = np.linalg.lstsq(Z[prob.train].reshape(-1, p), y[prob.train].reshape(-1),
-                               rcond=None)
-    r = (y[prob.test] - np.einsum("nip,p->ni", Z[prob.test], beta)) / wrow[None, :]
-    return float(np.sqrt(np.mean(r[:, :3] ** 2)))
+    _, r = heldout_residuals(prob, Z, y)
+    return float(np.sqrt(np.mean((r[:, :3] / prob.wrow[None, :3]) ** 2)))
