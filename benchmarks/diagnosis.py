@@ -408,6 +408,7 @@ def tables(rows: list, args) -> list:
                     continue
                 limit = None
                 n_full = 0  # sizes run with >= 10 seeds (only they can give a limit)
+                best = None  # the largest such size: (size, named, runs)
                 for size in sorted({float(r["label"].split()[1]) for r in sub}, reverse=True):
                     g = [r for r in sub if float(r["label"].split()[1]) == size]
                     n_full += len(g) >= 10
@@ -417,10 +418,14 @@ def tables(rows: list, args) -> list:
                                  f"{sum(r['outcome'] == 'extra' for r in g)} | "
                                  f"{sum(r['outcome'] in ('partial', 'wrong') for r in g)} | "
                                  f"{sum(r['outcome'] == 'missed' for r in g)} | {cov}/{len(g)} |")
+                    if len(g) >= 10 and best is None:
+                        best = (size, k, len(g))
                     if len(g) >= 10 and k >= 0.9 * len(g):
                         limit = (size, len(g))  # sizes go down: the last pass is the smallest
                 if n_full < 3:
                     limit = ("not measured", n_full, limit)
+                elif limit is None and best is not None:
+                    limit = ("above", *best)
                 limits.append((rb, eff, limit))
         lines += ["", "| robot | effect | detection limit |", "|---|---|---|"]
         for rb, eff, limit in limits:
@@ -428,6 +433,9 @@ def tables(rows: list, args) -> list:
                 _, n_full, lim = limit
                 txt = (f"not measured ({n_full} size(s) with >= 10 seeds, 3 needed)"
                        + (f"; named in >= 90 % at {lim[0]:g}" if lim else ""))
+            elif limit is not None and limit[0] == "above":
+                _, size, k, n = limit
+                txt = f"above {size:g} (the largest size run with >= 10 seeds: named in {k}/{n})"
             else:
                 txt = "not named at any size tried" if limit is None else f"{limit[0]:g}"
             lines.append(f"| {rb} | {eff} | {txt} |")
