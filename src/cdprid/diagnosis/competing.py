@@ -11,7 +11,7 @@ tell apart from it:
 * the relative held-out RMS difference is below the search's own gate ``min_gain`` (the
   swap stage would not have preferred either), or
 * a Diebold-Mariano test of equal held-out accuracy (per-sample held-out squared errors,
-  Bartlett long-run variance over the residuals' correlation length) does not find the
+  the Bartlett HAC variance over the residuals' correlation length) does not find the
   alternative worse at :data:`DM_LEVEL`.
 
 Each entry carries the replacing effect's parameters under that model, so a user sees both
@@ -29,6 +29,7 @@ from cdprid.base._status import Status
 from cdprid.diagnosis.candidates import alias_label, vocab_params
 from cdprid.diagnosis.problem import Problem, force_heldout_rms, heldout_residuals, heldout_rms
 from cdprid.diagnosis.selection import extends_base, linear_model, refit, refit_rejected
+from cdprid.diagnosis.testing import hac_cov
 
 #: one-sided level of the test that an alternative model predicts worse
 DM_LEVEL = 0.05
@@ -39,23 +40,19 @@ MAX_ALTERNATIVES = 12
 def dm_p_worse(loss_alt, loss_best, lags: int) -> float:
     """One-sided Diebold-Mariano p-value of 'the alternative predicts worse'.
 
-    ``loss_*`` are per-sample held-out squared errors (same samples); the long-run variance
-    of their difference is the Bartlett sum over ``lags + 1`` lags (the residuals pass the
-    matched filter, so consecutive samples are correlated over about ``lags``). Equal series
-    give 0.5.
+    ``loss_*`` are per-sample held-out squared errors (same samples); the variance of the
+    mean of their difference is the diagnosis's own Bartlett HAC (:func:`hac_cov`, window
+    ``lags + 1``: the residuals pass the matched filter, so consecutive samples are
+    correlated over about ``lags``). Equal series give 0.5.
     """
     d = np.asarray(loss_alt, float) - np.asarray(loss_best, float)
     n = d.size
     if n < 2:
         return 0.5
-    x = d - d.mean()
-    L = max(1, int(lags) + 1)
-    lrv = float(x @ x) / n
-    for j in range(1, min(L, n)):
-        lrv += 2.0 * (1.0 - j / L) * float(x[j:] @ x[:-j]) / n
-    if not lrv > 0:
+    var = float(hac_cov(np.ones((n, 1, 1)), (d - d.mean())[:, None], lags)[0, 0])
+    if not var > 0:
         return 0.5 if d.mean() == 0 else (0.0 if d.mean() > 0 else 1.0)
-    return float(stats.norm.sf(d.mean() / math.sqrt(lrv / n)))
+    return float(stats.norm.sf(d.mean() / math.sqrt(var)))
 
 
 def _losses(prob: Problem, Z, y) -> np.ndarray:
