@@ -27,6 +27,8 @@ from pathlib import Path
 
 import tomllib
 
+from cdprid.report.diagnosis import format_values as _fmt
+
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "datasets" / "uacdpr-freemotion02"
 START, END = "<!-- diagnose:start -->", "<!-- diagnose:end -->"
@@ -34,14 +36,6 @@ START, END = "<!-- diagnose:start -->", "<!-- diagnose:end -->"
 
 def _cdprid(*args) -> None:
     subprocess.run([sys.executable, "-m", "cdprid", *map(str, args)], check=True)
-
-
-def _fmt(d: dict) -> str:
-    def one(v):
-        if isinstance(v, (list, tuple)):
-            return "[" + ", ".join(one(x) for x in v) + "]"
-        return f"{v:.3g}" if isinstance(v, float) else str(v)
-    return ", ".join(f"{k} {one(v)}" for k, v in d.items())
 
 
 def section(d: dict, meta: dict, command: str) -> list[str]:
