@@ -104,17 +104,27 @@ def slide_of(d: DiagData):
 
 
 def tension_at(d: DiagData, s):
-    """Tensions at times s (n,) by cubic Hermite (Catmull-Rom) on the uniform tension grid."""
+    """Tensions at times s (n,) by cubic Hermite (Catmull-Rom) on the uniform tension grid.
+
+    The first and last grid intervals are interpolated linearly, and times outside the grid
+    read its end values: a delay shifts the first or last samples off the tension stream, where
+    the cubic extrapolated before ran away (-175 N from a 50 N stream 25 ms before its start)
+    and the wrench filter spread it into the neighbouring samples.
+    """
     k = d.tau_grid.shape[0]
-    u = (s - d.tau_t0) / d.tau_dt
+    u = jnp.clip((s - d.tau_t0) / d.tau_dt, 0.0, k - 1.0)
     i = jnp.clip(jnp.floor(u).astype(int), 1, k - 3)
     f = (u - i)[:, None]
     y0, y1, y2, y3 = d.tau_grid[i - 1], d.tau_grid[i], d.tau_grid[i + 1], d.tau_grid[i + 2]
     m1 = 0.5 * (y2 - y0)
     m2 = 0.5 * (y3 - y1)
     f2, f3 = f * f, f * f * f
-    return ((2 * f3 - 3 * f2 + 1) * y1 + (f3 - 2 * f2 + f) * m1 + (-2 * f3 + 3 * f2) * y2
-            + (f3 - f2) * m2)
+    cubic = ((2 * f3 - 3 * f2 + 1) * y1 + (f3 - 2 * f2 + f) * m1 + (-2 * f3 + 3 * f2) * y2
+             + (f3 - f2) * m2)
+    g = d.tau_grid
+    lo = g[0] + u[:, None] * (g[1] - g[0])
+    hi = g[k - 2] + (u[:, None] - (k - 2)) * (g[k - 1] - g[k - 2])
+    return jnp.where(u[:, None] < 1.0, lo, jnp.where(u[:, None] > k - 2.0, hi, cubic))
 
 
 def shifted_robot(robot: CableRobot, th):
