@@ -46,6 +46,10 @@ from cdprid.core._regression import (
 from cdprid.identify._auto import resolve_params
 from cdprid.identify._eiv import EIV_NOTE, eiv_fit, noise_gains, noise_levels
 from cdprid.identify._linear_match import linear_match_regression, settled, uses_linear_match
+from cdprid.identify._zero_phase_match import (
+    uses_zero_phase_match,
+    zero_phase_matched_regression,
+)
 from cdprid.io.align import AlignedSignals, align
 from cdprid.io.dataset import Dataset
 from cdprid.model._dynamics import PARAMETER_NAMES
@@ -431,9 +435,13 @@ def identify_dataset(
 
 def _regression(ds, sig, motion, model, differentiator, wrench_filter, wf, keep, trim, chunk,
                 notes: list, warns: list):
-    """Regression, wrench filter and kept samples: :mod:`cdprid.identify._linear_match` for the
-    full model with a causal differentiator (its note replaces the matched filter's), else
+    """Regression, wrench filter and kept samples: :mod:`cdprid.identify._zero_phase_match` for
+    the full model with euler-filtfilt, :mod:`cdprid.identify._linear_match` for the full model
+    with a causal differentiator (its note replaces the matched filter's), else
     :func:`_streamed_regression`."""
+    if uses_zero_phase_match(model, differentiator, wrench_filter, sig.quaternion):
+        return zero_phase_matched_regression(ds.robot, motion, sig.quaternion, sig.tension, wf,
+                                             keep, chunk), wf, keep
     if not uses_linear_match(model, METHODS[differentiator].causal, wrench_filter):
         return _streamed_regression(ds.robot, motion, sig.tension, model, wf, keep, chunk), wf, keep
     reg, lm, note, w4 = linear_match_regression(ds.robot, motion, sig.quaternion, sig.tension,
