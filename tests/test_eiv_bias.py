@@ -75,8 +75,7 @@ def test_bias_correction_trace_against_finite_differences():
     import jax.numpy as jnp
 
     from cdprid.core import measured_wrench, regressors
-    from cdprid.core._crb import sample_jacobians
-    from cdprid.identify._eiv import regressor_jacobians
+    from cdprid.core._crb import regressor_jacobians, sample_jacobians
 
     robot = robot_from_dict(EIGHT_REDUNDANT, source="eight")
     rng = np.random.default_rng(3)

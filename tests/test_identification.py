@@ -260,12 +260,27 @@ def test_streamed_identify_equals_the_materialised_regression(rotating_ds, metho
 
     keep = (motion.t >= motion.t[0] + 1.0) & (motion.t <= motion.t[-1] - 1.0)
     mb = 1.0
-    if method == "euler-filtfilt":
+    if method == "euler-filtfilt":  # the zero-phase rotation-consistent regression, one block
+        from cdprid.identify._linear_match import reference_rates
+
         reg = build_regression(ds.robot, motion, sig.tension, "full", wf)
         n = len(motion.t)
         z = jnp.zeros((n, 3))
-        Ag = np.asarray(regressors("full", jnp.asarray(motion.B_R_P), z, z, z, ds.robot.gravity))
-        A, y = reg.A - Ag + wf(Ag.reshape(n, -1)).reshape(Ag.shape), reg.y
+        q = np.asarray(sig.quaternion)[keep]
+        q0 = (q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]).mean(axis=0)
+        R0 = jnp.asarray(np.broadcast_to(np.asarray(quat_to_matrix(
+            jnp.asarray(q0 / np.linalg.norm(q0)))), (n, 3, 3)))
+        a_ref, om, al = (jnp.asarray(v) for v in reference_rates(motion, sig.quaternion))
+        g = ds.robot.gravity
+
+        def Y(R, a, w, alpha):
+            return np.asarray(regressors("full", R, a, w, alpha, g))
+
+        base = Y(R0, z, z, z)
+        rot = Y(jnp.asarray(motion.B_R_P), a_ref, om, al) - Y(R0, a_ref, z, z) + base
+        A = Y(R0, jnp.asarray(motion.acceleration), z, z) - base + wf(rot.reshape(n, -1)).reshape(
+            rot.shape)
+        y = reg.y
     else:  # a causal method: the rotation-consistent linear match, built in one block
         from cdprid.identify._linear_match import fit_linear_match, matched_regression, settled
 

@@ -20,6 +20,7 @@ import errno
 import json
 import os
 import shutil
+import signal
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -126,11 +127,16 @@ def atomic_file(path: str | os.PathLike, mode: str = "w", force: bool = True) ->
         raise OutputExistsError(f"{p}: already exists; refusing to overwrite it (use --force).")
     if p.is_dir():
         raise OutputError(f"{p}: is a folder, expected a file name.")
+    tmp = None
+    held = _hold_signals()
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.resolve().parent)
-    except OSError as exc:
-        raise OutputError(f"{p}: cannot write in its folder ({exc.strerror}).") from None
-    try:
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part",
+                                       dir=p.resolve().parent)
+        except OSError as exc:
+            raise OutputError(f"{p}: cannot write in its folder ({exc.strerror}).") from None
+        finally:
+            _release_signals(held)  # a signal held meanwhile is raised here, its name known
         with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as fh:
             yield fh
             fh.flush()
@@ -149,9 +155,28 @@ def atomic_file(path: str | os.PathLike, mode: str = "w", force: bool = True) ->
             else:
                 os.unlink(tmp)
     except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
         raise
+
+
+_HELD = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
+
+
+def _hold_signals():
+    """Block Ctrl-C, SIGTERM and SIGHUP while a temporary output is created (a signal between
+    its creation and the moment its name is known left a ``.part`` behind); returns the previous
+    mask (None where signal masks do not exist)."""
+    if not hasattr(signal, "pthread_sigmask"):
+        return None
+    return signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+
+
+def _release_signals(mask) -> None:
+    """Restore the mask :func:`_hold_signals` returned; a signal held meanwhile is delivered."""
+    if mask is not None:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
 def _umask() -> int:
@@ -208,19 +233,25 @@ def atomic_dir(path: str | os.PathLike, force: bool = False, owned=()) -> Iterat
     if existed and not force:
         raise OutputExistsError(f"{p}: already exists; refusing to overwrite it (use --force).")
     parent = p.resolve().parent
+    tmp = None
+    held = _hold_signals()
     try:
-        parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".part", dir=parent))
-    except OSError as exc:
-        raise OutputError(f"{p}: cannot write in its folder {parent} ({exc.strerror}).") from None
-    try:
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+            tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".part", dir=parent))
+        except OSError as exc:
+            raise OutputError(f"{p}: cannot write in its folder {parent} ({exc.strerror})."
+                              ) from None
+        finally:
+            _release_signals(held)
         yield tmp
         if existed:
             _merge_into(tmp, p, owned)
         else:
             _rename_new(tmp, p)
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
         raise
 
 

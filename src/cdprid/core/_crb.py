@@ -32,7 +32,8 @@ import numpy as np
 from cdprid.model._dynamics import regressor_full, regressor_translation
 from cdprid.model._geometry import wrench_matrix
 
-__all__ = ["CRBResult", "crb", "bspline_basis", "block_banded_solve", "sample_jacobians"]
+__all__ = ["CRBResult", "crb", "bspline_basis", "block_banded_solve", "sample_jacobians",
+           "regressor_jacobians"]
 
 #: most spline knots per coordinate (longer recordings get a wider spacing; see ``note``)
 MAX_KNOTS = 400
@@ -99,6 +100,23 @@ def sample_jacobians(robot, model, theta, tau, p, R, a, w, al):
         return G, _regressor(robot, model, Rk, ak, wk, alk), wrench_matrix(robot, pk, Rk)
 
     return jax.vmap(one)(tau, p, R, a, w, al)
+
+
+@functools.partial(jax.jit, static_argnums=(1,))
+def regressor_jacobians(robot, model, R, a, w, al):
+    """Per-sample ``d Y / d xi`` (n, 6, p, 15): the regressor's columns differentiated with
+    respect to the inputs of :func:`cdprid.core.sample_jacobians` (position, acceleration,
+    rotation vector, angular rate, angular acceleration; the position does not enter ``Y``)."""
+    def one(Rk, ak, wk, alk):
+        def body(x):  # (dphi, da, domega, dalpha)
+            return _regressor(robot, model, _small_rotation(x[:3], Rk), ak + x[3:6],
+                              wk + x[6:9], alk + x[9:])
+
+        Hm = jax.jacfwd(body)(jnp.zeros(12))  # (6, p, 12)
+        return jnp.concatenate([jnp.zeros(Hm.shape[:2] + (3,)), Hm[..., 3:6], Hm[..., :3],
+                                Hm[..., 6:]], axis=-1)
+
+    return jax.vmap(one)(R, a, w, al)
 
 
 def _pinv_sym(S: np.ndarray, rel: float = 1e-10) -> np.ndarray:

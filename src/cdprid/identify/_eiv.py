@@ -21,18 +21,15 @@ the HAC covariance as before.
 
 from __future__ import annotations
 
-import functools
-
-import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core._crb import sample_jacobians
+from cdprid.core._crb import regressor_jacobians, sample_jacobians
 from cdprid.core._noise import estimate_noise
 from cdprid.signal import differentiate
 
 __all__ = ["noise_gains", "noise_levels", "whitening", "input_covariance", "eiv_fit", "EIV_NOTE",
-           "bias_correction", "regressor_jacobians"]
+           "bias_correction"]
 
 EIV_NOTE = ("errors-in-variables weighting: each sample whitened by its residual covariance "
             "(tension noise through W, pose noise through W and the differentiated motion), "
@@ -113,25 +110,6 @@ def input_covariance(s_pos: float, s_rot: float | None, C: np.ndarray) -> np.nda
             for b, bb in blocks.items():
                 S[3 * ba:3 * ba + 3, 3 * bb:3 * bb + 3] = sig ** 2 * C[a, b] * np.eye(3)
     return S
-
-
-@functools.partial(jax.jit, static_argnums=(1,))
-def regressor_jacobians(robot, model, R, a, w, al):
-    """Per-sample ``d Y / d xi`` (n, 6, p, 15): the regressor's columns differentiated with
-    respect to the inputs of :func:`cdprid.core.sample_jacobians` (position, acceleration,
-    rotation vector, angular rate, angular acceleration; the position does not enter ``Y``)."""
-    from cdprid.core._crb import _regressor, _small_rotation
-
-    def one(Rk, ak, wk, alk):
-        def body(x):  # (dphi, da, domega, dalpha)
-            return _regressor(robot, model, _small_rotation(x[:3], Rk), ak + x[3:6],
-                              wk + x[6:9], alk + x[9:])
-
-        Hm = jax.jacfwd(body)(jnp.zeros(12))  # (6, p, 12)
-        return jnp.concatenate([jnp.zeros(Hm.shape[:2] + (3,)), Hm[..., 3:6], Hm[..., :3],
-                                Hm[..., 6:]], axis=-1)
-
-    return jax.vmap(one)(R, a, w, al)
 
 
 def bias_correction(reg, robot, model: str, motion, tension, theta, U, Su,
