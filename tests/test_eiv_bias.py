@@ -117,7 +117,7 @@ def test_orientation_noise_leaves_no_inertia_bias_antithetic(tmp_path):
     """Monte Carlo with antithetic pairs (each recording and its twin with every noise sample
     negated: the pair mean cancels the first-order error, leaving the bias): 15 pairs on the
     8-cable robot with 0.3 mm, 0.3 mrad and 0.5 N, where the default's Ixx was biased by
-    +2.5 % (results/efficiency-antithetic.md before the correction). Every principal inertia
+    +2.5 % (results/efficiency-antithetic-before.md). Every principal inertia
     within 1 % (and within 3 Monte-Carlo standard errors) of the truth."""
     import dataclasses
 
