@@ -168,7 +168,8 @@ def _inverse_sqrt(S):
 
 
 def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.ndarray,
-            names, covariance: str, chunk: int, min_bandwidth: float = 1.0):
+            names, covariance: str, chunk: int, min_bandwidth: float = 1.0,
+            bias_correct: bool = True):
     """Two-step errors-in-variables GLS of a streamed regression.
 
     Step 1: ordinary least squares (the Jacobians' theta); step 2: every sample whitened by
@@ -189,6 +190,8 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
     C : (3, 3) :func:`noise_gains`
     min_bandwidth : float
         Floor of the HAC bandwidth (the memory of the rows' filter, samples).
+    bias_correct : bool
+        Step 3 (identify applies it with a cutoff chosen from the data only).
     """
     import dataclasses
     from types import SimpleNamespace
@@ -209,9 +212,10 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
 
     res = least_squares_blocks(block, n, names, covariance=covariance, chunk=chunk,
                                min_bandwidth=min_bandwidth)
-    dx = bias_correction(reg, robot, model, sub, np.asarray(tension)[idx], res.x, U,
-                         input_covariance(noise[1], noise[2], C), chunk)
-    res = dataclasses.replace(res, x=np.asarray(res.x) - dx)
+    if bias_correct:
+        dx = bias_correction(reg, robot, model, sub, np.asarray(tension)[idx], res.x, U,
+                             input_covariance(noise[1], noise[2], C), chunk)
+        res = dataclasses.replace(res, x=np.asarray(res.x) - dx)
     # the design's condition (the paper's cond(W_ID)) is the unweighted regressor's
     res = dataclasses.replace(res, cond=first.cond, cond_scaled=first.cond_scaled,
                               column_norms=first.column_norms)
