@@ -42,7 +42,7 @@ from cdprid.model._rotations import quat_to_matrix
 
 __all__ = ["FIR_SECONDS", "FIT_WARN", "LinearMatch", "fir_length", "fit_linear_match",
            "linear_match_regression", "matched_regression", "reference_fir", "reference_rates",
-           "settled", "uses_linear_match"]
+           "rotation_remainder", "settled", "uses_linear_match"]
 
 FIR_SECONDS = 1.0
 """Longest memory of the fitted FIR (s); capped by the trim, so its start-up never reaches a
@@ -314,13 +314,15 @@ def _mean_rotation(quaternion, keep) -> np.ndarray:
     return np.asarray(quat_to_matrix(jnp.asarray(qm / np.linalg.norm(qm))))
 
 
-def matched_regression(robot, motion: Motion, quaternion, tension, model: str, keep,
-                       lm: LinearMatch, chunk: int) -> StreamedRegression:
-    """The kept samples' regression with every term through the linear filter ``lm``.
+def rotation_remainder(robot, motion: Motion, quaternion, model: str, keep, chunk: int):
+    """The regressor's rotation-dependent part from accurate rates, and its linear part.
 
-    ``A = Y(R0, c * p, 0, 0) - Y(R0, 0, 0, 0) + H[Y(R, a, omega, alpha) - Y(R0, a, 0, 0)
-    + Y(R0, 0, 0, 0)]`` with ``R0`` the mean orientation and accurate rates
-    (:func:`reference_rates`); ``y = H[W tau]``. Holds the (n, 6 p) filtered regressor.
+    Returns ``(rem, linear_part)``: ``rem = Y(R, a, omega, alpha) - Y(R0, a, 0, 0) +
+    Y(R0, 0, 0, 0)`` (n, 6, p) with ``R0`` the mean orientation and the rates of
+    :func:`reference_rates` (to be passed through the matched filter term by term), and
+    ``linear_part(a_hat) = Y(R0, a_hat, 0, 0) - Y(R0, 0, 0, 0)``, the part linear in the
+    translational acceleration at the mean orientation, for the differentiator's own
+    (already filtered) accelerations ``a_hat`` (n, 3).
     """
     n = len(motion.t)
     a_ref, om, al = reference_rates(motion, quaternion)
@@ -330,9 +332,26 @@ def matched_regression(robot, motion: Motion, quaternion, tension, model: str, k
     base = regressor_blocks(model, R0[:1], z[:1], z[:1], z[:1], g, 1)(0, 1)[0]
     rem = regressor_blocks(model, motion.B_R_P, a_ref, om, al, g, chunk)(0, n)
     rem -= regressor_blocks(model, R0, a_ref, z, z, g, chunk)(0, n) - base
+
+    def linear_part(a_hat):
+        return regressor_blocks(model, R0, a_hat, z, z, g, chunk)(0, n) - base
+
+    return rem, linear_part
+
+
+def matched_regression(robot, motion: Motion, quaternion, tension, model: str, keep,
+                       lm: LinearMatch, chunk: int) -> StreamedRegression:
+    """The kept samples' regression with every term through the linear filter ``lm``.
+
+    ``A = Y(R0, c * p, 0, 0) - Y(R0, 0, 0, 0) + H[Y(R, a, omega, alpha) - Y(R0, a, 0, 0)
+    + Y(R0, 0, 0, 0)]`` with ``R0`` the mean orientation and accurate rates
+    (:func:`reference_rates`); ``y = H[W tau]``. Holds the (n, 6 p) filtered regressor.
+    """
+    n = len(motion.t)
+    rem, linear_part = rotation_remainder(robot, motion, quaternion, model, keep, chunk)
     A = lm(rem.reshape(n, -1)).reshape(rem.shape)
     del rem
-    A += regressor_blocks(model, R0, lm.position(motion.position), z, z, g, chunk)(0, n) - base
+    A += linear_part(lm.position(motion.position))
     y = lm(cable_wrench(robot, motion.position, motion.B_R_P, tension, chunk))
     idx = np.flatnonzero(settled(keep, motion.segments, len(lm.taps)))
     A, y, t = A[idx], y[idx], motion.t[idx]

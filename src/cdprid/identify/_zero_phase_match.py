@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdprid.core import Motion, StreamedRegression, regressor_blocks
+from cdprid.core import Motion, StreamedRegression
 from cdprid.core._regression import cable_wrench
-from cdprid.identify._linear_match import _mean_rotation, reference_rates
+from cdprid.identify._linear_match import rotation_remainder
 
 __all__ = ["uses_zero_phase_match", "zero_phase_matched_regression"]
 
@@ -70,20 +70,13 @@ def zero_phase_matched_regression(robot, motion: Motion, quaternion, tension, wf
 
     Holds the (n, 6 p) filtered regressor.
     """
-    model = "full"
     n = len(motion.t)
-    a_ref, om, al = reference_rates(motion, quaternion)
-    R0 = np.broadcast_to(_mean_rotation(quaternion, keep), (n, 3, 3))
-    z = np.zeros((n, 3))
-    g = robot.gravity
-    base = regressor_blocks(model, R0[:1], z[:1], z[:1], z[:1], g, 1)(0, 1)[0]
     y = np.asarray(wf(cable_wrench(robot, motion.position, motion.B_R_P, tension, chunk)))
-    rem = regressor_blocks(model, motion.B_R_P, a_ref, om, al, g, chunk)(0, n)
-    rem -= regressor_blocks(model, R0, a_ref, z, z, g, chunk)(0, n) - base
+    rem, linear_part = rotation_remainder(robot, motion, quaternion, "full", keep, chunk)
     A = np.asarray(wf(rem.reshape(n, -1), _column_scale(robot, y, rem.shape[-1]))).reshape(
         rem.shape)
     del rem
-    A += regressor_blocks(model, R0, motion.acceleration, z, z, g, chunk)(0, n) - base
+    A += linear_part(motion.acceleration)
     idx = np.flatnonzero(keep)
     A, y, t = A[idx], y[idx], motion.t[idx]
-    return StreamedRegression(t, y, model, lambda i0, i1: A[i0:i1])
+    return StreamedRegression(t, y, "full", lambda i0, i1: A[i0:i1])
