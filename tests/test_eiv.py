@@ -118,13 +118,28 @@ def test_eiv_is_closer_to_the_bound_than_ols(tmp_path, name):
     assert r_eiv[0] < 1.5
 
 
+def _perturbed(robot, state, xi):
+    """Oracle: the cable side and the regressor from the public ``measured_wrench`` and
+    ``regressors`` at ``state = (tau, p, R, a, omega, alpha)`` perturbed by ``xi`` (position,
+    acceleration, rotation vector, angular rate, angular acceleration; 3 each)."""
+    from cdprid.core import measured_wrench, regressors
+
+    tau, p, R, a, w, al = state
+    dp, da, dphi, dw, dal = (xi[3 * k:3 * k + 3] for k in range(5))
+    Rk = (np.eye(3) + np.array([[0, -dphi[2], dphi[1]], [dphi[2], 0, -dphi[0]],
+                                [-dphi[1], dphi[0], 0]])) @ R
+    y = np.asarray(measured_wrench(robot, (p + dp)[None], Rk[None], tau[None]))[0]
+    Y = np.asarray(regressors("full", Rk[None], (a + da)[None], (w + dw)[None],
+                              (al + dal)[None], robot.gravity))[0]
+    return y, Y
+
+
 def test_residual_jacobians_match_finite_differences():
     """The per-sample Jacobians the weighting uses (the bound's, cdprid.core.sample_jacobians)
     against central differences of the residual built from the public measured_wrench and
     regressors (position, acceleration, rotation vector, angular rate, angular acceleration)."""
     import jax.numpy as jnp
 
-    from cdprid.core import measured_wrench, regressors
     from cdprid.core._crb import sample_jacobians
 
     robot = craft_like_robot()
@@ -137,12 +152,7 @@ def test_residual_jacobians_match_finite_differences():
         jnp.asarray(x[None]) for x in (tau, p, R, a, w, al)))[0])[0]
 
     def residual(xi):
-        dp, da, dphi, dw, dal = (xi[3 * k:3 * k + 3] for k in range(5))
-        Rk = (np.eye(3) + np.array([[0, -dphi[2], dphi[1]], [dphi[2], 0, -dphi[0]],
-                                    [-dphi[1], dphi[0], 0]])) @ R
-        y = np.asarray(measured_wrench(robot, (p + dp)[None], Rk[None], tau[None]))[0]
-        Y = np.asarray(regressors("full", Rk[None], (a + da)[None], (w + dw)[None],
-                                  (al + dal)[None], robot.gravity))[0]
+        y, Y = _perturbed(robot, (tau, p, R, a, w, al), xi)
         return y - Y @ theta
 
     h = 1e-6
@@ -156,3 +166,42 @@ def test_json_names_the_weighting(tmp_path):
                   duration=16.0)
     assert identify_dataset(ds, bound=False).as_json()["weighting"] == "eiv"
     assert identify_dataset(ds, weighting="none", bound=False).as_json()["weighting"] == "none"
+
+
+def test_bias_correction_trace_against_finite_differences():
+    """Oracle: central differences of the public regressors and measured wrench. The bias of
+    the normal equations, sum_n E[dY_n^T Omega_n dr_n] for inputs of covariance Su = L L^T,
+    is sum_i dY(l_i)^T Omega dr(l_i) over the columns l_i of L; bias_correction's jacfwd
+    trace must give it (this also checks that H and G order the 15 inputs alike)."""
+    import jax.numpy as jnp
+
+    from cdprid.core._crb import regressor_jacobians, sample_jacobians
+
+    robot = robot_from_dict(EIGHT_REDUNDANT, source="eight")
+    rng = np.random.default_rng(3)
+    p, a, w, al = np.array([0.05, -0.1, 0.9]), *rng.normal(size=(3, 3))
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    from cdprid.model import quat_to_matrix
+    R = np.asarray(quat_to_matrix(jnp.asarray(q)))
+    tau = 40.0 + 5.0 * rng.random(robot.n_cables)
+    theta = np.asarray(SMALL.vector("full"))
+    U = rng.normal(size=(6, 6))
+    L = rng.normal(size=(15, 15)) * 1e-3
+    Su = L @ L.T
+    args = [jnp.asarray(x[None]) for x in (tau, p, R, a, w, al)]
+    G = np.asarray(sample_jacobians(robot, "full", jnp.asarray(theta), *args)[0])[0]
+    H = np.asarray(regressor_jacobians(robot, "full", *args[2:]))[0]
+    b = np.einsum("rs,spi,ri->p", U, H, U @ G @ Su)
+
+    def parts(xi):
+        y, Y = _perturbed(robot, (tau, p, R, a, w, al), xi)
+        return Y, y - Y @ theta
+
+    h = 1e-4
+    fd = np.zeros(len(theta))
+    for li in L.T:
+        (Yp, rp), (Ym, rm) = parts(h * li / 1e-3), parts(-h * li / 1e-3)
+        dY, dr = (Yp - Ym) / (2 * h) * 1e-3, (rp - rm) / (2 * h) * 1e-3
+        fd += np.einsum("rp,rs,st,t->p", dY, U.T, U, dr)
+    np.testing.assert_allclose(b, fd, rtol=1e-5, atol=1e-12 * np.max(np.abs(fd)))
