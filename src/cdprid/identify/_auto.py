@@ -11,10 +11,16 @@ from __future__ import annotations
 from cdprid.core._bandwidth import choose_cutoff
 from cdprid.identify._eiv import noise_levels
 
-__all__ = ["AUTO_BANDWIDTH_METHODS", "resolve_params"]
+__all__ = ["AUTO_BANDWIDTH_METHODS", "cutoff_from_data", "resolve_params"]
 
 AUTO_BANDWIDTH_METHODS = ("euler-filtfilt",)
 """Differentiators whose cutoff is chosen from the data when not given."""
+
+
+def cutoff_from_data(differentiator: str, params: dict | None) -> bool:
+    """Whether :func:`resolve_params` chooses the cutoff from the data: an
+    :data:`AUTO_BANDWIDTH_METHODS` differentiator given no ``cutoff_hz``."""
+    return differentiator in AUTO_BANDWIDTH_METHODS and "cutoff_hz" not in (params or {})
 
 
 def resolve_params(ds, sig, differentiator: str, params: dict | None,
@@ -39,9 +45,9 @@ def resolve_params(ds, sig, differentiator: str, params: dict | None,
         One sentence when even the narrowest cutoff leaves a predicted attenuation above the
         budget (the motion is too small for the noise).
     """
+    if not cutoff_from_data(differentiator, params):
+        return dict(params or {}), []
     params = dict(params or {})
-    if differentiator not in AUTO_BANDWIDTH_METHODS or "cutoff_hz" in params:
-        return params, []
     _, _, s_pos, s_rot = noise_levels(ds, sig)
     rot = sig.quaternion if sig.has_rotation else None
     choice = choose_cutoff(sig.position, rot, sig.dt, getattr(sig, "segments", ()) or

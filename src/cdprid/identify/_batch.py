@@ -43,10 +43,13 @@ from cdprid.core._regression import (
     regressor_blocks,
     regressors,
 )
-from cdprid.identify._auto import AUTO_BANDWIDTH_METHODS, resolve_params
+from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._eiv import EIV_NOTE, eiv_fit, noise_gains, noise_levels
 from cdprid.identify._linear_match import linear_match_regression, settled, uses_linear_match
 from cdprid.identify._zero_phase_match import (
+    platform_radius,
+    regressor_scale,
+    seen_mass,
     uses_zero_phase_match,
     zero_phase_matched_regression,
 )
@@ -239,24 +242,18 @@ def _wrench_filter(robot, differentiator: str, params: dict, dt: float, wrench_f
                          "accelerations but W tau is not filtered the same way "
                          "(--wrench-filter none): m s_G and the inertia are biased towards zero.")
         return None, None, warns
-    gnorm = float(np.linalg.norm(np.asarray(robot.gravity)))
-    rows = np.array([1.0] * 3 + [_radius(robot)] * 3)
+    rows = np.array([1.0] * 3 + [platform_radius(robot)] * 3)
 
     def wf(y, scale=None):
         """Filter (n, 6) wrenches, or (n, k) channels of amplitude ``scale`` (k,)."""
         if scale is None:
-            m_seen = max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / max(gnorm, 1e-9), 1e-6)
-            scale = m_seen * rows
+            scale = seen_mass(robot, y) * rows
         return acceleration_filter(y, dt, differentiator, scale=scale, **params)
 
     kind = "causal" if causal else "zero-phase"
     note = (f"matched filtering: W tau passed through the same {kind} filter as the "
             f"accelerations ({differentiator})")
     return wf, note, []
-
-
-def _radius(robot) -> float:
-    return max(float(np.max(np.linalg.norm(np.asarray(robot.P_b), axis=1))), 1e-3)
 
 
 def _pose_term_correction(model: str, motion: Motion, robot, wf, y, chunk: int):
@@ -282,13 +279,7 @@ def _pose_term_correction(model: str, motion: Motion, robot, wf, y, chunk: int):
     Ag = np.empty((n, int(mask.sum())))
     for i0 in range(0, n, chunk):
         Ag[i0:i0 + chunk] = block(i0, min(i0 + chunk, n))[:, mask]
-    gnorm = max(float(np.linalg.norm(np.asarray(robot.gravity))), 1e-9)
-    m_seen = max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / gnorm, 1e-6)
-    r = _radius(robot)
-    p = A3.shape[-1]
-    typical = np.array([m_seen] + [m_seen * r] * 3 + [m_seen * r * r] * 6)[:p]
-    rows = np.array([1.0] * 3 + [r] * 3)
-    scale = (rows[:, None] / typical[None, :])[mask]
+    scale = regressor_scale(robot, y, A3.shape[-1])[mask]
     return mask, np.asarray(wf(Ag, scale)) - Ag
 
 
@@ -414,7 +405,7 @@ def identify_dataset(
                                    matched_filter, inertia_about)
     sig = align(ds, t_start, t_end)
     notes = list(sig.notes)
-    fix = differentiator in AUTO_BANDWIDTH_METHODS and "cutoff_hz" not in (params or {})
+    fix = cutoff_from_data(differentiator, params)
     params, w0 = resolve_params(ds, sig, differentiator, params, notes)
     model, rot, warns = _choose_model(model, sig, ds.path, w0)
     motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))

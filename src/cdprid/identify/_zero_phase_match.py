@@ -30,7 +30,8 @@ from cdprid.core import Motion, StreamedRegression
 from cdprid.core._regression import cable_wrench
 from cdprid.identify._linear_match import rotation_remainder
 
-__all__ = ["uses_zero_phase_match", "zero_phase_matched_regression"]
+__all__ = ["platform_radius", "regressor_scale", "seen_mass", "uses_zero_phase_match",
+           "zero_phase_matched_regression"]
 
 
 def uses_zero_phase_match(model: str, differentiator: str, wrench_filter: str,
@@ -41,14 +42,27 @@ def uses_zero_phase_match(model: str, differentiator: str, wrench_filter: str,
             and wrench_filter == "matched" and quaternion is not None)
 
 
-def _column_scale(robot, y: np.ndarray, p: int) -> np.ndarray:
-    """Amplitude of each (row, column) channel of the regressor (the filter's ``scale``)."""
+def platform_radius(robot) -> float:
+    """The largest attachment distance from the platform's reference point, m (>= 1 mm):
+    the moment rows' scale."""
+    return max(float(np.max(np.linalg.norm(np.asarray(robot.P_b), axis=1))), 1e-3)
+
+
+def seen_mass(robot, y: np.ndarray) -> float:
+    """The mass the mean force of the wrenches ``y`` (n, 6) holds against gravity, kg."""
     gnorm = max(float(np.linalg.norm(np.asarray(robot.gravity))), 1e-9)
-    m_seen = max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / gnorm, 1e-6)
-    r = max(float(np.max(np.linalg.norm(np.asarray(robot.P_b), axis=1))), 1e-3)
+    return max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / gnorm, 1e-6)
+
+
+def regressor_scale(robot, y: np.ndarray, p: int) -> np.ndarray:
+    """Amplitude (6, p) of each row and column channel of the regressor, the filter's
+    ``scale``: the seen mass (from the filtered wrench ``y``), the first moment and the inertia
+    at the platform's radius, forces and moments apart."""
+    m_seen = seen_mass(robot, y)
+    r = platform_radius(robot)
     typical = np.array([m_seen] + [m_seen * r] * 3 + [m_seen * r * r] * 6)[:p]
     rows = np.array([1.0] * 3 + [r] * 3)
-    return (rows[:, None] / typical[None, :]).reshape(-1)
+    return rows[:, None] / typical[None, :]
 
 
 def zero_phase_matched_regression(robot, motion: Motion, quaternion, tension, wf, keep,
@@ -73,8 +87,8 @@ def zero_phase_matched_regression(robot, motion: Motion, quaternion, tension, wf
     n = len(motion.t)
     y = np.asarray(wf(cable_wrench(robot, motion.position, motion.B_R_P, tension, chunk)))
     rem, linear_part = rotation_remainder(robot, motion, quaternion, "full", keep, chunk)
-    A = np.asarray(wf(rem.reshape(n, -1), _column_scale(robot, y, rem.shape[-1]))).reshape(
-        rem.shape)
+    scale = regressor_scale(robot, y, rem.shape[-1]).reshape(-1)
+    A = np.asarray(wf(rem.reshape(n, -1), scale)).reshape(rem.shape)
     del rem
     A += linear_part(motion.acceleration)
     idx = np.flatnonzero(keep)
