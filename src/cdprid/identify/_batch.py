@@ -487,7 +487,8 @@ def _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weightin
     ``bias_fix``: the errors-in-variables estimate gets the second-order bias correction
     (:func:`cdprid.identify._eiv.bias_correction`): only with a cutoff chosen from the data,
     whose noise budget keeps the first-order correction accurate (at a fixed 4 Hz or with a
-    causal differentiator it raised the RMSE by 5-50 % in ``benchmarks/efficiency.py``)."""
+    causal differentiator it raised the median RMSE / CRB by 5-17 % on 10 recordings per robot
+    in ``benchmarks/efficiency.py``)."""
     mb = float(len(wf.taps)) if hasattr(wf, "taps") else 1.0  # the linear match's memory
     if weighting == "eiv":
         notes += [EIV_NOTE] + (["errors-in-variables bias correction: the pose noise's "

@@ -5,9 +5,10 @@ Butterworth and the second difference's response, :func:`cdprid.signal.accelerat
 ``a_hat = F[a]``, and ``W tau`` is filtered by the same ``F``. On rotating data the regressor's
 rotation terms are *products* (``R I R^T alpha``, ``omega x I omega``, ``R m s x (a - g)``) and
 ``F`` does not commute with products: built from the filtered states, they differ from ``F``
-of the true terms at the rotation's harmonics. The inertia is a 1-3 % share of the moment rows,
-so this mismatch, 1e-4 N m at a 2 Hz cutoff on noise-free data, moved Ixx by several % once the
-errors-in-variables weighting stressed the moment rows.
+of the true terms at the rotation's harmonics. The inertia is a small share of the moment rows,
+so this mismatch, 1-2e-4 N m at a 2 Hz cutoff on noise-free data, moved an 8-cable robot's
+Ixx by 0.36 % (``benchmarks/bias_sources.py --mode mismatch --cutoff 2``; 1e-5 N m and 0.01 %
+with this path).
 
 Here, as :mod:`cdprid.identify._linear_match` does for the causal differentiators, the
 rotation-dependent part of the regressor is formed from accurate rates (central differences of

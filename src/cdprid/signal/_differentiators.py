@@ -298,9 +298,10 @@ def acceleration_filter(y, dt, method: str = "euler-filtfilt", scale=None, **par
     ``euler-filtfilt`` uses its zero-phase Butterworth preceded by the central second
     difference's own response: ``(x[k-1] - 2 x[k] + x[k+1]) / dt^2`` is ``x''`` times
     ``1 - (w dt)^2 / 12 + O(dt^4)``, which the FIR ``(1, 10, 1) / 12`` reproduces to that order
-    (Numerov's weights). Without it the accelerations were 1e-4 smaller than ``W tau`` at
-    1 Hz, a mismatch 100 times the inertia's share of the moment rows: -6 % on an 8-cable
-    robot's Ixx under the errors-in-variables weighting. Every other method gets ``H``
+    (Numerov's weights). Without it the accelerations were 3e-4 smaller than ``W tau`` at
+    1 Hz (100 Hz sampling), a mismatch many times the inertia's share of the moment rows:
+    -5.7 % on an 8-cable robot's Ixx under the errors-in-variables weighting with tension noise
+    alone (``benchmarks/bias_sources.py --noise ten``). Every other method gets ``H``
     from itself: the mean-free signal is integrated twice (trapezoid) and differentiated twice
     by ``method``; for a linear method this is exactly ``H`` applied to the signal; for the
     homogeneous (SIHD, Levant) ones it is their response at the amplitude ``scale`` (the signal
