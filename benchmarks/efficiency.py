@@ -227,6 +227,10 @@ def main(argv=None) -> int:
     from cdprid.model import PARAMETER_NAMES
 
     robots = args.robots.split(",")
+    bad = [r for r in robots if r not in ROBOTS]
+    if bad or args.reps < 1:
+        ap.error(f"--robots {args.robots}: unknown robot {bad[0]!r} (choose from "
+                 f"{', '.join(ROBOTS)})" if bad else f"--reps {args.reps}: must be >= 1")
     keep = tuple(m.strip() for m in (args.methods or "").split(";") if m.strip())
     labels = [k for k in METHODS if not keep or k.startswith(keep)]
     tag = f"|{args.methods}" if args.methods else ""

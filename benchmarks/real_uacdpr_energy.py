@@ -140,6 +140,7 @@ def main(argv=None) -> int:
     import jax
 
     jax.config.update("jax_enable_x64", True)
+    from cdprid.base import UserError
     from cdprid.io import read_dataset
 
     t0 = time.time()
@@ -150,7 +151,12 @@ def main(argv=None) -> int:
             subprocess.run([sys.executable, "-m", "cdprid", "import", "uacdpr", str(DATA),
                             "--config", str(DATA / "UACDPR_LAB3.mat"), "--out", str(folder)],
                            check=True)
-        t, E, trend, dtrend = energy(read_dataset(folder))
+        try:
+            ds = read_dataset(folder)
+        except (UserError, OSError) as exc:
+            print(f"real_uacdpr_energy.py: {exc}", file=sys.stderr)
+            return 2
+        t, E, trend, dtrend = energy(ds)
     found = pushes(t, dtrend, trend, args.threshold_w)
     fig = Path(args.figure)
     figure(t, E, trend, found, fig)
