@@ -62,7 +62,7 @@ def _losses(prob: Problem, Z, y) -> np.ndarray:
 
 
 def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
-                     say=lambda msg: None) -> tuple[list, int]:
+                     say=lambda msg: None, others=()) -> tuple[list, int]:
     """Alternative complete models within the noise of the final one.
 
     Parameters
@@ -76,6 +76,11 @@ def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
     extra : dict
         The context of the candidates' checks.
     say : callable
+    others : sequence of Selection
+        Complete models found another way (the search's second start from the best pair,
+        :mod:`cdprid.diagnosis.restart`), compared with the final model like the alternatives
+        (``replaces`` and ``by`` then join several labels with " + ", and ``parameters``
+        maps each replacing effect's label to its parameters when there are several).
 
     Returns
     -------
@@ -87,7 +92,14 @@ def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
     """
     saved = {k: dict(v) for k, v in prob.cache.items()}
     try:
-        return _competing(prob, s, candidates, min_gain, extra, say)
+        out, n_tried = _competing(prob, s, candidates, min_gain, extra, say)
+        for o in others:
+            m = _whole_model(prob, s, o, min_gain, extra, say)
+            n_tried += 1
+            if m is not None:
+                out.append(m)
+        out.sort(key=lambda m: m["relative_difference"])
+        return out, n_tried
     finally:  # the alternatives' linearisations must not displace the final model's
         prob.cache.clear()
         prob.cache.update(saved)
@@ -136,3 +148,29 @@ def _competing(prob, s, candidates, min_gain, extra, say):
                 "worse): the data cannot tell the two apart")
     out.sort(key=lambda m: m["relative_difference"])
     return out, n_tried
+
+
+def _whole_model(prob, s, o, min_gain, extra, say):
+    """The entry of a complete alternative model ``o`` when the data cannot tell it from the
+    final model ``s``, else ``None``."""
+    Z, y, _, _ = linear_model(prob, s)
+    Zo, yo, _, _ = linear_model(prob, o)
+    rms_best, rms = heldout_rms(prob, Z, y), heldout_rms(prob, Zo, yo)
+    rel = (rms - rms_best) / rms_best
+    p = dm_p_worse(_losses(prob, Zo, yo), _losses(prob, Z, y), prob.lags)
+    gone = [c for c in s.accepted if c not in o.accepted]
+    new = [c for c in o.accepted if c not in s.accepted]
+    if not new or not (rel < min_gain or p > DM_LEVEL):
+        return None
+    params = {alias_label(c): vocab_params(c, o.theta, prob.layout, extra, o.th_cov)
+              for c in new}
+    say(f"competing model: {' + '.join(c.label for c in new)} instead of "
+        f"{' + '.join(c.label for c in gone) or 'nothing'}, held-out rms {rms_best:.4f} -> "
+        f"{rms:.4f} ({100 * rel:+.2f} %, p = {p:.2g} that it is worse): the data cannot tell "
+        "the two apart")
+    return {"replaces": " + ".join(alias_label(c) for c in gone),
+            "by": " + ".join(alias_label(c) for c in new),
+            "parameters": next(iter(params.values())) if len(new) == 1 else params,
+            "effects": [alias_label(b) for b in o.accepted],
+            "heldout_force_rms_N": force_heldout_rms(prob, Zo, yo),
+            "relative_difference": float(rel), "p_worse": p}

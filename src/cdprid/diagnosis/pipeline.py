@@ -26,6 +26,7 @@ from cdprid.diagnosis.budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis.candidates import candidate_list
 from cdprid.diagnosis.clock import clock_stage
 from cdprid.diagnosis.competing import competing_models
+from cdprid.diagnosis.restart import MIN_FINDINGS, choose, pair_start
 from cdprid.diagnosis.lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis.problem import Problem, force_heldout_rms, measured, prepare
 from cdprid.diagnosis.result import DiagnosisResult
@@ -193,12 +194,13 @@ def diagnose(
                                          max_samples, say)
     prob, base, noise, extra = _base_stage(prob, notes, say)
     candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot)
-    s, clock_info, ranking, thr_first = _search(
+    s, other, clock_info, ranking, thr_first = _search(
         prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain,
         np.random.default_rng(seed), say)
     feats = _structure(prob)
     s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
-    competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say)
+    competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say,
+                                        others=() if other is None else (other,))
     Z, y, _, _ = linear_model(prob, s)
     unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
     _say_unexplained(unexplained, say)
@@ -273,8 +275,9 @@ def _search(prob, base, noise, extra, candidates, alpha, n_null, max_effects, mi
             say):
     """The clock stage, the greedy forward steps and the swap stage:
     ``(selection, clock_info, first step's ranking, first step's threshold)``."""
-    s, clock_info = clock_stage(prob, base, start(prob, base), candidates, alpha, min_gain,
-                                extra, say)
+    s0, clock_info = clock_stage(prob, base, start(prob, base), candidates, alpha, min_gain,
+                                 extra, say)
+    s = s0
     ranking, thr_first = [], alpha / len(candidates)
     for step in range(1, max_effects + 1):
         # null replicates calibrate the first step's threshold; later steps reuse it
@@ -286,4 +289,34 @@ def _search(prob, base, noise, extra, candidates, alpha, n_null, max_effects, mi
         if nxt is None:
             break
         s = nxt
-    return swap_stage(prob, s, candidates, min_gain, extra, say), clock_info, ranking, thr_first
+    s = swap_stage(prob, s, candidates, min_gain, extra, say)
+    s, other = _second_start(prob, base, s0, s, candidates, alpha, thr_first, max_effects,
+                             min_gain, extra, say)
+    return s, other, clock_info, ranking, thr_first
+
+
+def _second_start(prob, base, s0, s, candidates, alpha, thr, max_effects, min_gain, extra,
+                  say):
+    """The search started again from the best pair (:mod:`cdprid.diagnosis.restart`) when
+    the greedy path named at least two effects: ``(kept model, the other or None)``."""
+    if len(s.accepted) - len(s0.accepted) < MIN_FINDINGS:
+        return s, None
+    t = pair_start(prob, base, s0, candidates, min_gain, thr, extra, say)
+    if t is None:
+        return s, None
+    for step in range(3, max_effects + 1):
+        nxt, _, _ = forward_step(prob, base, t, candidates, (), alpha, min_gain, extra, say,
+                                 step, thr)
+        if nxt is None:
+            break
+        t = nxt
+    t = swap_stage(prob, t, candidates, min_gain, extra, say)
+    if set(t.accepted) == set(s.accepted):
+        say("pair start: the same model as the greedy path")
+        return s, None
+    keep, other, rel = choose(prob, s, t, min_gain)
+    say(f"pair start: kept {' + '.join(c.label for c in keep.accepted)} "
+        f"({'the greedy path' if keep is s else 'from the best pair'}); the other model "
+        f"({' + '.join(c.label for c in other.accepted)}) has a held-out rms "
+        f"{100 * rel:+.2f} % from it")
+    return keep, other

@@ -343,6 +343,62 @@ def heldout_rms(prob: Problem, Z, y) -> float:
     return float(np.sqrt(np.mean(r * r)))
 
 
+def subset_heldout_rms(prob: Problem, Z, y, subsets) -> np.ndarray:
+    """:func:`heldout_rms` of many column subsets of ``Z`` at once: ``rms[k]`` equals
+    ``heldout_rms(prob, Z[:, :, subsets[k]], y)``.
+
+    The training and held-out Gram matrices of every fold are formed once (sums over the
+    contiguous segments between the folds' edges and guards); each subset then costs one
+    small solve per fold, with the same column scaling as :func:`cv_sse`. Used by the search
+    over pairs of candidates, where the columns are the base model's and every candidate's.
+    """
+    if prob.test is None:
+        Zu, yu = Z[prob.use], y[prob.use]
+        n = Zu.shape[0]
+        folds = blocks(n, prob.n_folds)
+        edges = sorted({0, n} | {min(n, max(0, e)) for lo, hi in folds
+                                 for e in (lo - prob.lags, lo, hi, hi + prob.lags)})
+        seg = {}
+        for a, b in zip(edges[:-1], edges[1:], strict=True):
+            seg[a] = (np.einsum("nip,niq->pq", Zu[a:b], Zu[a:b]),
+                      np.einsum("nip,ni->p", Zu[a:b], yu[a:b]),
+                      float(np.sum(yu[a:b] ** 2)), b)
+        G = sum(v[0] for v in seg.values())
+        g = sum(v[1] for v in seg.values())
+
+        def part(a, b):
+            out = [np.zeros_like(G), np.zeros_like(g), 0.0]
+            for s0, (Gs, gs, ys, s1) in seg.items():
+                if s0 >= a and s1 <= b:
+                    out[0], out[1], out[2] = out[0] + Gs, out[1] + gs, out[2] + ys
+            return out
+
+        parts = []
+        for lo, hi in folds:
+            Gx, gx, _ = part(max(0, lo - prob.lags), min(n, hi + prob.lags))
+            Gb, gb, yb = part(lo, hi)
+            parts.append((G - Gx, g - gx, Gb, gb, yb))
+        count = n * y.shape[1]
+    else:
+        Zt, yt, Ze, ye = Z[prob.train], y[prob.train], Z[prob.test], y[prob.test]
+        parts = [(np.einsum("nip,niq->pq", Zt, Zt), np.einsum("nip,ni->p", Zt, yt),
+                  np.einsum("nip,niq->pq", Ze, Ze), np.einsum("nip,ni->p", Ze, ye),
+                  float(np.sum(ye ** 2)))]
+        count = ye.size
+    out = np.empty(len(subsets))
+    for k, sub in enumerate(subsets):
+        ix = np.asarray(sub, int)
+        sse = 0.0
+        for Gt, gt, Gb, gb, yb in parts:
+            Gs = Gt[np.ix_(ix, ix)]
+            scale = np.sqrt(np.clip(np.diag(Gs), 1e-300, None))
+            beta = np.linalg.lstsq(Gs / np.outer(scale, scale), gt[ix] / scale,
+                                   rcond=None)[0] / scale
+            sse += max(0.0, yb - 2.0 * beta @ gb[ix] + beta @ Gb[np.ix_(ix, ix)] @ beta)
+        out[k] = math.sqrt(sse / count)
+    return out
+
+
 def heldout_residuals(prob: Problem, Z, y):
     """Held-out residuals (weighted units) of every held-out sample: ``(index, r (k, 6))``.
 

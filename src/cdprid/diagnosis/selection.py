@@ -48,6 +48,20 @@ def finding_columns(c: Candidate, layout: ThetaLayout, active_idx: list, n_model
     return [n_model + active_idx.index(i) for i in idx if i in active_idx]
 
 
+def wald_given_others(Z, y, cols: list, lags: int) -> tuple[float, float]:
+    """HAC Wald statistic and p-value of the columns ``cols`` of ``Z`` given all its other
+    columns (both partialled out of ``y``), on the rows given (the training samples)."""
+    rest = [j for j in range(Z.shape[2]) if j not in cols]
+    n = Z.shape[0]
+    Q = np.linalg.qr(Z[:, :, rest].reshape(-1, len(rest)))[0]
+    Ct = Z[:, :, cols].reshape(-1, len(cols))
+    Ct = (Ct - Q @ (Q.T @ Ct)).reshape(n, 6, -1)
+    yt = y.reshape(-1, 1)
+    yt = (yt - Q @ (Q.T @ yt)).reshape(n, 6)
+    stat, _, _ = partial_wald(Ct, yt, lags)
+    return float(stat), float(stats.chi2.sf(stat, len(cols)))
+
+
 def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int,
                     min_gain: float, thr_p: float):
     """Backward step: the finding whose removal hurts held-out prediction least, if it fails.
@@ -68,15 +82,7 @@ def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int
         rest = [j for j in range(p) if j not in cols]
         rms_minus = heldout_rms(Z[:, :, rest], y)
         gain = 1.0 - rms_full / rms_minus
-        Zr = Z[train][:, :, rest]
-        Q = np.linalg.qr(Zr.reshape(-1, len(rest)))[0]
-        ntr = Zr.shape[0]
-        Ct = Z[train][:, :, cols].reshape(-1, len(cols))
-        Ct = (Ct - Q @ (Q.T @ Ct)).reshape(ntr, 6, -1)
-        yt = y[train].reshape(-1, 1)
-        yt = (yt - Q @ (Q.T @ yt)).reshape(ntr, 6)
-        stat, _, _ = partial_wald(Ct, yt, lags)
-        pv = float(stats.chi2.sf(stat, len(cols)))
+        _, pv = wald_given_others(Z[train], y[train], cols, lags)
         fails = gain < min_gain or not pv < thr_p
         if fails and gain < worst_gain:
             worst, worst_gain, worst_p = k, gain, pv

@@ -1,0 +1,81 @@
+"""The search's second start from the best pair (issue 23, item 3: search over models).
+
+Oracles: the all-subsets held-out RMS equals the one-at-a-time criterion the search uses
+(least squares per fold); the choice between two complete models follows its stated rule;
+and a simulated CRAFT-like recording with an anchor error and a gain on cables whose partners
+alias them (the detection benchmark's run ``pair|anchor+gain|craft8|3``), where the greedy path
+names a gain on cable 5 and an anchor error on cable 7, is named on the right cables with
+their sizes, the greedy model reported as a competing model.
+"""
+
+import tempfile
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cdprid.diagnosis.problem import heldout_rms, subset_heldout_rms
+from cdprid.diagnosis.restart import keeps_first
+
+
+@pytest.mark.parametrize("split", [False, True])
+@pytest.mark.parametrize("lags", [0, 7, 150])
+def test_subset_heldout_rms_equals_the_search_criterion(split, lags):
+    rng = np.random.default_rng(lags)
+    n, p = 700, 9
+    Z = rng.normal(size=(n, 6, p))
+    Z[:, :, 8] = Z[:, :, 7] + 1e-3 * rng.normal(size=(n, 6))  # nearly collinear pair
+    y = np.einsum("nip,p->ni", Z, rng.normal(size=p)) + rng.normal(size=(n, 6))
+    use = np.ones(n, bool)
+    use[:25] = False
+    use[400:420] = False
+    train = use & (np.arange(n) < 500) if split else use
+    test = use & (np.arange(n) >= 500) if split else None
+    prob = types.SimpleNamespace(use=use, train=train, test=test, n_folds=5, lags=lags)
+    subsets = [[0, 1], [0, 1, 2, 5], [3, 7, 8], list(range(p)), [4]]
+    got = subset_heldout_rms(prob, Z, y, subsets)
+    want = [heldout_rms(prob, Z[:, :, s], y) for s in subsets]
+    np.testing.assert_allclose(got, want, rtol=1e-9)
+
+
+def test_the_model_kept_predicts_better_or_is_smaller_within_the_gate():
+    assert keeps_first(1.00, 2, 1.02, 2, 0.01)  # better
+    assert not keeps_first(1.02, 2, 1.00, 2, 0.01)
+    assert not keeps_first(1.005, 2, 1.000, 2, 0.01)  # same size: the better, however close
+    assert keeps_first(1.005, 2, 1.000, 3, 0.01)  # within the gate: the smaller model
+    assert not keeps_first(1.000, 3, 1.005, 2, 0.01)
+    assert keeps_first(1.000, 3, 1.030, 2, 0.01)  # beyond the gate: the better one
+    assert keeps_first(1.0, 2, 1.0, 2, 0.01)  # exact tie: the first
+
+
+@pytest.mark.slow
+def test_anchor_and_gain_on_aliasing_cables_named_on_the_right_cables():
+    from cdprid.diagnosis import diagnose
+    from cdprid.effects import Effect
+    from cdprid.io import read_dataset
+    from cdprid.model import craft_like_truth, preset
+    from cdprid.model._robots import craft_like_robot
+    from cdprid.simulation import SensorNoise, simulate, write_simulation
+
+    robot = craft_like_robot()
+    truth = [("anchor_point_error", {"cable": 8, "displacement_m": [0.0063, -0.02057, 0.01273]}),
+             ("tension_gain", {"cable": 1, "gain": 0.96})]
+    sim = simulate(robot, preset("rich", robot), craft_like_truth(),
+                   effects=[Effect(n, p) for n, p in truth],
+                   noise=SensorNoise(position_m=3e-4, tension_N=0.7, orientation_rad=2e-4),
+                   seed=3)
+    log = []
+    with tempfile.TemporaryDirectory() as tmp:
+        res = diagnose(read_dataset(write_simulation(sim, Path(tmp) / "pair")),
+                       progress=log.append)
+    got = {(f.effect, f.parameters["cable"]): f for f in res.findings}
+    assert set(got) == {("anchor_point_error", 8), ("tension_gain", 1)}, log
+    gain = got[("tension_gain", 1)]
+    assert gain.interval["gain"][0] <= 0.96 <= gain.interval["gain"][1]
+    d = np.asarray(got[("anchor_point_error", 8)].parameters["displacement_m"])
+    assert np.linalg.norm(d - truth[0][1]["displacement_m"]) < 0.01
+    assert any("from the best pair" in m for m in log)
+    # the greedy path's model is reported as a competing model with both of its effects
+    assert any(" + " in c["by"] and len(c["parameters"]) == 2 for c in res.competing), \
+        res.competing
