@@ -26,9 +26,9 @@ from cdprid.diagnosis.budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis.candidates import candidate_list
 from cdprid.diagnosis.clock import clock_stage
 from cdprid.diagnosis.competing import competing_models
-from cdprid.diagnosis.restart import MIN_FINDINGS, choose, pair_start
 from cdprid.diagnosis.lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis.problem import Problem, force_heldout_rms, measured, prepare
+from cdprid.diagnosis.restart import MIN_FINDINGS, choose, pair_start
 from cdprid.diagnosis.result import DiagnosisResult
 from cdprid.diagnosis.selection import (
     Selection,
