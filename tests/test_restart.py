@@ -79,3 +79,13 @@ def test_anchor_and_gain_on_aliasing_cables_named_on_the_right_cables():
     # the greedy path's model is reported as a competing model with both of its effects
     assert any(" + " in c["by"] and len(c["parameters"]) == 2 for c in res.competing), \
         res.competing
+
+
+def test_a_competing_model_with_several_effects_prints_each_effects_parameters():
+    from cdprid.report.diagnosis import format_values
+
+    params = {"tension_gain:cable=5": {"cable": 5, "gain": 1.0305},
+              "anchor_point_error:cable=7": {"cable": 7, "displacement_m": [0.009, -0.007]}}
+    assert format_values(params) == ("tension_gain:cable=5 (cable 5, gain 1.03), "
+                                     "anchor_point_error:cable=7 (cable 7, displacement_m "
+                                     "[0.009, -0.007])")

@@ -50,8 +50,11 @@ def competing_lines(result) -> list[str]:
 
 
 def format_values(d: dict) -> str:
-    """``key value, key [lo, hi]`` with 3 significant digits (numbers and lists of them)."""
+    """``key value, key [lo, hi]`` with 3 significant digits (numbers and lists of them;
+    a nested dict, e.g. the parameters of each effect of a competing model, in parentheses)."""
     def one(v):
+        if isinstance(v, dict):
+            return "(" + format_values(v) + ")"
         if isinstance(v, (list, tuple)):
             return "[" + ", ".join(one(x) for x in v) + "]"
         if isinstance(v, float):
