@@ -23,7 +23,7 @@ import numpy as np
 from cdprid.base._defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
 from cdprid.diagnosis.base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from cdprid.diagnosis.budget import MAX_SAMPLES, joined_time, subset
-from cdprid.diagnosis.candidates import candidate_list
+from cdprid.diagnosis.candidates import alias_label, candidate_list
 from cdprid.diagnosis.clock import clock_stage
 from cdprid.diagnosis.competing import competing_models
 from cdprid.diagnosis.lengths import lengths_stream, with_elasticity
@@ -194,7 +194,7 @@ def diagnose(
                                          max_samples, say)
     prob, base, noise, extra = _base_stage(prob, notes, say)
     candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot)
-    s, other, clock_info, ranking, thr_first = _search(
+    s, (other, second), clock_info, ranking, thr_first = _search(
         prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain,
         np.random.default_rng(seed), say)
     feats = _structure(prob)
@@ -210,6 +210,7 @@ def diagnose(
         "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
     info.update({"not_named": not_named_sizes(prob, base, s, candidates, extra, thr_first),
                  "unexplained_rule": rule, "lengths": el_info, "clock_profile": clock_info,
+                 "second_start": second,
                  "wall_time_s": time.perf_counter() - t0})
     if sub is not None:
         info["subset"] = sub.as_json()
@@ -290,20 +291,22 @@ def _search(prob, base, noise, extra, candidates, alpha, n_null, max_effects, mi
             break
         s = nxt
     s = swap_stage(prob, s, candidates, min_gain, extra, say)
-    s, other = _second_start(prob, base, s0, s, candidates, alpha, thr_first, max_effects,
-                             min_gain, extra, say)
-    return s, other, clock_info, ranking, thr_first
+    s, other, second = _second_start(prob, base, s0, s, candidates, alpha, thr_first,
+                                     max_effects, min_gain, extra, say)
+    return s, (other, second), clock_info, ranking, thr_first
 
 
 def _second_start(prob, base, s0, s, candidates, alpha, thr, max_effects, min_gain, extra,
                   say):
     """The search started again from the best pair (:mod:`cdprid.diagnosis.restart`) when
-    the greedy path named at least two effects: ``(kept model, the other or None)``."""
+    the greedy path named at least two effects: ``(kept model, the other or None, what was
+    done for info["second_start"])``."""
     if len(s.accepted) - len(s0.accepted) < MIN_FINDINGS:
-        return s, None
+        return s, None, {"tried": False}
     t = pair_start(prob, base, s0, candidates, min_gain, thr, extra, say)
     if t is None:
-        return s, None
+        return s, None, {"tried": True, "pair": None}
+    pair = [alias_label(c) for c in t.accepted[len(s0.accepted):]]
     for step in range(3, max_effects + 1):
         nxt, _, _ = forward_step(prob, base, t, candidates, (), alpha, min_gain, extra, say,
                                  step, thr)
@@ -313,10 +316,13 @@ def _second_start(prob, base, s0, s, candidates, alpha, thr, max_effects, min_ga
     t = swap_stage(prob, t, candidates, min_gain, extra, say)
     if set(t.accepted) == set(s.accepted):
         say("pair start: the same model as the greedy path")
-        return s, None
+        return s, None, {"tried": True, "pair": pair, "kept": "same model"}
     keep, other, rel = choose(prob, s, t, min_gain)
     say(f"pair start: kept {' + '.join(c.label for c in keep.accepted)} "
         f"({'the greedy path' if keep is s else 'from the best pair'}); the other model "
         f"({' + '.join(c.label for c in other.accepted)}) has a held-out rms "
         f"{100 * rel:+.2f} % from it")
-    return keep, other
+    return keep, other, {"tried": True, "pair": pair,
+                         "kept": "greedy path" if keep is s else "best pair",
+                         "other_model": [alias_label(c) for c in other.accepted],
+                         "other_relative_difference": float(rel)}
