@@ -303,10 +303,12 @@ def _second_start(prob, base, s0, s, candidates, alpha, thr, max_effects, min_ga
     done for info["second_start"])``."""
     if len(s.accepted) - len(s0.accepted) < MIN_FINDINGS:
         return s, None, {"tried": False}
-    t = pair_start(prob, base, s0, candidates, min_gain, thr, extra, say)
+    t, pair = pair_start(prob, base, s0, candidates, min_gain, thr, extra, say,
+                         known=s.accepted)
+    pair = None if pair is None else [alias_label(c) for c in pair]
     if t is None:
-        return s, None, {"tried": True, "pair": None}
-    pair = [alias_label(c) for c in t.accepted[len(s0.accepted):]]
+        return s, None, {"tried": True, "pair": pair,
+                         "kept": "greedy path" if pair else "greedy path (no pair passes)"}
     for step in range(3, max_effects + 1):
         nxt, _, _ = forward_step(prob, base, t, candidates, (), alpha, min_gain, extra, say,
                                  step, thr)

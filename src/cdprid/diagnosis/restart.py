@@ -89,14 +89,21 @@ def best_pair(prob: Problem, base, s: Selection, candidates, min_gain: float, th
 
 
 def pair_start(prob: Problem, base, s: Selection, candidates, min_gain: float, thr_p: float,
-               extra: dict, say):
-    """The selection ``s`` extended by the best pair (:func:`best_pair`), refitted; ``None``
-    when no pair passes or the refit makes a member implausible or too small."""
+               extra: dict, say, known=()):
+    """``(selection, pair)``: the selection ``s`` extended by the best pair
+    (:func:`best_pair`) and refitted, and that pair. The selection is ``None`` when no pair
+    passes (the pair ``None`` too), when both members are among ``known`` (the findings of
+    the greedy path: it already started from them), or when the refit makes a member
+    implausible or too small."""
     found = best_pair(prob, base, s, candidates, min_gain, thr_p)
     if found is None:
         say("pair start: no pair of candidates passes the gates")
-        return None
+        return None, None
     pair, rms_lin, rms_before, tests = found
+    if set(pair) <= set(known):
+        say(f"pair start: the best pair, {pair[0].label} + {pair[1].label}, is part of the "
+            "greedy path's model; nothing new to start from")
+        return None, pair
     idx = sorted(set(s.active_idx).union(*(prob.layout.candidate_indices(c.effect, c.cable)
                                            for c in pair)))
     t = refit(prob, s, active_idx=idx)
@@ -104,7 +111,7 @@ def pair_start(prob: Problem, base, s: Selection, candidates, min_gain: float, t
         why = refit_rejected(prob, t, c, extra)
         if why:
             say(f"pair start: {c.label} {why}")
-            return None
+            return None, pair
     Z, y, _, _ = linear_model(prob, t)
     rms_after = heldout_rms(prob, Z, y)
     std = np.sqrt(np.clip(np.diag(t.th_cov), 0, None))
@@ -117,7 +124,7 @@ def pair_start(prob: Problem, base, s: Selection, candidates, min_gain: float, t
                for c, (rms_without, stat, p) in zip(pair, tests, strict=True))
     say(f"pair start: best pair {pair[0].label} + {pair[1].label}: held-out rms "
         f"{rms_before:.4f} -> {rms_lin:.4f} (linearised), {rms_after:.4f} refitted")
-    return dataclasses.replace(t, accepted=t.accepted + pair, findings=t.findings + fs)
+    return dataclasses.replace(t, accepted=t.accepted + pair, findings=t.findings + fs), pair
 
 
 def keeps_first(rms_a: float, n_a: int, rms_b: float, n_b: int, min_gain: float) -> bool:
