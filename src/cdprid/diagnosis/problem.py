@@ -27,7 +27,7 @@ from cdprid.diagnosis.model import (
     model_jit,
     regs_jit,
 )
-from cdprid.diagnosis.testing import blocks, cv_sse
+from cdprid.diagnosis.testing import blocks, cv_sse, fold_sse
 from cdprid.io.align import align
 from cdprid.io.dataset import Dataset
 from cdprid.model._geometry import cable_lengths
@@ -349,8 +349,9 @@ def subset_heldout_rms(prob: Problem, Z, y, subsets) -> np.ndarray:
 
     The training and held-out Gram matrices of every fold are formed once (sums over the
     contiguous segments between the folds' edges and guards); each subset then costs one
-    small solve per fold, with the same column scaling as :func:`cv_sse`. Used by the search
-    over pairs of candidates, where the columns are the base model's and every candidate's.
+    small solve per fold (:func:`cdprid.diagnosis.testing.fold_sse`, as :func:`cv_sse`).
+    Used by the search over pairs of candidates, where the columns are the base model's and
+    every candidate's.
     """
     if prob.test is None:
         Zu, yu = Z[prob.use], y[prob.use]
@@ -388,13 +389,8 @@ def subset_heldout_rms(prob: Problem, Z, y, subsets) -> np.ndarray:
     out = np.empty(len(subsets))
     for k, sub in enumerate(subsets):
         ix = np.asarray(sub, int)
-        sse = 0.0
-        for Gt, gt, Gb, gb, yb in parts:
-            Gs = Gt[np.ix_(ix, ix)]
-            scale = np.sqrt(np.clip(np.diag(Gs), 1e-300, None))
-            beta = np.linalg.lstsq(Gs / np.outer(scale, scale), gt[ix] / scale,
-                                   rcond=None)[0] / scale
-            sse += max(0.0, yb - 2.0 * beta @ gb[ix] + beta @ Gb[np.ix_(ix, ix)] @ beta)
+        sse = sum(fold_sse(Gt[np.ix_(ix, ix)], gt[ix], Gb[np.ix_(ix, ix)], gb[ix], yb)
+                  for Gt, gt, Gb, gb, yb in parts)
         out[k] = math.sqrt(sse / count)
     return out
 

@@ -62,14 +62,19 @@ def cv_sse(Z, y, folds, guard):
     count = 0
     for lo, hi in folds:
         a, b = max(0, lo - guard), min(n, hi + guard)
-        Gt = G[n] - (G[b] - G[a])
-        gt = g[n] - (g[b] - g[a])
-        scale = np.sqrt(np.clip(np.diag(Gt), 1e-300, None))
-        beta = np.linalg.lstsq(Gt / np.outer(scale, scale), gt / scale, rcond=None)[0] / scale
-        Gb, gb = G[hi] - G[lo], g[hi] - g[lo]
-        sse += float(max(0.0, s[hi] - s[lo] - 2.0 * beta @ gb + beta @ Gb @ beta))
+        sse += fold_sse(G[n] - (G[b] - G[a]), g[n] - (g[b] - g[a]), G[hi] - G[lo],
+                        g[hi] - g[lo], s[hi] - s[lo])
         count += int(hi - lo) * y.shape[1]
     return sse, count
+
+
+def fold_sse(Gt, gt, Gb, gb, yy) -> float:
+    """Held-out sum of squared residuals of one fold from Gram matrices: the LS fit on the
+    training rows (``Gt = Z^T Z``, ``gt = Z^T y``; columns scaled to unit norm, ``lstsq``)
+    applied to the held-out rows (``Gb``, ``gb``, ``yy = y^T y``)."""
+    scale = np.sqrt(np.clip(np.diag(Gt), 1e-300, None))
+    beta = np.linalg.lstsq(Gt / np.outer(scale, scale), gt / scale, rcond=None)[0] / scale
+    return float(max(0.0, yy - 2.0 * beta @ gb + beta @ Gb @ beta))
 
 
 def partial_wald(Ct, yt, lags):
