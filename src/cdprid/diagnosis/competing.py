@@ -62,7 +62,7 @@ def _losses(prob: Problem, Z, y) -> np.ndarray:
 
 
 def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
-                     say=lambda msg: None, others=()) -> tuple[list, int]:
+                     say=lambda msg: None, other=None) -> tuple[list, int]:
     """Alternative complete models within the noise of the final one.
 
     Parameters
@@ -76,8 +76,8 @@ def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
     extra : dict
         The context of the candidates' checks.
     say : callable
-    others : sequence of Selection
-        Complete models found another way (the search's second start from the best pair,
+    other : Selection, optional
+        A complete model found another way (the search's second start from the best pair,
         :mod:`cdprid.diagnosis.restart`), compared with the final model like the alternatives
         (``replaces`` and ``by`` then join several labels with " + ", and ``parameters``
         maps each replacing effect's label to its parameters when there are several).
@@ -93,11 +93,10 @@ def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
     saved = {k: dict(v) for k, v in prob.cache.items()}
     try:
         out, n_tried = _competing(prob, s, candidates, min_gain, extra, say)
-        for o in others:
-            m = _whole_model(prob, s, o, min_gain, extra, say)
+        if other is not None:
+            m = _whole_model(prob, s, other, min_gain, extra, say)
             n_tried += 1
-            if m is not None:
-                out.append(m)
+            out += [] if m is None else [m]
         out.sort(key=lambda m: m["relative_difference"])
         return out, n_tried
     finally:  # the alternatives' linearisations must not displace the final model's

@@ -199,8 +199,7 @@ def diagnose(
         np.random.default_rng(seed), say)
     feats = _structure(prob)
     s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
-    competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say,
-                                        others=() if other is None else (other,))
+    competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say, other)
     Z, y, _, _ = linear_model(prob, s)
     unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
     _say_unexplained(unexplained, say)
@@ -210,8 +209,7 @@ def diagnose(
         "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
     info.update({"not_named": not_named_sizes(prob, base, s, candidates, extra, thr_first),
                  "unexplained_rule": rule, "lengths": el_info, "clock_profile": clock_info,
-                 "second_start": second,
-                 "wall_time_s": time.perf_counter() - t0})
+                 "second_start": second, "wall_time_s": time.perf_counter() - t0})
     if sub is not None:
         info["subset"] = sub.as_json()
     say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
