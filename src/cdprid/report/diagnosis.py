@@ -26,17 +26,20 @@ def not_named_lines(result) -> list[str]:
 
 def competing_lines(result) -> list[str]:
     """The ``Competing models`` section: complete alternatives within the noise of the final
-    model (one finding replaced by one of its aliases, everything refitted)."""
+    model (one finding replaced by one of its aliases, or the model of the search's second
+    start, everything refitted)."""
     items = getattr(result, "competing", None) or []
     tried = result.info.get("competing_models_tried", 0)
     if not items:
         return ["", "## Competing models", "",
                 f"None: {tried} alternative model(s) (a finding replaced by one of its aliases, "
-                "refitted) predict the held-out data worse than the final model."
+                "or the model of the search's other start, refitted) predict the held-out data "
+                "worse than the final model."
                 if tried else "No finding has an alias to try.", ""]
     lines = ["", "## Competing models", "",
              f"{len(items)} of {tried} alternative complete models (a finding replaced by one of "
-             "its aliases, every effect refitted) predict the held-out data as well as the final "
+             "its aliases, or the model the search reached from its other start, every effect "
+             "refitted) predict the held-out data as well as the final "
              "model: the held-out RMS differs by less than the search's gate, or a "
              "Diebold-Mariano test does not find the alternative worse (p_worse > 0.05). The "
              "data cannot choose between them; a recording that separates the effects can.", "",
