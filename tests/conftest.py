@@ -1,17 +1,18 @@
 """Strict numerics for the whole suite: float64 JAX, sample robots as fixtures.
 
-The persistent JAX compilation cache is off for the commands the tests run (in process and
-as subprocesses), unless the caller sets ``CDPRID_CACHE_DIR``: the suite never reads or writes
-the user's cache (``~/.cache/cdprid/jax``), and never loads a cached executable. Twice on
-2026-11-26 the full suite (slow tests included) died inside XLA's deserialization of a cached
-executable (``compilation_cache.get_executable_and_time``, the diagnosis's cable-side kernel
-in tests/test_unexplained.py, once with the shared cache, once with a fresh per-session one)
-after an in-process CLI call had turned the cache on for the whole process.
+The persistent JAX compilation cache of the commands run by the tests (in process and as
+subprocesses) is a fresh folder per test session, removed at its end: the suite never reads
+or writes the user's cache (``~/.cache/cdprid/jax``), and never loads an executable compiled
+by another version of the code or written by another process (a local run once crashed in
+XLA's deserialization of a cached executable while other cdprid processes shared that folder;
+CI always starts from an empty one). ``CDPRID_CACHE_DIR`` set by the caller is kept.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import jax
@@ -20,19 +21,20 @@ import pytest
 
 jax.config.update("jax_enable_x64", True)
 
-_CACHE_SET_HERE = False
+_SESSION_CACHE = None
 
 
 def pytest_configure(config):
-    global _CACHE_SET_HERE
+    global _SESSION_CACHE
     if "CDPRID_CACHE_DIR" not in os.environ:
-        os.environ["CDPRID_CACHE_DIR"] = "off"
-        _CACHE_SET_HERE = True
+        _SESSION_CACHE = tempfile.mkdtemp(prefix="cdprid-test-jax-cache-")
+        os.environ["CDPRID_CACHE_DIR"] = _SESSION_CACHE
 
 
 def pytest_unconfigure(config):
-    if _CACHE_SET_HERE:
+    if _SESSION_CACHE is not None:
         os.environ.pop("CDPRID_CACHE_DIR", None)
+        shutil.rmtree(_SESSION_CACHE, ignore_errors=True)
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 DATASETS = SHARED / "datasets"
