@@ -1,18 +1,7 @@
-"""Strict numerics for the whole suite: float64 JAX, sample robots as fixtures.
-
-The persistent JAX compilation cache of the commands run by the tests (in process and as
-subprocesses) is a fresh folder per test session, removed at its end: the suite never reads
-or writes the user's cache (``~/.cache/cdprid/jax``), and never loads an executable compiled
-by another version of the code or written by another process (a local run once crashed in
-XLA's deserialization of a cached executable while other cdprid processes shared that folder;
-CI always starts from an empty one). ``CDPRID_CACHE_DIR`` set by the caller is kept.
-"""
+"""Strict numerics for the whole suite: float64 JAX, sample robots as fixtures."""
 
 from __future__ import annotations
 
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import jax
@@ -20,21 +9,6 @@ import numpy as np
 import pytest
 
 jax.config.update("jax_enable_x64", True)
-
-_SESSION_CACHE = None
-
-
-def pytest_configure(config):
-    global _SESSION_CACHE
-    if "CDPRID_CACHE_DIR" not in os.environ:
-        _SESSION_CACHE = tempfile.mkdtemp(prefix="cdprid-test-jax-cache-")
-        os.environ["CDPRID_CACHE_DIR"] = _SESSION_CACHE
-
-
-def pytest_unconfigure(config):
-    if _SESSION_CACHE is not None:
-        os.environ.pop("CDPRID_CACHE_DIR", None)
-        shutil.rmtree(_SESSION_CACHE, ignore_errors=True)
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 DATASETS = SHARED / "datasets"
