@@ -64,9 +64,10 @@ def best_pair(prob: Problem, base, s: Selection, candidates, min_gain: float, th
         off += cols[c].shape[2]
     head = list(range(nb))
     pairs = list(itertools.combinations(range(len(cands)), 2))
-    rms = subset_heldout_rms(prob, X, yb, [head + ix[i] + ix[j] for i, j in pairs])
-    single = subset_heldout_rms(prob, X, yb, [head + ix[i] for i in range(len(cands))])
-    rms_before = float(subset_heldout_rms(prob, X, yb, [head])[0])
+    # one call: the per-fold Gram matrices of X are formed once for all subsets
+    allr = subset_heldout_rms(prob, X, yb, [head + ix[i] + ix[j] for i, j in pairs]
+                              + [head + ix[i] for i in range(len(cands))] + [head])
+    rms, single, rms_before = allr[:len(pairs)], allr[len(pairs):-1], float(allr[-1])
     train = prob.train
     for k in np.argsort(rms):
         i, j = pairs[k]
