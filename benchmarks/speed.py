@@ -1,7 +1,9 @@
 """Wall-clock figures of the main commands (cold start included), side by side in one run.
 
-Usage: python benchmarks/speed.py [--only commands|startup]  -> prints tables and updates
-results/benchmarks.md (each section replaced, the others kept).
+Usage: python benchmarks/speed.py [--only commands|startup|diagnose] [--baseline REV]  -> prints
+tables and updates results/benchmarks.md (each section replaced, the others kept).
+``--only diagnose`` times `cdprid diagnose` on two CRAFT-like recordings (the second start of
+the search runs), with ``--baseline REV`` at this tree and at REV alternated in one run.
 The start-up section times `cdprid --help` and `cdprid identify` in fresh processes, with an
 empty persistent JAX compilation cache (cold) and with the cache filled by a first run (warm);
 issue 13 goals: --help < 0.5 s, identify < 2 s cold (1.8 s and 3.0 s before the lazy imports).
@@ -15,6 +17,7 @@ from __future__ import annotations
 import os
 import platform
 import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -25,15 +28,21 @@ ROOT = Path(__file__).resolve().parents[1]
 CDPRID = [sys.executable, "-m", "cdprid.cli"]
 
 
-def timed(args, cwd):
+def _wall_cpu(argv, env=None, cwd=ROOT) -> tuple[float, float]:
+    """Run ``argv`` in a fresh process: (wall, CPU = user + system of the child) in s."""
     t0 = time.perf_counter()
     r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    proc = subprocess.run(CDPRID + args, cwd=cwd, capture_output=True, text=True)
+    proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, env=env)
     r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
-        raise SystemExit(f"command failed: {' '.join(args)}\n{proc.stderr}")
+        raise SystemExit(f"command failed: {' '.join(map(str, argv))}\n{proc.stderr}")
     cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
-    return time.perf_counter() - t0, cpu, r1.ru_maxrss / 1024
+    return time.perf_counter() - t0, cpu
+
+
+def timed(args, cwd):
+    wall, cpu = _wall_cpu(CDPRID + args, cwd=cwd)
+    return wall, cpu, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
 
 
 def _baseline_tree(rev: str, d: Path) -> Path:
@@ -44,28 +53,38 @@ def _baseline_tree(rev: str, d: Path) -> Path:
     return tree
 
 
+def _alternate(d: Path, rev: str | None, cases: dict, n: int) -> dict:
+    """Each command of ``cases`` (label -> cdprid arguments) at this tree and at ``rev`` (a
+    detached worktree; None: this tree only), alternated in one run (ABAB: the machine's load
+    falls on both alike), each in a fresh process with the tree's ``src`` and its own JAX
+    cache; the first round fills the caches and is dropped. {(label, tree): [(wall, CPU)]}."""
+    trees = {"this": ROOT / "src"}
+    wt = _baseline_tree(rev, d) if rev else None
+    if wt:
+        trees[rev] = wt / "src"
+    res: dict = {}
+    try:
+        for k in range(n + 1):
+            for label, args in cases.items():
+                for name, src in trees.items():
+                    env = {**os.environ, "PYTHONPATH": str(src), "CDPRID_QUIET": "1",
+                           "CDPRID_CACHE_DIR": str(d / f"cache-{name}")}
+                    wc = _wall_cpu(CDPRID + args, env)
+                    if k:
+                        res.setdefault((label, name), []).append(wc)
+    finally:
+        if wt:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(wt)],
+                           capture_output=True)
+    return res
+
+
 def _side_by_side(d: Path, rev: str, n: int = 5) -> list[str]:
     """``cdprid identify`` with a filled cache at this tree and at ``rev``, alternated in one
-    run (ABAB: the machine's load falls on both alike); least wall and CPU of ``n`` each."""
-    tree = _baseline_tree(rev, d)
-    try:
-        res = {}
-        for _ in range(n + 1):  # the first round fills each tree's cache
-            for name, src in (("this", ROOT / "src"), (rev, tree / "src")):
-                env = {**os.environ, "PYTHONPATH": str(src), "CDPRID_QUIET": "1",
-                       "CDPRID_CACHE_DIR": str(d / f"cache-{name}")}
-                t0 = time.perf_counter()
-                r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-                subprocess.run(CDPRID + ["identify", str(d / "st")], cwd=ROOT, env=env,
-                               capture_output=True, check=True)
-                r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-                cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
-                res.setdefault(name, []).append((time.perf_counter() - t0, cpu))
-    finally:
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
-                       capture_output=True)
-    this, base = ([min(v[1:], key=lambda wc: wc[i])[i] for i in (0, 1)] for v in
-                  (res["this"], res[rev]))
+    run; least wall and CPU of ``n`` each."""
+    res = _alternate(d, rev, {"identify": ["identify", str(d / "st")]}, n)
+    this, base = ([min(wc[i] for wc in res[("identify", t)]) for i in (0, 1)]
+                  for t in ("this", rev))
     print(f"side by side: identify (filled cache) this {this[0]:.2f} s wall / {this[1]:.2f} s "
           f"CPU, {rev} {base[0]:.2f} / {base[1]:.2f}", flush=True)
     return ["", f"Side by side in the same run (`--baseline {rev}`; `cdprid identify` with a "
@@ -76,21 +95,62 @@ def _side_by_side(d: Path, rev: str, n: int = 5) -> list[str]:
             f"| ratio | {this[0] / base[0]:.2f} | {this[1] / base[1]:.2f} |"]
 
 
+def _diagnose(d: Path, rev: str | None, n: int = 3) -> list[str]:
+    """``cdprid diagnose DIR --quiet`` on two CRAFT-like recordings where the search's second
+    start runs, at this tree and at ``rev`` alternated (see :func:`_alternate`); least and
+    median wall and CPU of ``n`` each after a first round that fills the caches."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import numpy as np
+    from diagnosis import PAIRS, simulate_case
+    from many_effects import craft_case
+
+    pair = PAIRS["anchor+gain"](np.random.default_rng([3, 8, len("anchor+gain")]), 8)
+    recs = {"many effects, case 1": simulate_case(craft_case(1), 1, d),
+            "anchor + gain, seed 3": simulate_case(pair, 3, d)}
+    load0 = os.getloadavg()[0]
+    res = _alternate(d, rev, {k: ["diagnose", str(v), "--quiet"] for k, v in recs.items()}, n)
+    trees = ["this", rev] if rev else ["this"]
+    stats = {key: [f(wc[i] for wc in v) for i in (0, 1) for f in (min, statistics.median)]
+             for key, v in res.items()}
+    lines = ["## diagnose side by side", "",
+             "Command: `python benchmarks/speed.py --only diagnose"
+             + (f" --baseline {rev}`" if rev else "`") + f" at commit {_head()}, "
+             f"{time.strftime('%Y-%m-%d')}; load average {load0:.1f} before and "
+             f"{os.getloadavg()[0]:.1f} after the runs (2 cores). `cdprid diagnose DIR --quiet`"
+             " in a fresh process (CLI wall and CPU = user + system), "
+             + ("the two trees alternated in one run, " if rev else "")
+             + f"each tree with its own JAX cache filled by a first round (dropped); least and "
+             f"median of {n}. Recordings (52 s, `rich`, noise 0.3 mm / 0.7 N / 0.2 mrad): the "
+             "CRAFT-like many-effects case 1 of benchmarks/many_effects.py (delay, friction on "
+             "all pulleys, offset, gain, exit-point error, rotations) and the anchor + gain pair "
+             "of benchmarks/diagnosis.py, seed 3 (tests/test_restart.py).", "",
+             "| recording | tree | wall least [s] | wall median [s] | CPU least [s] | "
+             "CPU median [s] |", "|---|---|---:|---:|---:|---:|"]
+    for label in recs:
+        for t in trees:
+            v = stats[(label, t)]
+            name = "this commit" if t == "this" else t
+            lines.append(f"| {label} | {name} | " + " | ".join(f"{x:.1f}" for x in v) + " |")
+            print(f"{label:24s} {name:12s} wall {v[0]:6.1f} / {v[1]:6.1f} s  "
+                  f"CPU {v[2]:6.1f} / {v[3]:6.1f} s (least / median)", flush=True)
+        if rev:
+            r = [a / b for a, b in zip(stats[(label, "this")], stats[(label, rev)], strict=True)]
+            lines.append(f"| {label} | ratio | " + " | ".join(f"{x:.2f}" for x in r) + " |")
+    return lines
+
+
+def _head() -> str:
+    return subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                          capture_output=True, text=True).stdout.strip()
+
+
 def _startup(d: Path, baseline: str | None = None) -> list[str]:
     """`cdprid --help`, `import cdprid` and `cdprid identify` (empty vs filled JAX cache);
     with ``baseline`` (a git revision) identify is also timed at that revision, alternated."""
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "CDPRID_QUIET": "1"}
 
     def run(argv, extra=None):
-        t0 = time.perf_counter()
-        r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-        p = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True,
-                           env={**env, **(extra or {})})
-        r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-        if p.returncode != 0:
-            raise SystemExit(f"command failed: {' '.join(argv)}\n{p.stderr}")
-        cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
-        return time.perf_counter() - t0, cpu
+        return _wall_cpu(argv, {**env, **(extra or {})})
 
     def best(argv, extra=None, n=3):
         return min((run(argv, extra) for _ in range(n)), key=lambda wc: wc[1])
@@ -124,9 +184,10 @@ def _startup(d: Path, baseline: str | None = None) -> list[str]:
     imp = _importtime(env)
     for n, v in imp:
         print(f"import time of {n:10s} {v:6.2f} s", flush=True)
-    lines += ["", "Import time on identify's path (`python -X importtime -c \"import cdprid.cli._main, "
-              "cdprid.identify._batch, cdprid.io.dataset\"`, cumulative time of each top-level package "
-              "the first time it is imported, least of 3; scipy 0 means it is not imported):", "",
+    lines += ["", "Import time on identify's path (`python -X importtime -c \"import "
+              "cdprid.cli._main, cdprid.identify._batch, cdprid.io.dataset\"`, cumulative time of "
+              "each top-level package the first time it is imported, least of 3; scipy 0 means "
+              "it is not imported):", "",
               "| package | import time [s] |", "|---|---:|"]
     lines += [f"| {n} | {v:.2f} |" for n, v in imp]
     if baseline:
@@ -175,11 +236,18 @@ def main() -> int:
     import argparse
 
     ap = argparse.ArgumentParser(description="Speed of the main commands.")
-    ap.add_argument("--only", choices=["commands", "startup"], default=None)
+    ap.add_argument("--only", choices=["commands", "startup", "diagnose"], default=None)
     ap.add_argument("--baseline", default=None, metavar="REV",
-                    help="also time identify at this git revision, alternated with this tree")
+                    help="also time identify (startup) or diagnose (--only diagnose) at this "
+                         "git revision, alternated with this tree")
     args = ap.parse_args()
     out = ROOT / "results" / "benchmarks.md"
+    if args.only == "diagnose":
+        with tempfile.TemporaryDirectory() as tmp:
+            _merge(out, "## diagnose side by side", "\n".join(_diagnose(Path(tmp),
+                                                                         args.baseline)))
+        print(f"wrote {out}")
+        return 0
     if args.only in (None, "startup"):
         with tempfile.TemporaryDirectory() as tmp:
             _merge(out, "## Start-up time", "\n".join(_startup(Path(tmp), args.baseline)))
