@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import subprocess
 import sys
 import tempfile
 import time
@@ -220,7 +219,7 @@ def main(argv=None) -> int:
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    from real_uacdpr_energy import residual_by_push
+    from real_uacdpr_energy import import_uacdpr, residual_by_push
 
     from cdprid.diagnosis import diagnose
     from cdprid.diagnosis.base import base_fit
@@ -232,9 +231,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         folder = args.dataset or Path(tmp) / "uacdpr"
         if args.dataset is None:
-            subprocess.run([sys.executable, "-m", "cdprid", "import", "uacdpr", "--vicon",
-                            DATA / "FreeMotion02.txt", "--robot-log", DATA / "FreeMotion02_exp.mat",
-                            "--config", DATA / "UACDPR_LAB3.mat", "--out", folder], check=True)
+            import_uacdpr(folder)
         ds = read_dataset(folder)
         print("diagnose on all 37 s ...", flush=True)
         d = (json.loads(Path(args.json).read_text()) if args.json

@@ -41,6 +41,14 @@ DATA = ROOT.parent / "shared" / "datasets" / "uacdpr-freemotion02"
 START, END = "<!-- energy:start -->", "<!-- energy:end -->"
 
 
+def import_uacdpr(folder: Path) -> None:
+    """``cdprid import uacdpr`` of the shared FreeMotion02 files (UACDPR_LAB3.mat) into
+    ``folder``."""
+    subprocess.run([sys.executable, "-m", "cdprid", "import", "uacdpr", "--vicon",
+                    DATA / "FreeMotion02.txt", "--robot-log", DATA / "FreeMotion02_exp.mat",
+                    "--config", DATA / "UACDPR_LAB3.mat", "--out", folder], check=True)
+
+
 def energy(ds, cutoff_hz: float = 4.0, window_s: float = 2.0):
     """``(t, E, trend, dtrend)``: the platform's mechanical energy (J) at the pose times, its
     moving mean over ``window_s`` and the mean's rate (W), from the poses and robot.toml's
@@ -194,9 +202,7 @@ def main(argv=None) -> int:
         folder = args.dataset
         if folder is None:
             folder = Path(tmp) / "uacdpr"
-            subprocess.run([sys.executable, "-m", "cdprid", "import", "uacdpr", str(DATA),
-                            "--config", str(DATA / "UACDPR_LAB3.mat"), "--out", str(folder)],
-                           check=True)
+            import_uacdpr(folder)
         try:
             ds = read_dataset(folder)
         except (UserError, OSError) as exc:
