@@ -1,9 +1,10 @@
 """Wall-clock figures of the main commands (cold start included), side by side in one run.
 
-Usage: python benchmarks/speed.py [--only commands|startup|diagnose] [--baseline REV]  -> prints
-tables and updates results/benchmarks.md (each section replaced, the others kept).
+Usage: python benchmarks/speed.py [--only commands|startup|diagnose] [--baseline REV] [--load K]
+prints tables and updates results/benchmarks.md (each section replaced, the others kept).
 ``--only diagnose`` times `cdprid diagnose` on two CRAFT-like recordings (the second start of
-the search runs), with ``--baseline REV`` at this tree and at REV alternated in one run.
+the search runs), with ``--baseline REV`` at this tree and at REV alternated in one run, with
+``--load K`` beside K busy processes (a shared machine; its own section).
 The start-up section times `cdprid --help` and `cdprid identify` in fresh processes, with an
 empty persistent JAX compilation cache (cold) and with the cache filled by a first run (warm);
 issue 13 goals: --help < 0.5 s, identify < 2 s cold (1.8 s and 3.0 s before the lazy imports).
@@ -95,10 +96,11 @@ def _side_by_side(d: Path, rev: str, n: int = 5) -> list[str]:
             f"| ratio | {this[0] / base[0]:.2f} | {this[1] / base[1]:.2f} |"]
 
 
-def _diagnose(d: Path, rev: str | None, n: int = 3) -> list[str]:
+def _diagnose(d: Path, rev: str | None, n: int = 3, load: int = 0) -> list[str]:
     """``cdprid diagnose DIR --quiet`` on two CRAFT-like recordings where the search's second
     start runs, at this tree and at ``rev`` alternated (see :func:`_alternate`); least and
-    median wall and CPU of ``n`` each after a first round that fills the caches."""
+    median wall and CPU of ``n`` each after a first round that fills the caches. ``load``:
+    that many busy Python processes run beside it (a machine shared with other jobs)."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import numpy as np
     from diagnosis import PAIRS, simulate_case
@@ -108,15 +110,25 @@ def _diagnose(d: Path, rev: str | None, n: int = 3) -> list[str]:
     recs = {"many effects, case 1": simulate_case(craft_case(1), 1, d),
             "anchor + gain, seed 3": simulate_case(pair, 3, d)}
     load0 = os.getloadavg()[0]
-    res = _alternate(d, rev, {k: ["diagnose", str(v), "--quiet"] for k, v in recs.items()}, n)
+    busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(load)]
+    try:
+        res = _alternate(d, rev, {k: ["diagnose", str(v), "--quiet"] for k, v in recs.items()},
+                         n)
+    finally:
+        for b in busy:
+            b.kill()
+            b.wait()
     trees = ["this", rev] if rev else ["this"]
     stats = {key: [f(wc[i] for wc in v) for i in (0, 1) for f in (min, statistics.median)]
              for key, v in res.items()}
-    lines = ["## diagnose side by side", "",
+    lines = [_diagnose_heading(load), "",
              "Command: `python benchmarks/speed.py --only diagnose"
-             + (f" --baseline {rev}`" if rev else "`") + f" at commit {_head()}, "
+             + (f" --baseline {rev}" if rev else "") + (f" --load {load}" if load else "")
+             + f"` at commit {_head()}, "
              f"{time.strftime('%Y-%m-%d')}; load average {load0:.1f} before and "
-             f"{os.getloadavg()[0]:.1f} after the runs (2 cores). `cdprid diagnose DIR --quiet`"
+             f"{os.getloadavg()[0]:.1f} after the runs (2 cores"
+             + (f"; {load} busy Python processes ran beside every command" if load else "")
+             + "). `cdprid diagnose DIR --quiet`"
              " in a fresh process (CLI wall and CPU = user + system), "
              + ("the two trees alternated in one run, " if rev else "")
              + f"each tree with its own JAX cache filled by a first round (dropped); least and "
@@ -137,6 +149,11 @@ def _diagnose(d: Path, rev: str | None, n: int = 3) -> list[str]:
             r = [a / b for a, b in zip(stats[(label, "this")], stats[(label, rev)], strict=True)]
             lines.append(f"| {label} | ratio | " + " | ".join(f"{x:.2f}" for x in r) + " |")
     return lines
+
+
+def _diagnose_heading(load: int) -> str:
+    return (f"## diagnose beside {load} busy processes" if load
+            else "## diagnose side by side")
 
 
 def _head() -> str:
@@ -240,12 +257,16 @@ def main() -> int:
     ap.add_argument("--baseline", default=None, metavar="REV",
                     help="also time identify (startup) or diagnose (--only diagnose) at this "
                          "git revision, alternated with this tree")
+    ap.add_argument("--load", type=int, default=0, metavar="K",
+                    help="--only diagnose: K busy processes run beside it (a shared machine)")
     args = ap.parse_args()
+    if args.load < 0:
+        ap.error("--load must be >= 0")
     out = ROOT / "results" / "benchmarks.md"
     if args.only == "diagnose":
         with tempfile.TemporaryDirectory() as tmp:
-            _merge(out, "## diagnose side by side", "\n".join(_diagnose(Path(tmp),
-                                                                         args.baseline)))
+            _merge(out, _diagnose_heading(args.load),
+                   "\n".join(_diagnose(Path(tmp), args.baseline, load=args.load)))
         print(f"wrote {out}")
         return 0
     if args.only in (None, "startup"):

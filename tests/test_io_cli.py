@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -151,3 +152,24 @@ def test_identify_bad_options_exit_2(small_ds, capsys):
     assert main(["identify", str(small_ds), "--model", "full"]) == 2
     err = capsys.readouterr().err
     assert "not identifiable" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("given", [None, "3"])
+def test_console_main_blas_threads(monkeypatch, given):
+    """The executable runs NumPy's OpenBLAS single-threaded unless the user set the variable
+    (its spinning worker threads took the cores XLA needed on a shared machine)."""
+    import cdprid.cli._main as cli_main
+
+    if given is None:
+        monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    else:
+        monkeypatch.setenv("OPENBLAS_NUM_THREADS", given)
+    seen = []
+
+    def fake_main() -> int:
+        seen.append(os.environ.get("OPENBLAS_NUM_THREADS"))
+        return 0
+
+    monkeypatch.setattr(cli_main, "main", fake_main)
+    assert cli_main.console_main() == 0
+    assert seen == [given or "1"]

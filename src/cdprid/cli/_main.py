@@ -11,6 +11,8 @@ Environment variables (checked before any work; a bad value is one sentence and 
 * ``CDPRID_CACHE_DIR`` -- folder of the persistent JAX compilation cache (default
   ``$XDG_CACHE_HOME/cdprid/jax`` or ``~/.cache/cdprid/jax``); ``off`` disables it.
 * ``CDPRID_SCAN_UNROLL`` -- integer >= 1, unroll factor of the SIHD scans.
+* ``OPENBLAS_NUM_THREADS`` -- NumPy's BLAS threads; the ``cdprid`` executable sets 1 unless
+  given (see :func:`console_main`).
 """
 
 from __future__ import annotations
@@ -571,7 +573,14 @@ def console_main() -> int:
     the process ends at once (``os._exit``) once the streams are flushed: the command has
     already removed its partial outputs, and skipping the interpreter's teardown avoids
     tearing down XLA's worker threads while they may still run (a Ctrl-C during
-    ``import uacdpr``'s calibration once ended in a segmentation fault)."""
+    ``import uacdpr``'s calibration once ended in a segmentation fault).
+
+    NumPy's OpenBLAS runs single-threaded unless ``OPENBLAS_NUM_THREADS`` is set: its
+    worker threads spin while waiting, and on a machine shared with other jobs that spin
+    took the cores XLA needed (``cdprid diagnose`` 47-59 s instead of 32 s beside two busy
+    processes on 2 cores; no loss on a quiet machine; ``benchmarks/speed.py --only diagnose
+    --load 2``). Set before NumPy is imported, which the parser does not do."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     rc = main()
     if rc >= 128:
         for stream in (sys.stdout, sys.stderr):
