@@ -121,7 +121,7 @@ def _diagnose(d: Path, rev: str | None, n: int = 3, load: int = 0) -> list[str]:
     trees = ["this", rev] if rev else ["this"]
     stats = {key: [f(wc[i] for wc in v) for i in (0, 1) for f in (min, statistics.median)]
              for key, v in res.items()}
-    lines = [_diagnose_heading(load), "",
+    lines = [_diagnose_heading(load, rev), "",
              "Command: `python benchmarks/speed.py --only diagnose"
              + (f" --baseline {rev}" if rev else "") + (f" --load {load}" if load else "")
              + f"` at commit {_head()}, "
@@ -151,9 +151,10 @@ def _diagnose(d: Path, rev: str | None, n: int = 3, load: int = 0) -> list[str]:
     return lines
 
 
-def _diagnose_heading(load: int) -> str:
-    return (f"## diagnose beside {load} busy processes" if load
-            else "## diagnose side by side")
+def _diagnose_heading(load: int, rev: str | None) -> str:
+    """One section per load and baseline (so a run against another baseline keeps this one)."""
+    return ((f"## diagnose beside {load} busy processes" if load else "## diagnose side by side")
+            + (f" ({rev})" if rev else ""))
 
 
 def _head() -> str:
@@ -265,7 +266,7 @@ def main() -> int:
     out = ROOT / "results" / "benchmarks.md"
     if args.only == "diagnose":
         with tempfile.TemporaryDirectory() as tmp:
-            _merge(out, _diagnose_heading(args.load),
+            _merge(out, _diagnose_heading(args.load, args.baseline),
                    "\n".join(_diagnose(Path(tmp), args.baseline, load=args.load)))
         print(f"wrote {out}")
         return 0

@@ -577,9 +577,10 @@ def console_main() -> int:
 
     NumPy's OpenBLAS runs single-threaded unless ``OPENBLAS_NUM_THREADS`` is set: its
     worker threads spin while waiting, and on a machine shared with other jobs that spin
-    took the cores XLA needed (``cdprid diagnose`` 47-59 s instead of 32 s beside two busy
-    processes on 2 cores; no loss on a quiet machine; ``benchmarks/speed.py --only diagnose
-    --load 2``). Set before NumPy is imported, which the parser does not do."""
+    took the cores XLA needed (``cdprid diagnose`` 56-60 s instead of 30-32 s beside two
+    busy processes on 2 cores; on a quiet machine the same wall time and 15 % less CPU;
+    ``benchmarks/speed.py --only diagnose --baseline 47722e3 [--load 2]``). Set before
+    NumPy is imported, which the parser does not do."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     rc = main()
     if rc >= 128:
