@@ -309,7 +309,7 @@ def main(argv=None) -> int:
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    from real_uacdpr_energy import import_uacdpr, residual_by_push
+    from real_uacdpr_energy import import_uacdpr, replace_section, residual_by_push
 
     from cdprid.diagnosis import diagnose
     from cdprid.diagnosis.base import base_fit
@@ -345,14 +345,7 @@ def main(argv=None) -> int:
         ex = extra(prob, start(prob, base), sorted(active), th, x, slow, ds)
     lines = section(found, heldout, rows, n_last, bt, peaks, fl, ex, float(ds.robot.platform.mass),
                     time.time() - t0)
-    out = Path(args.out)
-    text, block = out.read_text() if out.exists() else "", "\n".join(lines)
-    if START in text and END in text:
-        text = text[:text.index(START)] + block + text[text.index(END) + len(END):]
-    else:
-        text = text.rstrip("\n") + "\n\n" + block + "\n"
-    out.write_text(text)
-    print(block)
+    print(replace_section(Path(args.out), lines, START, END))
     return 0
 
 

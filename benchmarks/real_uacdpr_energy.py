@@ -41,6 +41,18 @@ DATA = ROOT.parent / "shared" / "datasets" / "uacdpr-freemotion02"
 START, END = "<!-- energy:start -->", "<!-- energy:end -->"
 
 
+def replace_section(out: Path, lines: list[str], start: str, end: str) -> str:
+    """Replace the block between the ``start`` and ``end`` markers of ``out`` (``lines`` hold
+    both markers), appending it the first time; the rest of the file is kept. The block."""
+    text, block = out.read_text() if out.exists() else "", "\n".join(lines)
+    if start in text and end in text:
+        text = text[:text.index(start)] + block + text[text.index(end) + len(end):]
+    else:
+        text = text.rstrip("\n") + "\n\n" + block + "\n"
+    out.write_text(text)
+    return block
+
+
 def import_uacdpr(folder: Path) -> None:
     """``cdprid import uacdpr`` of the shared FreeMotion02 files (UACDPR_LAB3.mat) into
     ``folder``."""
@@ -214,15 +226,7 @@ def main(argv=None) -> int:
     fig = Path(args.figure)
     figure(t, E, trend, found, fig)
     lines = section(found, args.threshold_w, fig.name, time.time() - t0, split)
-    out = Path(args.out)
-    text = out.read_text() if out.exists() else ""
-    block = "\n".join(lines)
-    if START in text and END in text:
-        text = text[:text.index(START)] + block + text[text.index(END) + len(END):]
-    else:
-        text = text.rstrip("\n") + "\n\n" + block + "\n"
-    out.write_text(text)
-    print(block)
+    print(replace_section(Path(args.out), lines, START, END))
     return 0
 
 
