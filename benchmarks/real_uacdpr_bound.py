@@ -167,7 +167,7 @@ def extra(prob, s0, active, th, x, slow, ds):
     the first), of 1 cable column (each) and the best 2, corr(slow z, slow |v|^2)."""
     from itertools import combinations
 
-    from real_uacdpr_energy import energy, pushes
+    from real_uacdpr_energy import THRESHOLD_W, energy, pushes
 
     from cdprid.diagnosis.problem import design
     from cdprid.signal._baselines import zero_phase_filter
@@ -197,7 +197,7 @@ def extra(prob, s0, active, th, x, slow, ds):
     delays = b[10 + list(act).index(di)] + np.r_[0.0, b[len(b) - prob.m + 1:]]
     te, _, trend, dtr = energy(ds)
     inside = np.zeros(len(t), bool)
-    for a, c, _ in pushes(te, dtr, trend, 0.2):
+    for a, c, _ in pushes(te, dtr, trend, THRESHOLD_W):
         inside |= (t >= a - 1.0) & (t <= c + 1.0)
     S, Wf = slow[u], prob.W_all[u, :3]
     E0 = np.sum(S ** 2)
@@ -339,10 +339,11 @@ def main(argv=None) -> int:
             found.append(f"{f['effect']} " + ", ".join(f"{k} {v:.3g}" if isinstance(v, float)
                                                        else f"{k} {v}" for k, v in
                                                        f["parameters"].items()))
-        rows, th, x, n_last = oracle(prob, start(prob, base), sorted(active))
+        s0 = start(prob, base)
+        rows, th, x, n_last = oracle(prob, s0, sorted(active))
         (bt, peaks, slow), fl = bands(prob, th, x), floor(prob, x)
         print("(d) per-load-cell delay, slow residual ...", flush=True)
-        ex = extra(prob, start(prob, base), sorted(active), th, x, slow, ds)
+        ex = extra(prob, s0, sorted(active), th, x, slow, ds)
     lines = section(found, heldout, rows, n_last, bt, peaks, fl, ex, float(ds.robot.platform.mass),
                     time.time() - t0)
     print(replace_section(Path(args.out), lines, START, END))

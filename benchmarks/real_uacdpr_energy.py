@@ -39,6 +39,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "datasets" / "uacdpr-freemotion02"
 START, END = "<!-- energy:start -->", "<!-- energy:end -->"
+THRESHOLD_W = 0.2  # a push: the energy trend rises faster than this (W)
 
 
 def replace_section(out: Path, lines: list[str], start: str, end: str) -> str:
@@ -201,7 +202,7 @@ def main(argv=None) -> int:
     ap.add_argument("--dataset", default=None)
     ap.add_argument("--out", default=str(ROOT / "results" / "real-uacdpr.md"))
     ap.add_argument("--figure", default=str(ROOT / "results" / "real_uacdpr_energy.png"))
-    ap.add_argument("--threshold-w", type=float, default=0.2)
+    ap.add_argument("--threshold-w", type=float, default=THRESHOLD_W)
     args = ap.parse_args(argv)
     import jax
 

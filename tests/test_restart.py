@@ -83,6 +83,7 @@ def test_anchor_and_gain_on_aliasing_cables_named_on_the_right_cables():
     assert lo <= 0.96 <= hi
     d = np.asarray(got[("anchor_point_error", 8)]["parameters"]["displacement_m"])
     assert np.linalg.norm(d - truth[0][1]["displacement_m"]) < 0.01
+    assert "from the best pair" in proc.stderr  # the progress says where the search restarted
     assert res["info"]["second_start"]["kept"] == "best pair"
     # the greedy path's model is reported as a competing model with both of its effects
     assert any(" + " in c["by"] and len(c["parameters"]) == 2
