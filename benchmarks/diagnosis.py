@@ -146,12 +146,12 @@ def in_interval(effect: str, truth: dict, finding: dict) -> bool:
 
 def make_robot(name: str):
     """``four`` / ``six`` / ``craft8`` / ``eight``: the sample robots of :mod:`cdprid.model._robots`."""
-    from cdprid.model import robot_from_dict
-    from cdprid.model._robots import (
+    from cdprid.model import (
         EIGHT_REDUNDANT,
         FOUR_SUSPENDED,
         SIX_SUSPENDED,
         craft_like_robot,
+        robot_from_dict,
     )
 
     if name == "craft8":

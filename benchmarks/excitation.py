@@ -49,7 +49,7 @@ from cdprid.model import (  # noqa: E402
     SMALL_EIGHT,
     robot_from_dict,  # noqa: E402
 )
-from cdprid.report.excitation import plot_safety_series  # noqa: E402
+from cdprid.report import plot_safety_series  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -83,7 +83,7 @@ def main() -> int:
     ap.add_argument("--quick", action="store_true", help="a 10-minute recording")
     args = ap.parse_args()
     minutes = 10.0 if args.quick else args.minutes
-    from cdprid.io.rosbag import write_rosbag
+    from cdprid.io import write_rosbag
 
     ds, sample = _long_dataset(minutes)
     rows = []

@@ -29,8 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _build(base: Path, minutes: int, work: Path) -> Path:
-    from cdprid.io.dataset import read_dataset
-    from cdprid.io.writer import write_dataset
+    from cdprid.io import read_dataset, write_dataset
 
     out = work / f"rec-{minutes}min"
     if out.exists():

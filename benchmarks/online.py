@@ -41,16 +41,21 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from cdprid.identify._online import online_identify  # noqa: E402
-from cdprid.identify._online_step import OnlineStepper, _online_scan, online_init, online_step  # noqa: E402
-from cdprid.identify._online_types import OnlineSample  # noqa: E402
+from cdprid.identify import (  # noqa: E402
+    OnlineSample,
+    OnlineStepper,
+    _online_scan,
+    online_identify,
+    online_init,
+    online_step,
+)
 from cdprid.model import (  # noqa: E402
     InertialParameters,  # noqa: E402
     craft_like_robot,
     craft_like_truth,
     preset,  # noqa: E402
 )
-from cdprid.report.online import plot_online  # noqa: E402
+from cdprid.report import plot_online  # noqa: E402
 from cdprid.simulation import simulate  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

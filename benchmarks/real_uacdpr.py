@@ -30,7 +30,7 @@ from cdprid.identify import (  # noqa: E402
     prepare_real,
     weight_at_rest,
 )
-from cdprid.report.real import fig_nuisance, fig_residuals, fig_tensions, fig_wrench  # noqa: E402
+from cdprid.report import fig_nuisance, fig_residuals, fig_tensions, fig_wrench  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("CDPRID_SHARED", ROOT.parent / "shared"))
@@ -60,7 +60,7 @@ def _inertia_G(r) -> np.ndarray:
 def interpolation_study(true_delay: float = 0.0237, seeds: int = 3) -> list[str]:
     """Delay recovered on simulated data with a known delay: linear vs Catmull-Rom
     interpolation of the tension stream, raw vs smoothed (cdprid.core._nuisance.SMOOTH_HZ)."""
-    from cdprid.core._nuisance import SMOOTH_HZ
+    from cdprid.core import SMOOTH_HZ
     from cdprid.model import craft_like_robot, preset
     from cdprid.simulation import simulate, write_simulation
 

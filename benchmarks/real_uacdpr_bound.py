@@ -1,15 +1,15 @@
 """How low can the taut force residual go at all on the UACDPR recording (issue 23, goal 5 N)?
 
 All on the samples, 4 Hz matched filter, row weights and force residual (N rms, force rows:
-:func:`cdprid.diagnosis.problem.force_heldout_rms`) of ``diagnose``'s held-out figure.
+:func:`cdprid.diagnosis._problem.force_heldout_rms`) of ``diagnose``'s held-out figure.
 (a) In-sample oracles on t >= 25 s, t >= 30 s and all 37 s: the diagnosis' final model fitted
 on the scored window itself, then with an offset and a gain on every cable (mass held at the
 final model's), every exit/attachment point (0.25 m prior) and every other theta block
-(Levenberg-Marquardt on :func:`cdprid.diagnosis.problem.design`); beside them ``diagnose
+(Levenberg-Marquardt on :func:`cdprid.diagnosis._problem.design`); beside them ``diagnose
 --train-until`` held out (:func:`real_uacdpr_energy.residual_by_push`). (b) The final model's
 in-sample residual on all 37 s by band, axis and cable. (c) The noise floor: sensor noise
 (white levels, and all 10-50 Hz content as flat noise) through the same differentiator and
-filter (:func:`cdprid.diagnosis.base.null_residuals`, plus orientation noise). (d) A delay on
+filter (:func:`cdprid.diagnosis._base.null_residuals`, plus orientation noise). (d) A delay on
 every load cell added to the final model (in-sample, and held out from t < 25 s), and the
 slow (< 0.2 Hz) part of its residual: inside/outside the pushes, along fixed base directions
 against cable columns, against the slow |v|^2. Replaces the section between
@@ -49,7 +49,7 @@ NAMES = ("final model", "+ offset and gain on every cable", "+ every exit and at
 def lm_fit(prob, s0, win, active, M=None, prior=(), sigma=0.25, iters=60):
     """Levenberg-Marquardt fit of (x, theta[active]) on the samples ``win`` (mass held at
     ``M`` when given; theta[prior] ~ N(0, sigma)): (force rms N, theta, x)."""
-    from cdprid.diagnosis.problem import design, force_heldout_rms
+    from cdprid.diagnosis import design, force_heldout_rms
 
     act, w, p = np.asarray(active, int), prob.wrow, dataclasses.replace(prob, train=win, test=win)
     pri = np.isin(act, prior) / sigma
@@ -115,8 +115,8 @@ def bands(prob, th, x):
     cancel it (per cable); and the position spectrum's peaks in x and y (Hz)."""
     from scipy.signal import welch
 
-    from cdprid.diagnosis.problem import design
-    from cdprid.signal._baselines import zero_phase_filter
+    from cdprid.diagnosis import design
+    from cdprid.signal import zero_phase_filter
 
     y, A, _ = design(prob, th, x, True)
     u, out = prob.use, []
@@ -137,9 +137,8 @@ def floor(prob, x, n_rep=20):
     N/sqrt(Hz))], for the diagnosis' white levels and all 10-50 Hz content as flat noise."""
     from scipy.signal import welch
 
-    from cdprid.diagnosis.base import noise_levels, null_residuals
-    from cdprid.diagnosis.model import rotvec_from_quat
-    from cdprid.signal._differentiators import differentiate
+    from cdprid.diagnosis import noise_levels, null_residuals, rotvec_from_quat
+    from cdprid.signal import differentiate
 
     def level(z, dt, lo):  # white std at rate 1/dt with the mean PSD of z over [lo, 50] Hz
         f, P = welch(z - z.mean(0), fs=1 / dt, nperseg=512 if dt > 5e-3 else 4096, axis=0)
@@ -169,8 +168,8 @@ def extra(prob, s0, active, th, x, slow, ds):
 
     from real_uacdpr_energy import THRESHOLD_W, energy, pushes
 
-    from cdprid.diagnosis.problem import design
-    from cdprid.signal._baselines import zero_phase_filter
+    from cdprid.diagnosis import design
+    from cdprid.signal import zero_phase_filter
 
     L, w, u, t, act = prob.layout, prob.wrow, prob.use, prob.t, np.asarray(active)
     di, gi = L.candidate_indices("time_delay")[0], np.r_[L.slices["gain"]]
@@ -311,10 +310,7 @@ def main(argv=None) -> int:
     jax.config.update("jax_enable_x64", True)
     from real_uacdpr_energy import import_uacdpr, replace_section, residual_by_push
 
-    from cdprid.diagnosis import diagnose
-    from cdprid.diagnosis.base import base_fit
-    from cdprid.diagnosis.problem import prepare
-    from cdprid.diagnosis.selection import start
+    from cdprid.diagnosis import base_fit, diagnose, prepare, start
     from cdprid.io import read_dataset
 
     t0 = time.time()

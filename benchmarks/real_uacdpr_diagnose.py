@@ -27,7 +27,7 @@ from pathlib import Path
 
 import tomllib
 
-from cdprid.report.diagnosis import format_values as _fmt
+from cdprid.report import format_values as _fmt
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "datasets" / "uacdpr-freemotion02"

@@ -203,7 +203,7 @@ def _startup(d: Path, baseline: str | None = None) -> list[str]:
     for n, v in imp:
         print(f"import time of {n:10s} {v:6.2f} s", flush=True)
     lines += ["", "Import time on identify's path (`python -X importtime -c \"import "
-              "cdprid.cli._main, cdprid.identify._batch, cdprid.io.dataset\"`, cumulative time of "
+              "cdprid.cli._main, cdprid.identify._batch, cdprid.io._dataset\"`, cumulative time of "
               "each top-level package the first time it is imported, least of 3; scipy 0 means "
               "it is not imported):", "",
               "| package | import time [s] |", "|---|---:|"]
@@ -220,7 +220,7 @@ def _importtime(env: dict) -> list[tuple[str, float]]:
     pipeline, the dataset reader); a package's entries count unless nested in one of its own
     (jax imported inside cdprid counts for jax and inside cdprid's time too).
     """
-    code = "import cdprid.cli._main, cdprid.identify._batch, cdprid.io.dataset"
+    code = "import cdprid.cli._main, cdprid.identify._batch, cdprid.io._dataset"
     best = None
     for _ in range(3):
         p = subprocess.run([sys.executable, "-X", "importtime", "-c", code], cwd=ROOT,

@@ -1,7 +1,7 @@
 """Replication of the seed paper's section 7 (Table 1, Figs. 3-4) and of its mzG gap.
 
 Everything here goes through the public data path (:func:`cdprid.identify_dataset`,
-:func:`cdprid.differentiate`, :func:`cdprid.io.align`, :func:`cdprid.core.estimate_motion`,
+:func:`cdprid.differentiate`, :func:`cdprid.io._align`, :func:`cdprid.core.estimate_motion`,
 :func:`cdprid.core.build_regression`, :func:`cdprid.least_squares`) and is shared by
 ``benchmarks/paper_replication.py`` and ``notebooks/02_paper_replication.ipynb``.
 
@@ -42,13 +42,15 @@ import numpy as np
 from scipy import signal as _signal
 from scipy.special import gamma as _gamma
 
-from cdprid.core import hac_covariance, std_from_cov
-from cdprid.core import least_squares
-from cdprid.core import estimate_motion
-from cdprid.core import build_regression
+from cdprid.core import (
+    build_regression,
+    estimate_motion,
+    hac_covariance,
+    least_squares,
+    std_from_cov,
+)
 from cdprid.identify import DEFAULT_TRIM_S, identify_dataset
-from cdprid.io.dataset import Dataset
-from cdprid.io.align import align
+from cdprid.io import Dataset, align
 from cdprid.model import PARAMETER_NAMES
 from cdprid.signal import METHODS, differentiate
 

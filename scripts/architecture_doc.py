@@ -31,8 +31,8 @@ def tree_markdown() -> str:
         pkg = SRC / layer
         lines.append(f"{i + 1:>2}. {layer}/")
         for mod in sorted(pkg.glob("*.py")):
-            if mod.name in ("__init__.py", "__main__.py"):
-                continue
+            if mod.name in ("__init__.py", "__main__.py") or "cdprid._moved" in mod.read_text():
+                continue  # the face, or an old import path kept for one release (cdprid._moved)
             lines.append(f"      {mod.name:<20} {_summary(mod)[:96]}")
     lines += ["```", "", END]
     return "\n".join(lines)

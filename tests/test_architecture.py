@@ -28,6 +28,8 @@ ALLOWED_LONG_MODULES: dict[str, str] = {
 }
 # "importer -> imported:name"
 ALLOWED_PRIVATE_IMPORTS: dict[str, str] = {
+    "cdprid.identify -> cdprid.identify._online_step:_online_scan":
+        "benchmarks/online.py times the scan alone: the face exports the private step for it",
 }
 # "importer -> imported" for modules below the CLI layer that import a cli* module
 ALLOWED_CLI_IMPORTS: dict[str, str] = {
@@ -58,10 +60,16 @@ def _module_name(path: Path) -> str:
     return ".".join(parts)
 
 
+def _is_moved_stub(path: Path) -> bool:
+    """An old import path kept for one release (``cdprid._moved``): warns and forwards."""
+    return "from cdprid._moved import moved" in path.read_text()
+
+
 def _modules() -> dict[str, tuple[Path, ast.Module]]:
     out = {}
     for p in sorted(SRC.rglob("*.py")):
-        out[_module_name(p)] = (p, ast.parse(p.read_text(), filename=str(p)))
+        if not _is_moved_stub(p):
+            out[_module_name(p)] = (p, ast.parse(p.read_text(), filename=str(p)))
     return out
 
 
@@ -151,7 +159,7 @@ def _check(found: dict[str, str], allowed: dict, what: str) -> None:
 def test_import_graph_is_built_from_the_tree():
     g = _graph()
     # a known edge of the core path: the check would pass vacuously without it
-    assert "cdprid.model._geometry" in g["cdprid.core._regression"]
+    assert "cdprid.model" in g["cdprid.core._regression"]
     assert len(g) > 20
 
 
@@ -199,7 +207,7 @@ def test_nothing_below_report_imports_report():
 # the architecture: ``ls src/cdprid`` shows these subpackages (docs/architecture.md).
 LAYERS = [("base",), ("model",), ("io",), ("signal",), ("core",), ("effects",), ("simulation",),
           ("identify", "diagnosis", "excitation", "tuning"), ("report",), ("cli",)]
-OUTSIDE_LAYERS = {"cdprid", "cdprid.__main__", "cdprid.data"}
+OUTSIDE_LAYERS = {"cdprid", "cdprid.__main__", "cdprid.data", "cdprid._moved"}
 
 
 def _layer(mod: str) -> tuple[int, str]:

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cdprid.diagnosis.competing import DM_LEVEL, dm_p_worse
-from cdprid.diagnosis.problem import heldout_residuals, heldout_rms
+from cdprid.diagnosis._competing import DM_LEVEL, dm_p_worse
+from cdprid.diagnosis._problem import heldout_residuals, heldout_rms
 
 
 @pytest.mark.parametrize("split", [False, True])
@@ -72,7 +72,7 @@ def test_the_hidden_gain_is_a_competing_model_when_a_tilt_is_named(monkeypatch):
         ds = read_dataset(write_simulation(sim, Path(tmp) / "four-gain"))
         res = diagnose(ds)
         # the stage leaves the final model as it is: the same result without it
-        import cdprid.diagnosis.pipeline as P
+        import cdprid.diagnosis._pipeline as P
 
         monkeypatch.setattr(P, "competing_models", lambda *a, **k: ([], 0))
         res0 = diagnose(ds)

@@ -31,7 +31,7 @@ def test_bspline_basis_matches_scipy():
 
 def _trajectory(robot, n=400, rot=True):
     """A smooth motion of the platform around the middle of the workspace (no simulator)."""
-    from cdprid.model._rotations import quat_to_matrix, rotvec_to_quat
+    from cdprid.model import quat_to_matrix, rotvec_to_quat
 
     t = np.arange(n) * 0.01
     w = 2 * np.pi * np.array([0.7, 0.9, 1.1])
@@ -48,8 +48,7 @@ def _trajectory(robot, n=400, rot=True):
 
 def _gls_bound(robot, model, theta, p, R, a, om, al, tension, s):
     """(sum_k Y^T (W S W^T)^+ Y)^-1 in numpy: the bound when the motion is known."""
-    from cdprid.model._dynamics import regressor_full, regressor_translation
-    from cdprid.model._geometry import wrench_matrix
+    from cdprid.model import regressor_full, regressor_translation, wrench_matrix
 
     info = 0.0
     for k in range(len(p)):

@@ -11,11 +11,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid.diagnosis import model as M
-from cdprid.diagnosis import selection as S
-from cdprid.diagnosis import testing as T
-from cdprid.diagnosis import unexplained as U
-from cdprid.diagnosis.candidates import Candidate
+from cdprid.diagnosis import _model as M
+from cdprid.diagnosis import _selection as S
+from cdprid.diagnosis import _testing as T
+from cdprid.diagnosis import _unexplained as U
+from cdprid.diagnosis._candidates import Candidate
 from cdprid.signal import make_zero_phase_filter, zero_phase_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
@@ -91,7 +91,7 @@ def test_flipped_pulley_is_a_pulley_with_the_opposite_arrival():
     """theta's pulley_flip radius r == a plant whose pulleys have axis -k and radius r."""
     import equinox as eqx
 
-    from cdprid.diagnosis.candidates import candidate_list
+    from cdprid.diagnosis._candidates import candidate_list
     from cdprid.model import robot_from_dict
     from conftest import SAMPLE_ROBOTS
 
@@ -176,7 +176,7 @@ def test_non_redundant_six_cable_robot_names_a_gain_not_a_geometry_error(tmp_pat
 
 
 def test_cli_json_contract(tmp_path):
-    from cdprid.cli._main import main
+    from cdprid.cli import main
 
     sim = tmp_path / "sim"
     assert main(["simulate", "--preset", "rich", "--out", str(sim), "--seed", "5",
@@ -291,9 +291,9 @@ def test_backward_step_drops_a_redundant_pick_and_keeps_a_needed_one():
 
 def test_sample_budget_subset_keeps_real_samples_and_says_so(tmp_path):
     """Above the budget: evenly spaced real blocks, joins excluded, a note; findings still come."""
-    from cdprid.cli._main import main
+    from cdprid.cli import main
     from cdprid.diagnosis import diagnose
-    from cdprid.diagnosis.budget import subset
+    from cdprid.diagnosis._budget import subset
     from cdprid.io import read_dataset
 
     sim = tmp_path / "sim"
@@ -364,8 +364,8 @@ def test_refit_hands_back_the_linearisation_at_its_result(tmp_path):
     """The converged refit's seeded linearisation == a fresh one at the refitted theta."""
     import dataclasses
 
-    from cdprid.diagnosis.base import base_fit
-    from cdprid.diagnosis.problem import design, prepare
+    from cdprid.diagnosis._base import base_fit
+    from cdprid.diagnosis._problem import design, prepare
     from cdprid.model import SIX_SUSPENDED
 
     ds = _short_dataset(tmp_path, SIX_SUSPENDED, [("tension_gain", {"cable": 2, "gain": 1.06}),
@@ -391,9 +391,9 @@ def test_refit_hands_back_the_linearisation_at_its_result(tmp_path):
 @pytest.mark.slow
 def test_point_mass_four_cable_robot_gets_finite_row_weights_and_its_mass(tmp_path):
     """4 cables meeting at one point: nil moment rows must not get an infinite weight."""
-    from cdprid.diagnosis.base import base_fit
-    from cdprid.diagnosis.problem import prepare
-    from cdprid.model._robots import FOUR_SUSPENDED
+    from cdprid.diagnosis._base import base_fit
+    from cdprid.diagnosis._problem import prepare
+    from cdprid.model import FOUR_SUSPENDED
 
     ds = _short_dataset(tmp_path, FOUR_SUSPENDED, [], noise=(1e-6, 1e-3))
     prob, base = base_fit(prepare(ds))

@@ -77,8 +77,7 @@ def test_diagnosis_candidates_and_layout_name_no_effect():
 
 
 def test_diagnosis_forms_are_complete_and_laid_out_once():
-    from cdprid.diagnosis.candidates import CANDIDATE_EFFECTS, candidate_list
-    from cdprid.diagnosis.model import ThetaLayout
+    from cdprid.diagnosis import CANDIDATE_EFFECTS, ThetaLayout, candidate_list
     from cdprid.effects import DIAGNOSIS
 
     # every vocabulary effect but none and cable_elasticity (lengths stream) is a candidate

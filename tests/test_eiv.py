@@ -58,9 +58,9 @@ def test_eiv_recovers_the_truth_on_noise_free_rotating_data(tmp_path):
 def test_whitened_residuals_have_unit_variance(tmp_path):
     """The residual covariance the weighting assumes is the one the data show: whitened
     residuals of a noisy recording have variance ~1 per row (checked against the truth)."""
-    from cdprid.core._motion import estimate_motion
+    from cdprid.core import estimate_motion
     from cdprid.identify._batch import _streamed_regression, _wrench_filter, noise_levels
-    from cdprid.io.align import align
+    from cdprid.io import align
 
     robot = robot_from_dict(EIGHT_REDUNDANT)
     ds = _dataset(tmp_path, robot, SMALL, SensorNoise(position_m=3e-4, tension_N=0.5,
@@ -140,7 +140,7 @@ def test_residual_jacobians_match_finite_differences():
     regressors (position, acceleration, rotation vector, angular rate, angular acceleration)."""
     import jax.numpy as jnp
 
-    from cdprid.core._crb import sample_jacobians
+    from cdprid.core import sample_jacobians
 
     robot = craft_like_robot()
     rng = np.random.default_rng(0)
@@ -175,7 +175,7 @@ def test_bias_correction_trace_against_finite_differences():
     trace must give it (this also checks that H and G order the 15 inputs alike)."""
     import jax.numpy as jnp
 
-    from cdprid.core._crb import regressor_jacobians, sample_jacobians
+    from cdprid.core import regressor_jacobians, sample_jacobians
 
     robot = robot_from_dict(EIGHT_REDUNDANT, source="eight")
     rng = np.random.default_rng(3)

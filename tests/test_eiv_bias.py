@@ -10,8 +10,7 @@ import pytest
 from cdprid.identify import identify_dataset
 from cdprid.io import read_dataset
 from cdprid.model import EIGHT_REDUNDANT, InertialParameters, preset, robot_from_dict
-from cdprid.signal import acceleration_filter, differentiate
-from cdprid.signal._baselines import zero_phase_filter
+from cdprid.signal import acceleration_filter, differentiate, zero_phase_filter
 from cdprid.simulation import SensorNoise, simulate, write_simulation
 
 SMALL = InertialParameters(4.5, np.array([0.01, -0.005, -0.04]), np.diag([0.03, 0.035, 0.05]))

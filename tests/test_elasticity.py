@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdprid.diagnosis import lengths as LG
+from cdprid.diagnosis import _lengths as LG
 from cdprid.effects import Effect
 from cdprid.io import read_dataset
 from cdprid.model import CRAFT_LIKE, SIX_SUSPENDED, craft_like_truth, preset, robot_from_dict
@@ -27,7 +27,7 @@ def test_fit_cable_recovers_stiffness_and_offset_exactly(rng):
 
 
 def _stage(robot_dict, effects, tmp_path, noise=None, seed=0, lengths=True):
-    from cdprid.diagnosis.problem import prepare
+    from cdprid.diagnosis._problem import prepare
 
     robot = robot_from_dict(robot_dict)
     sim = simulate(robot, preset("rich", robot, duration=30.0), craft_like_truth(),
@@ -82,7 +82,7 @@ def test_malformed_stream_is_a_note_not_a_test(tmp_path):
 def test_diagnose_names_cable_elasticity_and_nothing_else(tmp_path):
     import json
 
-    from cdprid.cli._main import main
+    from cdprid.cli import main
 
     sim = tmp_path / "sim"
     assert main(["simulate", "--preset", "rich", "--duration", "36", "--out", str(sim),

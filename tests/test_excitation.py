@@ -155,11 +155,9 @@ def test_certificate_agrees_with_linprog(craft):
 
 
 def _main(argv):
-    import cdprid.cli._main as cli
+    from cdprid.cli import main
 
-    if ("cdprid.cli._excite", "add_parser") not in cli._OPTIONAL_COMMANDS:
-        cli._OPTIONAL_COMMANDS = cli._OPTIONAL_COMMANDS + (("cdprid.cli._excite", "add_parser"),)
-    return cli.main(argv)
+    return main(argv)
 
 
 def test_cli_broken_robot_exit_2(tmp_path, capsys):

@@ -130,7 +130,7 @@ def test_corners_hold_every_platform_of_the_box(rng):
 
 
 def test_cli_gentle_writes_the_certified_initial_design(tmp_path, capsys):
-    import cdprid.cli._main as cli
+    import cdprid.cli as cli
 
     (tmp_path / "robot.toml").write_text(_toml(EIGHT))
     argv = ["excite", str(tmp_path / "robot.toml"), "--duration", "8", "--no-dataset"]
@@ -185,7 +185,7 @@ def test_home_moves_start_and_end_at_rest_with_continuous_jerk():
 
 
 def test_refuses_without_platform_and_states_defaults(tmp_path, capsys):
-    import cdprid.cli._main as cli
+    import cdprid.cli as cli
 
     d = copy.deepcopy(FOUR)
     del d["platform"]
@@ -318,7 +318,7 @@ def _recheck(robot_dict, csv_path, corners_stride=1, sample_stride=10):
 def test_designs_pass_an_independent_recheck(tmp_path, robot, family):
     import tomllib  # noqa: F401
 
-    import cdprid.cli._main as cli
+    import cdprid.cli as cli
 
     text = _toml(robot)
     (tmp_path / "robot.toml").write_text(text)

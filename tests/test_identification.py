@@ -10,8 +10,7 @@ import scipy.linalg
 
 from cdprid.core import condition_number, least_squares
 from cdprid.identify import identify_dataset
-from cdprid.io.dataset import read_dataset
-from cdprid.io.writer import write_dataset
+from cdprid.io import read_dataset, write_dataset
 from cdprid.model import (
     InertialParameters,
     platform_wrench,
@@ -246,7 +245,7 @@ def test_streamed_identify_equals_the_materialised_regression(rotating_ds, metho
     import dataclasses
 
     from cdprid.core import build_regression, estimate_motion, regressors
-    from cdprid.io.align import align
+    from cdprid.io import align
     from cdprid.signal import acceleration_filter
 
     ds, _ = rotating_ds
@@ -261,7 +260,7 @@ def test_streamed_identify_equals_the_materialised_regression(rotating_ds, metho
     keep = (motion.t >= motion.t[0] + 1.0) & (motion.t <= motion.t[-1] - 1.0)
     mb = 1.0
     if method == "euler-filtfilt":  # the zero-phase rotation-consistent regression, one block
-        from cdprid.identify._linear_match import reference_rates
+        from cdprid.identify import reference_rates
 
         reg = build_regression(ds.robot, motion, sig.tension, "full", wf)
         n = len(motion.t)
@@ -282,7 +281,7 @@ def test_streamed_identify_equals_the_materialised_regression(rotating_ds, metho
             rot.shape)
         y = reg.y
     else:  # a causal method: the rotation-consistent linear match, built in one block
-        from cdprid.identify._linear_match import fit_linear_match, matched_regression, settled
+        from cdprid.identify import fit_linear_match, matched_regression, settled
 
         lm = fit_linear_match(motion, keep, 1.0)
         reg = matched_regression(ds.robot, motion, sig.quaternion, sig.tension, "full", keep, lm,
@@ -366,7 +365,7 @@ def test_physical_checks_and_constrained_fit(rng):
 
 
 def test_cli_identify_refuses_to_overwrite(tmp_path, rotating_ds, capsys):
-    from cdprid.cli._main import main
+    from cdprid.cli import main
 
     ds, _ = rotating_ds
     out = tmp_path / "r.json"

@@ -7,7 +7,7 @@ import pytest
 
 from cdprid.base import UserError
 from cdprid.cli import main
-from cdprid.io.table import parse_mapping, write_imported
+from cdprid.io._table import parse_mapping, write_imported
 from cdprid.model import CRAFT_LIKE, robot_from_dict
 from conftest import ROBOT_CRAFT
 

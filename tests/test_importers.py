@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from cdprid import identify_dataset, read_dataset
-from cdprid.cli._main import main
+from cdprid.cli import main
 
 MODEL = "full"
 
@@ -105,7 +105,7 @@ def test_table_round_trip_mm_deg_ms_offset(native, sample_dataset, tmp_path):
 
 
 def test_table_semicolon_decimal_comma(tmp_path):
-    from cdprid.io.table import read_table
+    from cdprid.io._table import read_table
 
     f = tmp_path / "t.csv"
     f.write_text('"t";"tau 1"\n0,5;12,25\n1;13\n')
@@ -163,7 +163,7 @@ def test_table_bad_input_one_sentence_exit_2(sample_dataset, tmp_path, capsys, c
 ])
 def test_rosbag_round_trip(native, sample_dataset, tmp_path, capsys, kind, pose_type,
                            tension_type, ext):
-    from cdprid.io.rosbag import write_rosbag
+    from cdprid.io._rosbag import write_rosbag
 
     bag = write_rosbag(native[0], tmp_path / f"bag{ext}", kind=kind, pose_type=pose_type,
                        tension_type=tension_type)
@@ -188,7 +188,7 @@ def test_rosbag_round_trip(native, sample_dataset, tmp_path, capsys, kind, pose_
 
 
 def test_rosbag_bad_input(native, sample_dataset, tmp_path, capsys):
-    from cdprid.io.rosbag import write_rosbag
+    from cdprid.io._rosbag import write_rosbag
 
     bag = write_rosbag(native[0], tmp_path / "b", kind="ros2-mcap",
                        pose_type="tf2_msgs/msg/TFMessage")
@@ -311,7 +311,7 @@ def test_c3d_estimated_layout_and_bad_input(native, sample_dataset, tmp_path, ca
 
 @pytest.mark.parametrize("kind", ["ros1", "ros2-sqlite"])
 def test_rosbag_fast_decoder_matches_rosbags_deserialiser(native, tmp_path, kind):
-    from cdprid.io.rosbag import fast_decode, open_bag, pose_values, write_rosbag
+    from cdprid.io._rosbag import fast_decode, open_bag, pose_values, write_rosbag
 
     ds = native[0]
     bag = write_rosbag(ds, tmp_path / ("b.bag" if kind == "ros1" else "b"), kind=kind)
@@ -336,7 +336,7 @@ def test_rosbag_fast_decoder_matches_rosbags_deserialiser(native, tmp_path, kind
 def test_rosbag_joints_reorder_and_extrinsic_euler_table(native, sample_dataset, tmp_path):
     from scipy.spatial.transform import Rotation
 
-    from cdprid.io.rosbag import write_rosbag
+    from cdprid.io._rosbag import write_rosbag
 
     ds = native[0]
     bag = write_rosbag(ds, tmp_path / "b", kind="ros2-mcap")

@@ -12,10 +12,8 @@ import numpy as np
 import pytest
 import tomllib
 
-from cdprid.cli._main import main
-from cdprid.io.align import align, sampling_report
-from cdprid.io.dataset import DatasetError, read_dataset
-from cdprid.io.writer import write_dataset
+from cdprid.cli import main
+from cdprid.io import DatasetError, align, read_dataset, sampling_report, write_dataset
 from cdprid.model import robot_from_dict
 from conftest import ROBOT_CRAFT
 

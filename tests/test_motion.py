@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from cdprid.core import BLOCK, angular_rates, estimate_motion, rotation_matrices
-from cdprid.io.align import AlignedSignals
+from cdprid.io import AlignedSignals
 from cdprid.model import angular_rates_from_quat, quat_to_matrix
 from cdprid.signal import differentiate
 

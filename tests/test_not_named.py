@@ -30,7 +30,7 @@ def test_clean_data_report_friction_and_delay_sizes_that_cover_zero(tmp_path):
     assert lo < 0 < hi and hi - lo < 0.002
     assert all(np.isfinite(u["p_value"]) for u in items.values())
     # the report's section: every number with 3 significant digits
-    from cdprid.report.diagnosis import format_values, not_named_lines
+    from cdprid.report import format_values, not_named_lines
 
     text = "\n".join(not_named_lines(res))
     assert "## Checked and not named" in text and "pulley_friction" in text

@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 from cdprid.base import UserError
-from cdprid.cli._main import main
-from cdprid.cli._online import run_online_cli
+from cdprid.cli import main, run_online_cli
 from cdprid.core import estimate_motion, least_squares
 from cdprid.identify import (
     OnlineSample,
@@ -154,7 +153,7 @@ def test_full_model_angular_rates_match_batch_motion(robot):
     sig = {"t": sim.pose_t, "position": sim.position, "quaternion": sim.quaternion,
            "tension": sim.tension}
     res = online_identify(sig, robot, model="full")
-    from cdprid.io.align import AlignedSignals
+    from cdprid.io import AlignedSignals
 
     al = AlignedSignals(sim.pose_t, 0.01, sim.position, sim.quaternion, sim.tension, True, False)
     mot = estimate_motion(al, "sihd2-cascade", angular=True)

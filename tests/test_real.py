@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from cdprid.identify import jax_zero_phase_filter
-from cdprid.io.dataset import read_dataset
+from cdprid.io import read_dataset
 from cdprid.signal import zero_phase_filter
 from conftest import shared_dataset
 

@@ -7,8 +7,8 @@ import pytest
 from scipy.optimize import least_squares
 
 from cdprid.base import Status
-from cdprid.diagnosis import refit as refit_module
-from cdprid.diagnosis.refit import refit_gauss_newton
+from cdprid.diagnosis import _refit as refit_module
+from cdprid.diagnosis._refit import refit_gauss_newton
 
 
 def _problem(seed: int = 0):

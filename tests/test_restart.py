@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cdprid.diagnosis.problem import heldout_rms, subset_heldout_rms
-from cdprid.diagnosis.restart import keeps_first
+from cdprid.diagnosis._problem import heldout_rms, subset_heldout_rms
+from cdprid.diagnosis._restart import keeps_first
 
 
 @pytest.mark.parametrize("split", [False, True])
@@ -59,8 +59,7 @@ def test_anchor_and_gain_on_aliasing_cables_named_on_the_right_cables():
     import sys
 
     from cdprid.effects import Effect
-    from cdprid.model import craft_like_truth, preset
-    from cdprid.model._robots import craft_like_robot
+    from cdprid.model import craft_like_robot, craft_like_truth, preset
     from cdprid.simulation import SensorNoise, simulate, write_simulation
 
     robot = craft_like_robot()
@@ -91,7 +90,7 @@ def test_anchor_and_gain_on_aliasing_cables_named_on_the_right_cables():
 
 
 def test_a_competing_model_with_several_effects_prints_each_effects_parameters():
-    from cdprid.report.diagnosis import format_values
+    from cdprid.report import format_values
 
     params = {"tension_gain:cable=5": {"cable": 5, "gain": 1.0305},
               "anchor_point_error:cable=7": {"cable": 7, "displacement_m": [0.009, -0.007]}}

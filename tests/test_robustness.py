@@ -19,13 +19,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import cdprid.io.writer as dsmod
 from cdprid.base import OutputError, UserError, atomic_dir, atomic_file, check_output
 from cdprid.cli._main import _is_user_error, main
 from cdprid.core import estimate_motion, segment_mask
-from cdprid.io.align import align
-from cdprid.io.dataset import DatasetError, read_csv_stream, read_dataset
-from cdprid.io.writer import write_dataset
+from cdprid.io import DatasetError, align, read_csv_stream, read_dataset, write_dataset
 from cdprid.model import robot_from_dict
 from conftest import ROBOT_CRAFT
 
@@ -181,25 +178,6 @@ def test_read_only_folder_is_a_user_error(tmp_path):
             check_output(ro / "x.json", flag="--json")
     finally:
         ro.chmod(0o700)
-
-
-def test_write_dataset_is_whole_or_absent(tmp_path, monkeypatch):
-    calls = {"n": 0}
-    real = dsmod._write_csv
-
-    def interrupted(path, cols, vals):
-        calls["n"] += 1
-        if Path(path).name == "tensions.csv":
-            with open(path, "w") as fh:
-                fh.write("t,tau_1\n0,1\n")  # half a file, then Ctrl-C
-            raise KeyboardInterrupt
-        real(path, cols, vals)
-
-    monkeypatch.setattr(dsmod, "_write_csv", interrupted)
-    with pytest.raises(KeyboardInterrupt):
-        _write(tmp_path / "ds", np.arange(0, 2, 0.01))
-    assert calls["n"] == 2 and not (tmp_path / "ds").exists()
-    assert list(tmp_path.iterdir()) == []  # no temporary folder left either
 
 
 def test_write_dataset_refuses_then_replaces_with_force(tmp_path):

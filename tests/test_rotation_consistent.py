@@ -14,7 +14,7 @@ import pytest
 from cdprid.core import Motion
 from cdprid.identify import identify_dataset
 from cdprid.identify._linear_match import _second, fit_linear_match, reference_rates
-from cdprid.io.dataset import read_dataset
+from cdprid.io import read_dataset
 from cdprid.model import SIX_SUSPENDED, craft_like_robot, craft_like_truth, preset, robot_from_dict
 from cdprid.signal import acceleration_filter, differentiate
 from cdprid.simulation import SensorNoise, simulate, write_simulation

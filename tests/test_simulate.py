@@ -9,7 +9,7 @@ import pytest  # noqa: E402
 import tomli_w  # noqa: E402
 
 from cdprid.effects import Effect, effect_parameters_table  # noqa: E402
-from cdprid.io.dataset import read_dataset  # noqa: E402
+from cdprid.io import read_dataset  # noqa: E402
 from cdprid.model import (  # noqa: E402  # noqa: E402  # noqa: E402  # noqa: E402
     CRAFT_LIKE,
     InertialParameters,
@@ -288,7 +288,7 @@ def test_paper_orbits_identify_exactly(robot):
 
 
 def test_cli_simulate(tmp_path, capsys):
-    from cdprid.cli._main import main
+    from cdprid.cli import main
 
     out = tmp_path / "sim"
     args = [
@@ -335,7 +335,7 @@ def test_cli_simulate(tmp_path, capsys):
 
 
 def test_cli_infeasible_exits_2_with_one_line(tmp_path, capsys):
-    from cdprid.cli._main import main
+    from cdprid.cli import main
 
     data = dict(CRAFT_LIKE)
     data["limits"] = dict(CRAFT_LIKE["limits"], tension_max=5.0)
@@ -362,8 +362,8 @@ def test_cli_infeasible_exits_2_with_one_line(tmp_path, capsys):
 
 
 def test_cli_trajectory_file(tmp_path, robot, traj):
-    from cdprid.cli._main import main
-    from cdprid.io.trajectory import save_trajectory_csv
+    from cdprid.cli import main
+    from cdprid.io import save_trajectory_csv
 
     f = save_trajectory_csv(traj, tmp_path / "t.csv", rate_hz=100.0)
     assert (

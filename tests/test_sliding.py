@@ -7,8 +7,8 @@ std, and the errors-in-variables bias of a Coulomb level fitted on a sign with e
 import numpy as np
 import pytest
 
-from cdprid.diagnosis.problem import SLIDE_NOISE_M_S, _gauss_derivative, sliding_sign
-from cdprid.signal._baselines import zero_phase_filter
+from cdprid.diagnosis._problem import SLIDE_NOISE_M_S, _gauss_derivative, sliding_sign
+from cdprid.signal import zero_phase_filter
 
 DT = 0.01
 

@@ -1,4 +1,4 @@
-"""The diagnosis's tension interpolant (:func:`cdprid.diagnosis.model.tension_at`)."""
+"""The diagnosis's tension interpolant (:func:`cdprid.diagnosis._model.tension_at`)."""
 
 from types import SimpleNamespace
 
@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cdprid.diagnosis.model import tension_at
+from cdprid.diagnosis._model import tension_at
 
 
 @pytest.fixture(autouse=True)

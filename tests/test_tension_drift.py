@@ -65,8 +65,8 @@ def test_diagnosis_hooks_undo_the_sensor_chain(rng):
 
 
 def test_subset_clock_keeps_each_block_real_time():
-    from cdprid.diagnosis.budget import subset
-    from cdprid.io.dataset import Dataset
+    from cdprid.diagnosis import subset
+    from cdprid.io import Dataset
     from cdprid.model import robot_from_dict
     from conftest import ROBOT_CRAFT
 

@@ -8,7 +8,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from cdprid.io.trajectory import load_trajectory_csv, save_trajectory_csv  # noqa: E402
+from cdprid.io import load_trajectory_csv, save_trajectory_csv  # noqa: E402
 from cdprid.model import (  # noqa: E402  # noqa: E402
     Orbit,
     check_workspace,

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import cdprid.tuning as T
-from cdprid.cli._main import build_parser, main, parse_params
+from cdprid.cli import build_parser, main, parse_params
 from cdprid.io import write_dataset
 from cdprid.model import robot_from_dict
 from cdprid.signal import METHODS, differentiate, differentiate_high, poly_gains, sihdn_channel
@@ -178,7 +178,7 @@ def test_acceleration_response_matches_the_butterworth_and_flags_resonance():
 def test_cli_tune_reports_response_and_refuses_to_overwrite(tmp_path, capsys):
     import json
 
-    from cdprid.cli._main import main
+    from cdprid.cli import main
 
     out = tmp_path / "t.json"
     assert main(["tune", "--noise-std", "3e-4", "--method", "euler-filtfilt", "--json", str(out),

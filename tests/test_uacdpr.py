@@ -11,8 +11,8 @@ import pytest
 import scipy.io
 from scipy.spatial.transform import Rotation
 
-from cdprid.io.dataset import read_dataset
-from cdprid.io.vicon import estimate_layout, fit_rigid_body, kabsch, read_vicon_trajectories
+from cdprid.io._dataset import read_dataset
+from cdprid.io._vicon import estimate_layout, fit_rigid_body, kabsch, read_vicon_trajectories
 from conftest import ROBOT_FOUR, shared_dataset
 
 NAME = "uacdpr-freemotion02"
@@ -20,12 +20,9 @@ NAME = "uacdpr-freemotion02"
 
 def _run_cli(argv, capsys, monkeypatch):
     """Run ``cdprid`` with the import command registered; return (code, stdout, stderr)."""
-    import cdprid.cli._main as cli
+    from cdprid.cli import main
 
-    entry = ("cdprid.cli._import", "add_parser")
-    if entry not in cli._OPTIONAL_COMMANDS:
-        monkeypatch.setattr(cli, "_OPTIONAL_COMMANDS", cli._OPTIONAL_COMMANDS + (entry,))
-    code = cli.main(argv)
+    code = main(argv)
     out = capsys.readouterr()
     return code, out.out, out.err
 
@@ -150,7 +147,7 @@ def uacdpr_files():
 
 @pytest.fixture(scope="module")
 def imported(uacdpr_files, tmp_path_factory):
-    from cdprid.io.uacdpr import import_uacdpr
+    from cdprid.io._uacdpr import import_uacdpr
 
     out = tmp_path_factory.mktemp("uacdpr") / "ds"
     return import_uacdpr(uacdpr_files["vicon"], uacdpr_files["log"], uacdpr_files["config"], out)
@@ -326,7 +323,7 @@ def test_write_calibrated_dataset_moves_pose_to_base_frame(small_inputs, capsys,
 
 def test_import_is_atomic_when_writing_fails(small_inputs, monkeypatch):
     """A failure while the dataset is written leaves neither the folder nor a temporary one."""
-    import cdprid.io.uacdpr as uac
+    import cdprid.io._uacdpr as uac
 
     real_write = uac.write_uacdpr
 

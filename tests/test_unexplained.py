@@ -12,8 +12,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cdprid.diagnosis import unexplained as U
-from cdprid.diagnosis.testing import blocks, cv_sse
+from cdprid.diagnosis import _unexplained as U
+from cdprid.diagnosis._testing import blocks, cv_sse
 from cdprid.signal import zero_phase_filter
 
 DT = 0.01

@@ -2,7 +2,7 @@
 
 import sys
 
-from cdprid.cli._main import console_main
+from cdprid.cli import console_main
 
 if __name__ == "__main__":
     sys.exit(console_main())

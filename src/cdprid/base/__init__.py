@@ -8,6 +8,7 @@ from cdprid.base._defaults import REST_SPEED_M_S as REST_SPEED_M_S
 from cdprid.base._defaults import TAUT_THRESHOLD_N as TAUT_THRESHOLD_N
 from cdprid.base._defaults import TRIM_S as TRIM_S
 from cdprid.base._errors import ConvergenceError as ConvergenceError
+from cdprid.base._errors import InputError as InputError
 from cdprid.base._errors import OutputError as OutputError
 from cdprid.base._errors import OutputExistsError as OutputExistsError
 from cdprid.base._errors import UserError as UserError

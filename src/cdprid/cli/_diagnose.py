@@ -10,8 +10,8 @@ __all__ = ["add_parser"]
 def _refuse_implausible(ds) -> None:
     """No effect is named on data whose base fit cannot be trusted (units, axes, clocks,
     excitation): one sentence, exit 2 (issue 25)."""
-    from cdprid.base._errors import UserError
-    from cdprid.identify._guards import check_geometry, input_warnings, refusals
+    from cdprid.base import UserError
+    from cdprid.identify import check_geometry, input_warnings, refusals
     from cdprid.io import align
 
     check_geometry(ds.robot, ds.pose_t, ds.position, ds.quaternion)
@@ -22,11 +22,10 @@ def _refuse_implausible(ds) -> None:
 
 
 def _run(args) -> int:
-    from cdprid.base._outputs import atomic_dir, check_distinct, check_output, write_json
+    from cdprid.base import atomic_dir, check_distinct, check_output, write_json
     from cdprid.diagnosis import diagnose
-    from cdprid.io import read_dataset
-    from cdprid.io.dataset import dataset_inputs
-    from cdprid.report.diagnosis import format_values, save_report
+    from cdprid.io import dataset_inputs, read_dataset
+    from cdprid.report import format_values, save_report
 
     check_distinct({"--json": args.json, "--report": args.report})
     inputs = dataset_inputs(args.dataset)

@@ -10,16 +10,13 @@ __all__ = ["add_parser"]
 def _run(args) -> int:
     import numpy as np
 
-    from cdprid.base._errors import UserError
-    from cdprid.base._outputs import atomic_file, check_output
-    from cdprid.base._progress import Progress
+    from cdprid.base import Progress, UserError, atomic_file, check_output
     from cdprid.cli._main import parse_params
-    from cdprid.io.align import sampling_report
-    from cdprid.io.dataset import read_csv_stream
+    from cdprid.io import read_csv_stream, sampling_report
 
     out = check_output(args.out, force=args.force, flag="--out", inputs=[args.input])
     params = parse_params(args.params)
-    from cdprid.signal._differentiators import METHODS, differentiate
+    from cdprid.signal import METHODS, differentiate
 
     if args.method not in METHODS:
         raise UserError(f"--method: unknown method {args.method!r}; choose one of "
@@ -58,7 +55,7 @@ def _run(args) -> int:
 
 
 def _methods_description() -> str:
-    from cdprid.signal._differentiators import METHODS
+    from cdprid.signal import METHODS
 
     lines = [f"  {k:<20} {'causal' if v.causal else 'non-causal':<11} {v.description}"
              for k, v in METHODS.items()]

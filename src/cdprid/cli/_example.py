@@ -9,7 +9,7 @@ __all__ = ["add_parser"]
 
 
 def _cmd_example(args) -> int:
-    from cdprid.base._outputs import check_output
+    from cdprid.base import check_output
     from cdprid.data import write_sample
 
     check_output(args.out, args.force, "--out", kind="dir")

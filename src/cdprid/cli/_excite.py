@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.report.excitation import plot_trajectory
+from cdprid.report import plot_trajectory
 
 __all__ = ["add_parser", "run", "plot_trajectory"]
 
@@ -27,9 +27,9 @@ def _initial_params(text, prob, flag="--initial"):
     """``--initial`` JSON over the default initial design (the gentle first run)."""
     if not text:
         return None
-    from cdprid.base._errors import UserError
+    from cdprid.base import UserError
     from cdprid.cli._main import load_json_object
-    from cdprid.excitation._optimise import initial_design
+    from cdprid.excitation import initial_design
 
     family = prob.family
     init = load_json_object(text, flag, "a JSON object of the family's parameters")
@@ -78,9 +78,9 @@ def _print_sigma(prob, res):
 def _write_outputs(tmp, prob, res, args):
     import jax
 
-    from cdprid.excitation._check import safety_series
-    from cdprid.io.trajectory import save_trajectory_csv
-    from cdprid.report.excitation import plot_safety_series
+    from cdprid.excitation import safety_series
+    from cdprid.io import save_trajectory_csv
+    from cdprid.report import plot_safety_series
 
     save_trajectory_csv(res.trajectory, tmp / "trajectory.csv", rate_hz=100.0)
     initial_traj = prob.homed(jax.numpy.asarray(res.initial.z))
@@ -94,7 +94,7 @@ def _write_outputs(tmp, prob, res, args):
     plot_safety_series(ser, prob.limits, tmp / "safety.png",
                        title=f"{prob.family.name} excitation: checked quantities (dashed: limits)")
     if not args.no_dataset:
-        from cdprid.simulation._simulate import simulate, write_simulation
+        from cdprid.simulation import simulate, write_simulation
 
         sim = simulate(prob.robot, res.trajectory, seed=args.seed)
         write_simulation(sim, tmp / "dataset", overwrite=True)
@@ -106,13 +106,12 @@ def run(args) -> int:
 
     jax.config.update("jax_enable_x64", True)
     import cdprid.excitation as ex
-    from cdprid.base._errors import UserError
-    from cdprid.base._outputs import atomic_dir, check_output, write_json
-    from cdprid.model._geometry import load_robot
+    from cdprid.base import UserError, atomic_dir, check_output, write_json
+    from cdprid.model import load_robot
 
     t_wall = time.perf_counter()
     robot = load_robot(args.robot)
-    from cdprid.base._outputs import check_distinct
+    from cdprid.base import check_distinct
 
     check_distinct({"--out": args.out, "--json": args.json})
     out = check_output(args.out, args.force, "--out", kind="dir", inputs=[args.robot])

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 
 __all__ = ["add_parser"]
 
@@ -18,8 +18,8 @@ def _cmd_import_uacdpr(args) -> int:
 
     import tomllib
 
-    from cdprid.identify._calibration import import_calibrated_uacdpr
-    from cdprid.io.uacdpr import import_uacdpr
+    from cdprid.identify import import_calibrated_uacdpr
+    from cdprid.io import import_uacdpr
 
     def say(msg: str) -> None:
         print(msg, file=sys.stderr, flush=True)
@@ -53,14 +53,10 @@ def _cmd_import_uacdpr(args) -> int:
 
 
 def _cmd_calibrate(args) -> int:
-    from cdprid.base._outputs import check_distinct, check_output
-    from cdprid.identify._calibration import (
-        calibrate_geometry,
-        calibration_data,
-        write_calibrated_dataset,
-    )
-    from cdprid.io.uacdpr import load_uacdpr
-    from cdprid.report.calibration import calibration_figures
+    from cdprid.base import check_distinct, check_output
+    from cdprid.identify import calibrate_geometry, calibration_data, write_calibrated_dataset
+    from cdprid.io import load_uacdpr
+    from cdprid.report import calibration_figures
 
     inputs = [args.vicon, args.robot_log, args.config, getattr(args, "dataset", None)]
     check_distinct({"--json": args.json, "--out": args.out})
@@ -70,7 +66,7 @@ def _cmd_calibrate(args) -> int:
         check_output(args.out, force=args.force, flag="--out", kind="dir", inputs=inputs)
     rec = load_uacdpr(args.vicon, args.robot_log, args.config, swivel_axis=args.swivel_axis)
     data = calibration_data(rec).subsample(args.subsample)
-    from cdprid.base._progress import Progress
+    from cdprid.base import Progress
 
     prog = Progress("calibrate")
     prog.say(f"geometric calibration on {len(data.t)} Vicon frames (about a minute) ...")
@@ -84,7 +80,7 @@ def _cmd_calibrate(args) -> int:
     print(f"cable lengths, m: {[round(float(v), 4) for v in res.lengths]} "
           f"+- {[round(float(v), 4) for v in res.sigma['length']]}")
     if args.json:
-        from cdprid.base._outputs import write_json
+        from cdprid.base import write_json
 
         write_json(args.json, res.as_dict(), force=args.force)
         print(f"wrote {args.json}")
@@ -126,7 +122,7 @@ def _report_import(out: Path) -> int:
 
 
 def _cmd_import_table(args) -> int:
-    from cdprid.io.table import import_table
+    from cdprid.io import import_table
 
     out = import_table(args.pose, args.tensions, args.robot, args.out,
                        pose_columns=args.pose_columns, tension_columns=args.tension_columns,
@@ -137,8 +133,8 @@ def _cmd_import_table(args) -> int:
 
 
 def _cmd_import_rosbag(args) -> int:
-    from cdprid.base._errors import UserError
-    from cdprid.io.rosbag import import_rosbag, list_topics
+    from cdprid.base import UserError
+    from cdprid.io import import_rosbag, list_topics
 
     if args.list:
         for topic, typ, count in list_topics(args.bag):
@@ -159,7 +155,7 @@ def _cmd_import_rosbag(args) -> int:
 
 
 def _cmd_import_c3d(args) -> int:
-    from cdprid.io.c3d import import_c3d
+    from cdprid.io import import_c3d
 
     out = import_c3d(args.c3d, args.robot, args.out, markers=_names(args.markers),
                      analog_tensions=_names(args.analog_tensions), layout=args.layout,
@@ -266,7 +262,7 @@ def _inputs(p) -> None:
 def add_parser(sub) -> None:
     """Add ``import`` (with the ``uacdpr`` format) and ``calibrate`` to the subparsers."""
     from cdprid.cli import _types as V  # option validators (cdprid.cli._types)
-    from cdprid.io.uacdpr import DEFAULT_SWIVEL_AXIS
+    from cdprid.io import DEFAULT_SWIVEL_AXIS
 
     p = sub.add_parser("import", help="convert another format into a spec-v1 dataset",
                        description="Convert recordings of other labs into spec-v1 datasets.")

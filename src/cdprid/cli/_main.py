@@ -29,7 +29,7 @@ from pathlib import Path
 __all__ = ["main", "console_main", "UserError", "build_parser", "load_json_object", "parse_params", "write_json"]
 
 
-from cdprid.base._errors import OutputError, UserError  # noqa: E402  (re-exported: cdprid.cli._main.UserError)
+from cdprid.base import OutputError, UserError
 from cdprid.cli._signals import install_termination_handlers, restore_handlers  # noqa: E402
 
 
@@ -147,7 +147,7 @@ def write_json(path, data: dict, force: bool = True) -> Path:
 
     Check the path with :func:`cdprid.base.check_output` before the work starts.
     """
-    from cdprid.base._outputs import write_json as _write
+    from cdprid.base import write_json as _write
 
     out = Path(path)
     try:
@@ -161,12 +161,12 @@ def write_json(path, data: dict, force: bool = True) -> Path:
 
 
 def _cmd_identify(args) -> int:
-    from cdprid.base._outputs import check_distinct, check_output
-    from cdprid.identify._batch import format_table, identify_dataset
+    from cdprid.base import check_distinct, check_output
+    from cdprid.identify import format_table, identify_dataset
     from cdprid.io import read_dataset
 
     force = getattr(args, "force", False)
-    from cdprid.io.dataset import dataset_inputs
+    from cdprid.io import dataset_inputs
 
     inputs = dataset_inputs(args.dataset)
     png = Path(args.out_csv).with_suffix(".png") if args.out_csv else None
@@ -194,7 +194,7 @@ def _cmd_identify(args) -> int:
     elif args.wrench_filter == "delay":
         raise UserError("--wrench-filter delay exists only with --online (a fixed delay of W tau "
                         "in the stream); batch identify offers matched or none.")
-    from cdprid.identify._guards import check_geometry
+    from cdprid.identify import check_geometry
 
     ds = read_dataset(args.dataset)
     check_geometry(ds.robot, ds.pose_t, ds.position, ds.quaternion)
@@ -221,7 +221,7 @@ def _cmd_identify(args) -> int:
         inertia_about=args.inertia_about,
     )
     if getattr(args, "physical", False):
-        from cdprid.identify._batch import physical_report
+        from cdprid.identify import physical_report
 
         rep = physical_report(rep)
     rep = _with_guards(ds, rep)
@@ -241,11 +241,7 @@ def _with_guards(ds, rep):
 
     import numpy as np
 
-    from cdprid.identify._guards import (
-        input_warnings,
-        result_warnings,
-        swapped_columns_warning,
-    )
+    from cdprid.identify import input_warnings, result_warnings, swapped_columns_warning
 
     names, x, _, _ = rep.estimates()
     if not np.all(np.isfinite(np.asarray(x, float))):
@@ -265,7 +261,7 @@ def _with_guards(ds, rep):
 
 
 def _add_identify(sub) -> None:
-    from cdprid.base._defaults import TRIM_S
+    from cdprid.base import TRIM_S
 
     p = sub.add_parser("identify",
                        help="identify the platform's dynamic parameters (least squares)",

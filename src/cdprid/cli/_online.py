@@ -12,13 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.base._errors import UserError
-from cdprid.base._outputs import atomic_file, write_json
-from cdprid.identify._online import online_identify
-from cdprid.identify._online_types import SIHD_METHOD as _SIHD
-from cdprid.identify._online_types import OnlineResult
-from cdprid.report.online import plot_online
-from cdprid.signal._differentiators import METHODS
+from cdprid.base import UserError, atomic_file, write_json
+from cdprid.identify import SIHD_METHOD as _SIHD
+from cdprid.identify import OnlineResult, online_identify
+from cdprid.report import plot_online
+from cdprid.signal import METHODS
 
 __all__ = ["format_online_table", "run_online_cli", "write_online_csv"]
 
@@ -82,7 +80,7 @@ def run_online_cli(ds, args, params) -> int:
     int
         Exit code 0.
     """
-    from cdprid.io.align import align
+    from cdprid.io import align
 
     method = getattr(args, "differentiator", None) or _SIHD
     notes = []
@@ -97,7 +95,7 @@ def run_online_cli(ds, args, params) -> int:
     forgetting = 1.0 if forgetting is None else float(forgetting)
     wfilt = getattr(args, "wrench_filter", None) or "matched"
     sig = align(ds, getattr(args, "t_start", None), getattr(args, "t_end", None))
-    from cdprid.identify._batch import ROTATION_WARN_DEG, rotation_angle_deg
+    from cdprid.identify import ROTATION_WARN_DEG, rotation_angle_deg
 
     rot = rotation_angle_deg(sig.quaternion) if sig.has_rotation else 0.0
     warns = []
@@ -113,7 +111,7 @@ def run_online_cli(ds, args, params) -> int:
     if args.model == "full" and not sig.has_rotation:
         raise UserError(f"{ds.path}: the full model needs orientations (qw, qx, qy, qz in "
                          "pose.csv) to identify the inertia; this dataset has none.")
-    from cdprid.base._progress import Progress
+    from cdprid.base import Progress
 
     prog = Progress("identify --online")
     prog.say(f"recursive identification of {len(sig.t)} samples ({args.model} model) ...")
@@ -145,8 +143,8 @@ def run_online_cli(ds, args, params) -> int:
         plot_online(res, png_path, truth=truth)
         written.append(png_path)
 
-        from cdprid.core._physical import physical_warnings
-        from cdprid.identify._batch import excitation_warnings
+        from cdprid.core import physical_warnings
+        from cdprid.identify import excitation_warnings
 
         w3, n3 = physical_warnings(res.x_final, res.model, res.hac_cov_final()[0])
         warns += w3
@@ -156,7 +154,7 @@ def run_online_cli(ds, args, params) -> int:
             warns += excitation_warnings(res.names, np.linalg.norm(
                 A_used.reshape(-1, A_used.shape[-1]), axis=0), res.cond_scaled)
         from cdprid.cli._echo import echo_warnings
-        from cdprid.identify._guards import input_warnings, result_warnings
+        from cdprid.identify import input_warnings, result_warnings
 
         warns += input_warnings(ds, sig, _SIHD, dict(params or {}), res.acceleration)
         warns += result_warnings(ds.robot, res.names, res.x_final, float("nan"), ds.tension)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 
 __all__ = ["add_parser", "run"]
 
@@ -33,7 +33,7 @@ class _Ordered(argparse.Action):
 
 
 def _group_effects(items):
-    from cdprid.effects._effects import parse_effect
+    from cdprid.effects import parse_effect
 
     groups: list = []
     for kind, value in items or []:
@@ -58,13 +58,10 @@ def run(args) -> int:
 
     import numpy as np
 
-    from cdprid.base._errors import UserError
-    from cdprid.base._outputs import input_clash
-    from cdprid.io.trajectory import load_trajectory_csv
-    from cdprid.model._geometry import load_robot
-    from cdprid.model._presets import preset
-    from cdprid.model._robots import craft_like_robot
-    from cdprid.simulation._simulate import SensorNoise, simulate, write_simulation
+    from cdprid.base import UserError, input_clash
+    from cdprid.io import load_trajectory_csv
+    from cdprid.model import craft_like_robot, load_robot, preset
+    from cdprid.simulation import SensorNoise, simulate, write_simulation
 
     start = time.perf_counter()
     out = args.out
@@ -144,8 +141,8 @@ def run(args) -> int:
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register the ``simulate`` subcommand on an argparse subparsers object."""
     from cdprid.cli import _types as V  # option validators (cdprid.cli._types)
-    from cdprid.effects._effects import VOCABULARY
-    from cdprid.model._trajectories import PRESETS
+    from cdprid.effects import VOCABULARY
+    from cdprid.model import PRESETS
 
     p = subparsers.add_parser(
         "simulate",

@@ -20,7 +20,7 @@ import json
 import math
 import sys
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 
 __all__ = ["add_parser"]
 
@@ -43,8 +43,8 @@ def _run(args) -> int:
     if args.method not in known:
         raise InputError(f"cannot tune method {args.method!r}; choose one of {', '.join(known)}.")
     if args.json:
-        from cdprid.base._outputs import check_output
-        from cdprid.io.dataset import dataset_inputs
+        from cdprid.base import check_output
+        from cdprid.io import dataset_inputs
 
         inputs = dataset_inputs(args.dataset) if args.dataset is not None else []
         check_output(args.json, force=args.force, flag="--json", inputs=inputs)
@@ -113,8 +113,8 @@ def _run(args) -> int:
     for w in warns:
         print(f"warning: {w}", file=sys.stderr)
     if args.json:
-        from cdprid.base._outputs import write_json
-        from cdprid.report.tuning import plot_response
+        from cdprid.base import write_json
+        from cdprid.report import plot_response
 
         print(f"wrote {write_json(args.json, out, force=args.force)}")
         print(f"wrote {plot_response(resp, _figure_path(args.json), res.method, force=args.force)}")

@@ -15,6 +15,8 @@ from cdprid.core._covariance import sample_scores as sample_scores
 from cdprid.core._covariance import std_from_cov as std_from_cov
 from cdprid.core._crb import CRBResult as CRBResult
 from cdprid.core._crb import crb as crb
+from cdprid.core._crb import regressor_jacobians as regressor_jacobians
+from cdprid.core._crb import sample_jacobians as sample_jacobians
 from cdprid.core._identification import LSResult as LSResult
 from cdprid.core._identification import condition_number as condition_number
 from cdprid.core._identification import group_weights as group_weights
@@ -32,6 +34,7 @@ from cdprid.core._motion import segment_mask as segment_mask
 from cdprid.core._noise import estimate_noise as estimate_noise
 from cdprid.core._nuisance import INTERPOLATION as INTERPOLATION
 from cdprid.core._nuisance import REST_MIN_DURATION_S as REST_MIN_DURATION_S
+from cdprid.core._nuisance import SMOOTH_HZ as SMOOTH_HZ
 from cdprid.core._nuisance import TAUT_WINDOW_S as TAUT_WINDOW_S
 from cdprid.core._nuisance import InsufficientDataError as InsufficientDataError
 from cdprid.core._nuisance import NuisanceFit as NuisanceFit

@@ -53,7 +53,7 @@ from __future__ import annotations
 import numpy as np
 from jaxtyping import Float
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 
 __all__ = [
     "andrews_bandwidth",

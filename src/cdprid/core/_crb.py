@@ -29,8 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.model._dynamics import regressor_full, regressor_translation
-from cdprid.model._geometry import wrench_matrix
+from cdprid.model import regressor_full, regressor_translation, wrench_matrix
 
 __all__ = ["CRBResult", "crb", "bspline_basis", "block_banded_solve", "sample_jacobians",
            "regressor_jacobians"]

@@ -14,7 +14,7 @@ import dataclasses
 
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.core._covariance import hac_covariance_blocks, iid_covariance, std_from_cov
 
 __all__ = ["LSResult", "condition_number", "group_weights", "least_squares",

@@ -21,9 +21,9 @@ import jax
 import numpy as np
 from jaxtyping import Float
 
-from cdprid.io.align import AlignedSignals
-from cdprid.model._rotations import angular_rates_from_quat, quat_to_matrix
-from cdprid.signal._differentiators import differentiate
+from cdprid.io import AlignedSignals
+from cdprid.model import angular_rates_from_quat, quat_to_matrix
+from cdprid.signal import differentiate
 
 __all__ = ["BLOCK", "Motion", "ROTATION_WARN_DEG", "angular_rates", "blockwise",
            "estimate_motion", "rotation_angle_deg", "rotation_matrices", "segment_mask"]

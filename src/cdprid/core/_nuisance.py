@@ -70,8 +70,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
-from cdprid.base._defaults import REST_SPEED_M_S, TAUT_THRESHOLD_N
-from cdprid.base._errors import ConvergenceError, InputError
+from cdprid.base import REST_SPEED_M_S, TAUT_THRESHOLD_N, ConvergenceError, InputError
 from cdprid.core._covariance import hac_covariance, std_from_cov
 
 __all__ = [
@@ -250,7 +249,7 @@ class TensionStream(eqx.Module):
         """The stream through a zero-phase Butterworth low-pass at ``cutoff_hz`` (None: self)."""
         if cutoff_hz is None:
             return self
-        from cdprid.signal._filters import make_zero_phase_filter
+        from cdprid.signal import make_zero_phase_filter
 
         f = make_zero_phase_filter(self.dt, cutoff_hz)
         return TensionStream(self.t, jnp.asarray(f(self.values)), self.t0, self.dt)

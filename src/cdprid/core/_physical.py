@@ -203,7 +203,7 @@ def physical_fit(x_ls: Float[np.ndarray, " 10"], R: Float[np.ndarray, "10 10"],
     """
     import optimistix as optx
 
-    from cdprid.base._errors import ConvergenceError
+    from cdprid.base import ConvergenceError
 
     xl = jnp.asarray(np.asarray(x_ls, float))
     Rj = jnp.asarray(np.asarray(R, float))

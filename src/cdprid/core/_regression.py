@@ -20,10 +20,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.core._motion import BLOCK, Motion, blockwise
-from cdprid.model._dynamics import regressor
-from cdprid.model._geometry import CableRobot, wrench_matrix
+from cdprid.model import CableRobot, regressor, wrench_matrix
 
 __all__ = [
     "CHUNK", "Regression", "StreamedRegression", "build_regression", "cable_wrench",

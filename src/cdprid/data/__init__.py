@@ -61,8 +61,7 @@ def write_sample(out: str | Path, name: str = "sample-8cable", force: bool = Fal
     -------
     Path
     """
-    from cdprid.base._errors import UserError
-    from cdprid.base._outputs import atomic_dir
+    from cdprid.base import UserError, atomic_dir
 
     if name not in SAMPLES:
         raise UserError(f"--name: unknown sample {name!r}; use one of {', '.join(SAMPLES)}.")

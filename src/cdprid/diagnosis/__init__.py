@@ -6,13 +6,27 @@ null model), :mod:`.candidates` (effect x cable and their vocabulary form), :mod
 (HAC Wald tests), :mod:`.selection` (forward steps, swap, backward elimination), :mod:`.refit`
 (Gauss-Newton), :mod:`.unexplained` (residual structure), :mod:`.result` (frozen results) and
 :mod:`.pipeline` (:func:`diagnose`, the stages in order). The report writer is
-:func:`cdprid.report.diagnosis.save_report`.
+:func:`cdprid.report._diagnosis.save_report`.
 """
 
-from cdprid.diagnosis.candidates import CANDIDATE_EFFECTS, Candidate
-from cdprid.diagnosis.pipeline import diagnose
-from cdprid.diagnosis.result import DiagnosisResult, Finding
-from cdprid.diagnosis.testing import estimate_noise
+# ruff: noqa: F401  (explicit re-exports)
 
-__all__ = ["CANDIDATE_EFFECTS", "Candidate", "DiagnosisResult", "Finding", "diagnose",
-           "estimate_noise"]
+from cdprid.diagnosis._base import base_fit as base_fit
+from cdprid.diagnosis._base import noise_levels as noise_levels
+from cdprid.diagnosis._base import null_residuals as null_residuals
+from cdprid.diagnosis._budget import subset as subset
+from cdprid.diagnosis._candidates import CANDIDATE_EFFECTS as CANDIDATE_EFFECTS
+from cdprid.diagnosis._candidates import Candidate as Candidate
+from cdprid.diagnosis._candidates import candidate_list as candidate_list
+from cdprid.diagnosis._model import ThetaLayout as ThetaLayout
+from cdprid.diagnosis._model import rotvec_from_quat as rotvec_from_quat
+from cdprid.diagnosis._pipeline import diagnose as diagnose
+from cdprid.diagnosis._problem import design as design
+from cdprid.diagnosis._problem import force_heldout_rms as force_heldout_rms
+from cdprid.diagnosis._problem import prepare as prepare
+from cdprid.diagnosis._result import DiagnosisResult as DiagnosisResult
+from cdprid.diagnosis._result import Finding as Finding
+from cdprid.diagnosis._selection import start as start
+from cdprid.diagnosis._testing import estimate_noise as estimate_noise
+from cdprid.diagnosis._unexplained import decimate_runs as decimate_runs
+from cdprid.diagnosis._unexplained import periodogram as periodogram

@@ -15,12 +15,12 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core._identification import least_squares
-from cdprid.diagnosis.model import regs_jit, rotvec_from_quat
-from cdprid.diagnosis.problem import Problem, cable_side
-from cdprid.diagnosis.testing import estimate_noise, wald
-from cdprid.model._dynamics import PARAMETER_NAMES
-from cdprid.signal._differentiators import differentiate
+from cdprid.core import least_squares
+from cdprid.diagnosis._model import regs_jit, rotvec_from_quat
+from cdprid.diagnosis._problem import Problem, cable_side
+from cdprid.diagnosis._testing import estimate_noise, wald
+from cdprid.model import PARAMETER_NAMES
+from cdprid.signal import differentiate
 
 
 @dataclasses.dataclass(frozen=True)

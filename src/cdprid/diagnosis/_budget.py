@@ -19,7 +19,7 @@ import dataclasses
 
 import numpy as np
 
-from cdprid.io.dataset import Dataset
+from cdprid.io import Dataset
 
 #: Pose samples the diagnosis analyses at most (about 2.5 GB peak; see results/benchmarks.md).
 MAX_SAMPLES: int = 36_000

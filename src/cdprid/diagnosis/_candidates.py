@@ -1,6 +1,6 @@
 """Stage 1 of the diagnosis: the candidates (effect x cable) and their vocabulary form.
 
-Maps between the theta layout of :mod:`cdprid.diagnosis.model` and the effect vocabulary of
+Maps between the theta layout of :mod:`cdprid.diagnosis._model` and the effect vocabulary of
 :mod:`cdprid.effects._effects` (names and JSON parameters), plausibility bounds, and what would tell
 two effects apart — all read from the one table :data:`cdprid.effects.DIAGNOSIS`; this module
 names no effect.
@@ -12,8 +12,8 @@ import dataclasses
 
 import numpy as np
 
-from cdprid.diagnosis.model import ThetaLayout
-from cdprid.effects._effects import DIAGNOSIS, VOCABULARY
+from cdprid.diagnosis._model import ThetaLayout
+from cdprid.effects import DIAGNOSIS, VOCABULARY
 
 #: effects the diagnosis tests through theta (the vocabulary minus ``none`` and the effects
 #: tested on other streams), from :data:`cdprid.effects.DIAGNOSIS`

@@ -23,12 +23,12 @@ import jax
 import numpy as np
 from scipy import stats
 
-from cdprid.diagnosis.candidates import Candidate, implausible, vocab_interval, vocab_params
-from cdprid.diagnosis.model import tension_at
-from cdprid.diagnosis.problem import Problem, heldout_rms
-from cdprid.diagnosis.result import Finding
-from cdprid.diagnosis.selection import Selection, linear_model, refit
-from cdprid.effects._effects import DIAGNOSIS
+from cdprid.diagnosis._candidates import Candidate, implausible, vocab_interval, vocab_params
+from cdprid.diagnosis._model import tension_at
+from cdprid.diagnosis._problem import Problem, heldout_rms
+from cdprid.diagnosis._result import Finding
+from cdprid.diagnosis._selection import Selection, linear_model, refit
+from cdprid.effects import DIAGNOSIS
 
 #: the clock is accepted first only when it improves the held-out residual by this much (a
 #: dominant clock offset); smaller offsets are left to the greedy search

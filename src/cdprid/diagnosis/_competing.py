@@ -25,11 +25,11 @@ import math
 import numpy as np
 from scipy import stats
 
-from cdprid.base._status import Status
-from cdprid.diagnosis.candidates import alias_label, vocab_params
-from cdprid.diagnosis.problem import Problem, force_heldout_rms, heldout_residuals, heldout_rms
-from cdprid.diagnosis.selection import extends_base, linear_model, refit, refit_rejected
-from cdprid.diagnosis.testing import hac_cov
+from cdprid.base import Status
+from cdprid.diagnosis._candidates import alias_label, vocab_params
+from cdprid.diagnosis._problem import Problem, force_heldout_rms, heldout_residuals, heldout_rms
+from cdprid.diagnosis._selection import extends_base, linear_model, refit, refit_rejected
+from cdprid.diagnosis._testing import hac_cov
 
 #: one-sided level of the test that an alternative model predicts worse
 DM_LEVEL = 0.05
@@ -78,7 +78,7 @@ def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
     say : callable
     other : Selection, optional
         A complete model found another way (the search's second start from the best pair,
-        :mod:`cdprid.diagnosis.restart`), compared with the final model like the alternatives
+        :mod:`cdprid.diagnosis._restart`), compared with the final model like the alternatives
         (``replaces`` and ``by`` then join several labels with " + ", and ``parameters``
         maps each replacing effect's label to its parameters when there are several).
 

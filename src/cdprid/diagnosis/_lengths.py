@@ -20,12 +20,12 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
-from cdprid.core._covariance import hac_covariance
-from cdprid.diagnosis.problem import Problem
-from cdprid.diagnosis.result import Finding
-from cdprid.diagnosis.testing import blocks
-from cdprid.effects._plant import ENCODER_EFFECT
-from cdprid.model._geometry import cable_lengths
+from cdprid.core import hac_covariance
+from cdprid.diagnosis._problem import Problem
+from cdprid.diagnosis._result import Finding
+from cdprid.diagnosis._testing import blocks
+from cdprid.effects import ENCODER_EFFECT
+from cdprid.model import cable_lengths
 
 #: the stream's file stem and column names (``l_1..l_m``), in the style of tensions.csv
 STREAM = "lengths"

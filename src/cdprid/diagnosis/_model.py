@@ -17,9 +17,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.effects._effects import DIAGNOSIS, tilt_gravity
-from cdprid.model._dynamics import regressor_full, regressor_translation
-from cdprid.model._geometry import CableRobot, cable_vectors, pulley_leave_point, wrench_matrix
+from cdprid.effects import DIAGNOSIS, tilt_gravity
+from cdprid.model import (
+    CableRobot,
+    cable_vectors,
+    pulley_leave_point,
+    regressor_full,
+    regressor_translation,
+    wrench_matrix,
+)
 
 
 class ThetaLayout:
@@ -93,7 +99,7 @@ class DiagData(eqx.Module):
     tau_t0: float = eqx.field(static=True)
     tau_dt: float = eqx.field(static=True)
     #: the expected sign of each cable's sliding speed (in [-1, 1], (n, m)); the
-    #: Coulomb terms use it (see :func:`cdprid.diagnosis.problem.sliding_sign`); ``None``:
+    #: Coulomb terms use it (see :func:`cdprid.diagnosis._problem.sliding_sign`); ``None``:
     #: ``sign(ldot)``
     slide: jnp.ndarray | None = None
 

@@ -1,15 +1,15 @@
 """``diagnose``: the stages of the diagnosis, in order.
 
-1. :func:`cdprid.diagnosis.problem.prepare` — align, differentiate, masks.
-2. :func:`cdprid.diagnosis.base.base_fit` — the paper's model, row weights, noise levels.
-3. :func:`cdprid.diagnosis.selection.forward_step` — greedy forward selection with HAC Wald
+1. :func:`cdprid.diagnosis._problem.prepare` — align, differentiate, masks.
+2. :func:`cdprid.diagnosis._base.base_fit` — the paper's model, row weights, noise levels.
+3. :func:`cdprid.diagnosis._selection.forward_step` — greedy forward selection with HAC Wald
    tests, thresholds calibrated on null replicates at the first step (reused by the later
    steps), the held-out criterion, nonlinear refit each step.
-4. :func:`cdprid.diagnosis.selection.swap_stage` — a pick is replaced by a better alternative;
+4. :func:`cdprid.diagnosis._selection.swap_stage` — a pick is replaced by a better alternative;
    ties are aliases with what would separate them.
-5. :func:`cdprid.diagnosis.selection.backward_stage` — a finding stays only if needed given the
+5. :func:`cdprid.diagnosis._selection.backward_stage` — a finding stays only if needed given the
    others and the unexplained structure.
-6. :func:`cdprid.diagnosis.unexplained.unexplained_stage` — what remains, under ``unexplained``.
+6. :func:`cdprid.diagnosis._unexplained.unexplained_stage` — what remains, under ``unexplained``.
 7. :func:`summarize` — extended model, held-out figures, information criterion.
 """
 
@@ -20,17 +20,17 @@ import time
 
 import numpy as np
 
-from cdprid.base._defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
-from cdprid.diagnosis.base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
-from cdprid.diagnosis.budget import MAX_SAMPLES, joined_time, subset
-from cdprid.diagnosis.candidates import alias_label, candidate_list
-from cdprid.diagnosis.clock import clock_stage
-from cdprid.diagnosis.competing import competing_models
-from cdprid.diagnosis.lengths import lengths_stream, with_elasticity
-from cdprid.diagnosis.problem import Problem, force_heldout_rms, measured, prepare
-from cdprid.diagnosis.restart import MIN_FINDINGS, choose, pair_start
-from cdprid.diagnosis.result import DiagnosisResult
-from cdprid.diagnosis.selection import (
+from cdprid.base import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
+from cdprid.diagnosis._base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
+from cdprid.diagnosis._budget import MAX_SAMPLES, joined_time, subset
+from cdprid.diagnosis._candidates import alias_label, candidate_list
+from cdprid.diagnosis._clock import clock_stage
+from cdprid.diagnosis._competing import competing_models
+from cdprid.diagnosis._lengths import lengths_stream, with_elasticity
+from cdprid.diagnosis._problem import Problem, force_heldout_rms, measured, prepare
+from cdprid.diagnosis._restart import MIN_FINDINGS, choose, pair_start
+from cdprid.diagnosis._result import DiagnosisResult
+from cdprid.diagnosis._selection import (
     Selection,
     backward_stage,
     forward_step,
@@ -38,15 +38,15 @@ from cdprid.diagnosis.selection import (
     start,
     swap_stage,
 )
-from cdprid.diagnosis.sizes import not_named_sizes
-from cdprid.diagnosis.testing import wald
-from cdprid.diagnosis.unexplained import (
+from cdprid.diagnosis._sizes import not_named_sizes
+from cdprid.diagnosis._testing import wald
+from cdprid.diagnosis._unexplained import (
     finding_floor_N,
     structure_features,
     unexplained_stage,
 )
-from cdprid.io.dataset import Dataset
-from cdprid.model._dynamics import PARAMETER_NAMES
+from cdprid.io import Dataset
+from cdprid.model import PARAMETER_NAMES
 
 
 def weight_at_rest(prob: Problem, theta, min_rest_s: float = 0.5):
@@ -182,7 +182,7 @@ def diagnose(
         Called with progress strings.
     max_samples : int
         Sample budget: a longer recording is analysed on evenly spaced contiguous blocks
-        (:func:`cdprid.diagnosis.budget.subset`; ``notes`` and ``info["subset"]`` say which).
+        (:func:`cdprid.diagnosis._budget.subset`; ``notes`` and ``info["subset"]`` say which).
 
     Returns
     -------
@@ -296,7 +296,7 @@ def _search(prob, base, noise, extra, candidates, alpha, n_null, max_effects, mi
 
 def _second_start(prob, base, s0, s, candidates, alpha, thr, max_effects, min_gain, extra,
                   say):
-    """The search started again from the best pair (:mod:`cdprid.diagnosis.restart`) when
+    """The search started again from the best pair (:mod:`cdprid.diagnosis._restart`) when
     the greedy path named at least two effects: ``(kept model, the other or None, what was
     done for info["second_start"])``."""
     if len(s.accepted) - len(s0.accepted) < MIN_FINDINGS:

@@ -14,12 +14,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._defaults import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
-from cdprid.base._errors import UserError
-from cdprid.core._motion import ROTATION_WARN_DEG, rotation_angle_deg
-from cdprid.core._nuisance import taut_mask
-from cdprid.core._regression import wrench_matrices
-from cdprid.diagnosis.model import (
+from cdprid.base import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S, UserError
+from cdprid.core import ROTATION_WARN_DEG, rotation_angle_deg, taut_mask, wrench_matrices
+from cdprid.diagnosis._model import (
     DiagData,
     ThetaLayout,
     meas_and_jac,
@@ -27,13 +24,10 @@ from cdprid.diagnosis.model import (
     model_jit,
     regs_jit,
 )
-from cdprid.diagnosis.testing import blocks, cv_sse, fold_sse
-from cdprid.io.align import align
-from cdprid.io.dataset import Dataset
-from cdprid.model._geometry import cable_lengths
-from cdprid.model._rotations import quat_to_matrix
-from cdprid.signal._baselines import zero_phase_filter
-from cdprid.signal._differentiators import differentiate
+from cdprid.diagnosis._testing import blocks, cv_sse, fold_sse
+from cdprid.io import Dataset, align
+from cdprid.model import cable_lengths, quat_to_matrix
+from cdprid.signal import differentiate, zero_phase_filter
 
 
 @dataclasses.dataclass(frozen=True)
@@ -147,7 +141,7 @@ def _motion(sig, cutoff_hz):
     v, a = differentiate(sig.position, dt, method="euler-filtfilt", cutoff_hz=cutoff_hz)
     R = np.asarray(jax.jit(jax.vmap(quat_to_matrix))(sig.quaternion))  # one compile
     if sig.has_rotation:
-        from cdprid.model._rotations import angular_rates_from_quat
+        from cdprid.model import angular_rates_from_quat
 
         qd, qdd = differentiate(sig.quaternion, dt, method="euler-filtfilt", cutoff_hz=cutoff_hz)
         om, al = (np.asarray(z) for z in
@@ -180,9 +174,9 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     are outside every model here). With ``train_until``, t < train_until is fitted and the
     rest held out; otherwise held-out figures are blocked cross-validation over ``n_folds``
     time blocks. ``joins`` (times where blocks of a budgeted subset meet, see
-    :mod:`cdprid.diagnosis.budget`) exclude the samples within the trim margin of each join;
+    :mod:`cdprid.diagnosis._budget`) exclude the samples within the trim margin of each join;
     ``clock`` maps the dataset's times to the recording's own clock, in s from its tension
-    stream's first time stamp (:meth:`cdprid.diagnosis.budget.Subset.clock`; by default
+    stream's first time stamp (:meth:`cdprid.diagnosis._budget.Subset.clock`; by default
     ``t - tension_t[0]``): time-dependent effects are evaluated on it.
 
     Raises
@@ -349,7 +343,7 @@ def subset_heldout_rms(prob: Problem, Z, y, subsets) -> np.ndarray:
 
     The training and held-out Gram matrices of every fold are formed once (sums over the
     contiguous segments between the folds' edges and guards); each subset then costs one
-    small solve per fold (:func:`cdprid.diagnosis.testing.fold_sse`, as :func:`cv_sse`).
+    small solve per fold (:func:`cdprid.diagnosis._testing.fold_sse`, as :func:`cv_sse`).
     Used by the search over pairs of candidates, where the columns are the base model's and
     every candidate's.
     """

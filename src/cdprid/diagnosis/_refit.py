@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdprid.base._status import Status
-from cdprid.diagnosis.testing import hac_cov
+from cdprid.base import Status
+from cdprid.diagnosis._testing import hac_cov
 
 #: step fractions tried when a full Gauss-Newton step raises the training cost
 STEP_FRACTIONS = (1.0, 0.25, 0.0625, 0.015625, 0.00390625, 0.0009765625)

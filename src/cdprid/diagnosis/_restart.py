@@ -9,7 +9,7 @@ changes one finding at a time, cannot reach the true pair: every single swap pre
 When the greedy path has named at least two effects, this stage searches *every pair* of
 candidates at once at the base linearisation (linearised held-out prediction of the base
 model plus the two candidates' columns, all pairs from one set of per-fold Gram matrices:
-:func:`cdprid.diagnosis.problem.subset_heldout_rms`). The best pair in which each member
+:func:`cdprid.diagnosis._problem.subset_heldout_rms`). The best pair in which each member
 passes the search's own gates given the other (held-out gain ``min_gain``, HAC Wald test at
 the first step's threshold) is refitted by the nonlinear refit, checked like any finding,
 and the search continues from it (forward steps, swap stage). Of the two complete models
@@ -25,10 +25,10 @@ import itertools
 
 import numpy as np
 
-from cdprid.diagnosis.candidates import vocab_interval, vocab_params
-from cdprid.diagnosis.problem import Problem, heldout_rms, subset_heldout_rms
-from cdprid.diagnosis.result import Finding
-from cdprid.diagnosis.selection import (
+from cdprid.diagnosis._candidates import vocab_interval, vocab_params
+from cdprid.diagnosis._problem import Problem, heldout_rms, subset_heldout_rms
+from cdprid.diagnosis._result import Finding
+from cdprid.diagnosis._selection import (
     Selection,
     candidate_columns,
     extends_base,

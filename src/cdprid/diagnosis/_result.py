@@ -55,7 +55,7 @@ class DiagnosisResult:
     #: sentences the user must read with the numbers (e.g. a budgeted subset of the recording)
     notes: list = dataclasses.field(default_factory=list)
     #: complete alternative models within the noise of the final one
-    #: (:func:`cdprid.diagnosis.competing.competing_models`), best first
+    #: (:func:`cdprid.diagnosis._competing.competing_models`), best first
     competing: list = dataclasses.field(default_factory=list)
 
     def as_json(self) -> dict:

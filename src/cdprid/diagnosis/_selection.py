@@ -13,9 +13,9 @@ import functools
 import numpy as np
 from scipy import stats
 
-from cdprid.base._status import Status
-from cdprid.diagnosis.base import BaseFit
-from cdprid.diagnosis.candidates import (
+from cdprid.base import Status
+from cdprid.diagnosis._base import BaseFit
+from cdprid.diagnosis._candidates import (
     Candidate,
     alias_label,
     implausible,
@@ -24,13 +24,13 @@ from cdprid.diagnosis.candidates import (
     vocab_interval,
     vocab_params,
 )
-from cdprid.diagnosis.model import ThetaLayout
-from cdprid.diagnosis.problem import Problem, design, heldout_rms, seed_design
-from cdprid.diagnosis.refit import refit_gauss_newton
-from cdprid.diagnosis.result import Finding
-from cdprid.diagnosis.testing import aliases_of, partial_wald, partial_wald_many
-from cdprid.diagnosis.unexplained import structure_tests
-from cdprid.effects._effects import DIAGNOSIS
+from cdprid.diagnosis._model import ThetaLayout
+from cdprid.diagnosis._problem import Problem, design, heldout_rms, seed_design
+from cdprid.diagnosis._refit import refit_gauss_newton
+from cdprid.diagnosis._result import Finding
+from cdprid.diagnosis._testing import aliases_of, partial_wald, partial_wald_many
+from cdprid.diagnosis._unexplained import structure_tests
+from cdprid.effects import DIAGNOSIS
 
 
 def extends_base(c: Candidate) -> bool:

@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdprid.diagnosis.candidates import vocab_interval, vocab_params
-from cdprid.diagnosis.selection import candidate_columns, linear_model, score_step
-from cdprid.diagnosis.testing import partial_wald
-from cdprid.effects._effects import DIAGNOSIS
+from cdprid.diagnosis._candidates import vocab_interval, vocab_params
+from cdprid.diagnosis._selection import candidate_columns, linear_model, score_step
+from cdprid.diagnosis._testing import partial_wald
+from cdprid.effects import DIAGNOSIS
 
 __all__ = ["not_named_sizes"]
 

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdprid.core._covariance import hac_covariance
-from cdprid.core._noise import estimate_noise  # noqa: F401  (re-exported)
+from cdprid.core import (
+    estimate_noise,  # noqa: F401  (re-exported)
+    hac_covariance,
+)
 
 
 def hac_cov(Z, e, lags: int):

@@ -13,7 +13,7 @@ import math
 import numpy as np
 from scipy import stats
 
-from cdprid.diagnosis.testing import partial_wald
+from cdprid.diagnosis._testing import partial_wald
 
 #: generic signals the residual of the extended model is tested against (unexplained stage)
 STRUCTURE_SIGNALS = ("sign of cable velocity", "tension level", "pose", "time (slow drift)")
@@ -29,7 +29,7 @@ def structure_features(W_all, v, om, tension, position, t, use, slide=None) -> d
     ``pose`` is a force linear in the position, per force axis; ``time (slow drift)`` is a
     force that drifts as Legendre polynomials of degree 1-3 in time, per force axis.
     ``slide`` (n, m), if given, replaces ``sign(dl/dt)`` (the expected sign of
-    :func:`cdprid.diagnosis.problem.sliding_sign`, which the friction effects use).
+    :func:`cdprid.diagnosis._problem.sliding_sign`, which the friction effects use).
 
     Parameters
     ----------
@@ -222,9 +222,9 @@ def heldout_residuals(Z, y, wrow, use, test, n_folds: int, guard: int) -> np.nda
     With ``test`` (train/test split) the model fitted on the training rows predicts the test
     rows; otherwise blocked cross-validation over ``n_folds`` blocks of the used samples,
     leaving ``guard`` samples out on each side of the predicted block (the criterion of
-    :func:`cdprid.diagnosis.problem.force_heldout_rms`).
+    :func:`cdprid.diagnosis._problem.force_heldout_rms`).
     """
-    from cdprid.diagnosis.testing import blocks
+    from cdprid.diagnosis._testing import blocks
 
     n, _, p = Z.shape
     out = np.full((n, 3), np.nan)
@@ -498,7 +498,7 @@ def unexplained_stage(prob, Z, y, feats: dict, hints: list, tension_noise_N,
 
     Parameters
     ----------
-    prob : cdprid.diagnosis.problem.Problem
+    prob : cdprid.diagnosis._problem.Problem
     Z : (n, 6, p) weighted, matched-filtered columns of the extended model (all samples)
     y : (n, 6) its weighted target
     feats : dict

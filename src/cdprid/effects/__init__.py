@@ -21,3 +21,4 @@ from cdprid.effects._effects import vocabulary_markdown as vocabulary_markdown
 from cdprid.effects._plant import ENCODER_EFFECT as ENCODER_EFFECT
 from cdprid.effects._plant import PlantTerms as PlantTerms
 from cdprid.effects._plant import plant_terms as plant_terms
+from cdprid.effects._sensor import load_cell_reading as load_cell_reading

@@ -79,7 +79,7 @@ import json
 
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.effects import _tension_drift
 from cdprid.effects._form import DiagnosisForm
 
@@ -427,7 +427,8 @@ def vocabulary_markdown() -> str:
               "`DiagnosisForm` in `DIAGNOSIS` (blocks, candidates, JSON form, intervals, bounds, "
               "what separates it from others) with its physics in the forward model as hooks "
               "(`tension`, `geometry`, `leave`, `gravity`, `load`, `model`); "
-              "`cdprid.diagnosis.model` applies them in the table's order and names no effect.", ""]
+              "`cdprid.diagnosis._model` applies them in the table's order and names no "
+              "effect.", ""]
     return "\n".join(lines).rstrip() + "\n"
 
 
@@ -448,7 +449,7 @@ def tilt_gravity(g, tilt):
 def _flipped_leave(T, geo, q, c):
     """A swivel pulley of radius ``pulley_flip`` whose cable arrives opposite to the axis,
     added as a displacement of the leave point (exact when either radius is 0)."""
-    from cdprid.model._geometry import pulley_leave_point
+    from cdprid.model import pulley_leave_point
 
     T_flip, _, _ = pulley_leave_point(geo["A"], c["bb"], c["p"], q["pulley_flip"], -c["k"],
                                       c["ref"])
@@ -494,7 +495,7 @@ _GAIN_VS_GEOMETRY = ("the same poses at two pretension levels (a gain scales wit
 
 #: the diagnosis's form of every effect it tests, in theta-layout order (``pulley_flipped``
 #: is the diagnosis's second arrival direction of ``pulley``; ``cable_elasticity`` is tested
-#: on the lengths stream by :mod:`cdprid.diagnosis.lengths`, not through theta)
+#: on the lengths stream by :mod:`cdprid.diagnosis._lengths`, not through theta)
 DIAGNOSIS: dict[str, DiagnosisForm] = {
     "time_delay": DiagnosisForm(
         blocks=(("delay", 1),), group=0, keys=("delay_s",), bounds={"delay_s": 0.5}, clock=True,

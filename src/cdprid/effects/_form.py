@@ -14,15 +14,15 @@ __all__ = ["DiagnosisForm"]
 class DiagnosisForm:
     """How the diagnosis represents one effect (its candidates, theta blocks, JSON form).
 
-    The diagnosis reads only this table (:mod:`cdprid.diagnosis.candidates` and the theta
-    layout of :mod:`cdprid.diagnosis.model` contain no effect name): adding an effect that
+    The diagnosis reads only this table (:mod:`cdprid.diagnosis._candidates` and the theta
+    layout of :mod:`cdprid.diagnosis._model` contain no effect name): adding an effect that
     acts through existing theta blocks touches this module only.
 
     Attributes
     ----------
     blocks : tuple of (block, size)
-        Theta blocks of :func:`cdprid.diagnosis.model.cable_contribution` /
-        :func:`~cdprid.diagnosis.model.model_side` the effect uses, ``size`` numbers per
+        Theta blocks of :func:`cdprid.diagnosis._model.cable_contribution` /
+        :func:`~cdprid.diagnosis._model.model_side` the effect uses, ``size`` numbers per
         cable when ``per_cable`` else in all. The theta vector is laid out in the order of
         :data:`DIAGNOSIS` and of each effect's blocks.
     per_cable : bool
@@ -62,17 +62,17 @@ class DiagnosisForm:
         parameters) rather than adding theta blocks.
     clock : bool
         The effect is the tension stream's clock offset (profiled first, see
-        :mod:`cdprid.diagnosis.clock`).
+        :mod:`cdprid.diagnosis._clock`).
     tension, geometry, leave, gravity, load, model : callable, optional
         The effect's physics in the diagnosis's forward model, JAX, applied in the order of
-        :data:`DIAGNOSIS` at each stage of :func:`cdprid.diagnosis.model.cable_contribution`
+        :data:`DIAGNOSIS` at each stage of :func:`cdprid.diagnosis._model.cable_contribution`
         (one cable, its blocks ``q`` by name, ``c`` the context: the blocks at the
         linearisation point ``c["at"]``, ``taud``, ``ldot``, ``R``, ``p``, ``k``, ``ref``,
         ``bb``): ``tension(tau, q, c)`` the tension behind the load-cell reading;
         ``geometry(geo, q)`` the exit point ``A``, attachment ``b`` (platform frame) and
         pulley radius ``r``; ``leave(T, geo, q, c)`` the leave point; ``gravity(g, q)``;
         ``load(f, Ln, g, q)`` a force on the platform at the attachment. ``model(y, d, q)``
-        adds to the model side (:func:`~cdprid.diagnosis.model.model_side`).
+        adds to the model side (:func:`~cdprid.diagnosis._model.model_side`).
     """
 
     blocks: tuple = ()

@@ -25,12 +25,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core._regression import regressors, wrench_matrices
+from cdprid.core import regressors, wrench_matrices
 from cdprid.excitation._safety import SafetyLimits, UncertaintyBox
-from cdprid.model._clearance import cable_body_distances, cable_cable_distances
-from cdprid.model._rotations import quat_to_matrix
-from cdprid.model._tensions import feasibility_margin
-from cdprid.model._trajectories import TrajectoryState
+from cdprid.model import (
+    TrajectoryState,
+    cable_body_distances,
+    cable_cable_distances,
+    feasibility_margin,
+    quat_to_matrix,
+)
 
 __all__ = ["SafetyCertificate", "SafetySeries", "certify_trajectory", "kinematic_peaks",
            "limit_ratios", "robust_tension_margins", "safety_series"]

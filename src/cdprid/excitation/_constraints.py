@@ -7,9 +7,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core._regression import regressors, wrench_matrices
-from cdprid.model._clearance import smooth_clearances
-from cdprid.model._rotations import quat_to_matrix
+from cdprid.core import regressors, wrench_matrices
+from cdprid.model import quat_to_matrix, smooth_clearances
 
 
 def _softmin(x, temperature):
@@ -99,7 +98,7 @@ def certify_tensions(W, w, tmin: float, tmax: float):
         ``max s`` such that some tau with ``W tau = w`` lies in ``[tmin + s, tmax - s]``;
         ``-inf`` where ``W tau = w`` has no solution.
     """
-    from cdprid.model._tensions import feasibility_margin
+    from cdprid.model import feasibility_margin
 
     return np.atleast_1d(feasibility_margin(np.asarray(W, float), np.asarray(w, float), tmin, tmax))
 

@@ -11,7 +11,7 @@ import numpy as np
 from cdprid.excitation._check import SafetyCertificate, certify_trajectory
 from cdprid.excitation._objective import d_optimality, predicted_sigma, stacked_regressor
 from cdprid.excitation._problem import CERTIFICATE_SCOPE, ExcitationProblem, _objective_value
-from cdprid.model._dynamics import PARAMETER_NAMES
+from cdprid.model import PARAMETER_NAMES
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,7 +84,7 @@ def evaluate_design(prob: ExcitationProblem, z, rate_hz: float = 100.0,
                     certify: bool = True, dense_hz: float = 500.0) -> DesignReport:
     """Metrics of coordinates z (with the home moves) on a ``rate_hz`` grid and the exact
     certificate (kinematics also on a ``dense_hz`` grid)."""
-    from cdprid.core._identification import condition_number
+    from cdprid.core import condition_number
 
     z = jnp.asarray(z, float)
     traj = prob.homed(z)

@@ -20,10 +20,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
-from cdprid.model._rotations import angular_rates_from_quat, rotvec_to_quat
-from cdprid.model._smoothstep import smoothstep7_derivs
-from cdprid.model._trajectories import TimedTrajectory, Trajectory, TrajectoryState
+from cdprid.base import InputError
+from cdprid.model import (
+    TimedTrajectory,
+    Trajectory,
+    TrajectoryState,
+    angular_rates_from_quat,
+    rotvec_to_quat,
+    smoothstep7_derivs,
+)
 
 __all__ = [
     "FAMILIES",

@@ -6,9 +6,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from cdprid.core._regression import regressors
-from cdprid.model._rotations import quat_to_matrix
-from cdprid.model._trajectories import TrajectoryState
+from cdprid.core import regressors
+from cdprid.model import TrajectoryState, quat_to_matrix
 
 OBJECTIVES = ("cond", "cond_scaled", "dopt", "sigma")
 

@@ -43,8 +43,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import UserError
-from cdprid.base._status import Status
+from cdprid.base import Status, UserError
 from cdprid.excitation._check import limit_ratios, rest_margins
 from cdprid.excitation._evaluation import ExcitationResult, evaluate_design
 from cdprid.excitation._problem import GENTLE_FRACTION, ExcitationProblem, Fractions, _penalised
@@ -52,8 +51,7 @@ from cdprid.excitation._safety import (
     SafetyLimits,
     UncertaintyBox,
 )
-from cdprid.model._dynamics import InertialParameters
-from cdprid.model._geometry import CableRobot
+from cdprid.model import CableRobot, InertialParameters
 
 
 class _ProbModule(eqx.Module):

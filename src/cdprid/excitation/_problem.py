@@ -9,8 +9,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError, UserError
-from cdprid.core._regression import regressors, wrench_matrices
+from cdprid.base import InputError, UserError
+from cdprid.core import regressors, wrench_matrices
 from cdprid.excitation._constraints import _constraint_margins, robust_tension_margin_smooth
 from cdprid.excitation._families import (
     FAMILIES,
@@ -33,9 +33,7 @@ from cdprid.excitation._safety import (
     uncertainty_from_prior,
     uncertainty_from_robot,
 )
-from cdprid.model._clearance import cable_pairs
-from cdprid.model._dynamics import PARAMETER_NAMES, InertialParameters
-from cdprid.model._geometry import CableRobot
+from cdprid.model import PARAMETER_NAMES, CableRobot, InertialParameters, cable_pairs
 
 #: What the certificate proves, and what it does not (written to the JSON).
 CERTIFICATE_SCOPE = (

@@ -28,9 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.base._errors import UserError
-from cdprid.model._dynamics import PARAMETER_NAMES, InertialParameters
-from cdprid.model._geometry import CableRobot
+from cdprid.base import UserError
+from cdprid.model import PARAMETER_NAMES, CableRobot, InertialParameters
 
 __all__ = [
     "DEFAULT_LIMITS",

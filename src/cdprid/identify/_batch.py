@@ -1,6 +1,6 @@
 """End-to-end identification of a dataset: the data path in one call.
 
-dataset -> :func:`~cdprid.io.align` -> :func:`~cdprid.core.estimate_motion` ->
+dataset -> :func:`~cdprid.io._align` -> :func:`~cdprid.core.estimate_motion` ->
 :func:`~cdprid.core.build_regression` -> :func:`~cdprid.core.least_squares`,
 with the checks that keep the printed numbers honest (:mod:`cdprid.core._physical` and the
 guards below): each guard that fires adds one sentence to ``warnings``.
@@ -24,24 +24,25 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._defaults import TRIM_S
-from cdprid.base._errors import InputError
-from cdprid.core._crb import CRBResult, crb
-from cdprid.core._identification import LSResult, least_squares_blocks
-from cdprid.core._motion import (  # noqa: F401  (re-exported by cdprid.identify)
-    ROTATION_WARN_DEG,
-    Motion,
-    estimate_motion,
-    rotation_angle_deg,
-)
-from cdprid.core._physical import inertia_about_com, physical_fit, physical_warnings
-from cdprid.core._regression import (
+from cdprid.base import TRIM_S, InputError
+from cdprid.core import (
     CHUNK,
+    ROTATION_WARN_DEG,
+    CRBResult,
+    LSResult,
+    Motion,
     Regression,
     StreamedRegression,
     cable_wrench,
+    crb,
+    estimate_motion,
+    inertia_about_com,
+    least_squares_blocks,
+    physical_fit,
+    physical_warnings,
     regressor_blocks,
     regressors,
+    rotation_angle_deg,
 )
 from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._eiv import EIV_NOTE, eiv_fit, noise_gains, noise_levels
@@ -53,11 +54,9 @@ from cdprid.identify._zero_phase_match import (
     uses_zero_phase_match,
     zero_phase_matched_regression,
 )
-from cdprid.io.align import AlignedSignals, align
-from cdprid.io.dataset import Dataset
-from cdprid.model._dynamics import PARAMETER_NAMES
-from cdprid.model._rotations import quat_to_matrix
-from cdprid.signal._differentiators import METHODS, acceleration_filter
+from cdprid.io import AlignedSignals, Dataset, align
+from cdprid.model import PARAMETER_NAMES, quat_to_matrix
+from cdprid.signal import METHODS, acceleration_filter
 
 __all__ = [
     "COND_WARN",

@@ -1,30 +1,29 @@
 """Geometric calibration from a recording with locked winches (constant cable lengths).
 
 While the winches are locked, every cable's length from its pulley entry point ``A_i`` to its
-attachment ``B_i`` (arc on the pulley rim included, :func:`cdprid.model.cable_lengths`)
-is a constant ``L_i``, and each swivel encoder reads the angle of its pulley plane
-(:func:`cdprid.model.swivel_angles`) up to a constant offset (encoders are zeroed at
-homing). A motion-capture system measures the pose of a marker frame ``M`` in its own frame
-``V``. This module estimates, by nonlinear least squares over the whole recording,
+attachment ``B_i`` (arc on the pulley rim included, :func:`cdprid.model.cable_lengths`) is a
+constant ``L_i``, and each swivel encoder reads the angle of its pulley plane
+(:func:`cdprid.model.swivel_angles`) up to a constant offset (encoders are zeroed at homing). A
+motion-capture system measures the pose of a marker frame ``M`` in its own frame ``V``. This module
+estimates, by nonlinear least squares over the whole recording,
 
 - ``B_R_V, B_p_V``: the transform Vicon frame -> robot base frame,
-- either ``M_R_P, M_p_P`` (``anchors="config"``: the platform frame in the marker frame,
-  the attachments ``P_b`` being the configuration's) or ``M_b`` (``anchors="free"``: the
-  attachment points in the marker frame, 3 m numbers),
+- either ``M_R_P, M_p_P`` (``anchors="config"``: the platform frame in the marker frame, the
+  attachments ``P_b`` being the configuration's) or ``M_b`` (``anchors="free"``: the attachment
+  points in the marker frame, 3 m numbers),
 - ``L`` (m,): the constant cable lengths,
-- ``delta`` (m,): the swivel-encoder offsets, ``psi_meas = s (psi_model - delta)`` with a
-  sign ``s`` (``swivel_sign``, +1 by default),
+- ``delta`` (m,): the swivel-encoder offsets, ``psi_meas = s (psi_model - delta)`` with a sign
+  ``s`` (``swivel_sign``, +1 by default),
 
 with residuals ``(L_i(pose) - L_i) / sigma_L`` and ``wrap(s(psi_i - delta_i) - psi_meas) /
-sigma_psi``; the two group scales are re-estimated from a first solution (so each group has
-unit RMS), then the problem is solved again. The covariance is ``s^2 (J^T J)^{-1}`` of the
-weighted Jacobian at the solution, computed through the SVD of J (never by inverting
-``J^T J``). Consecutive samples are correlated (smooth motion), so these standard deviations
-are lower bounds; the test suite checks that synthetic, noise-free data are recovered to
-~1e-8.
+sigma_psi``; the two group scales are re-estimated from a first solution (so each group has unit
+RMS), then the problem is solved again. The covariance is ``s^2 (J^T J)^{-1}`` of the weighted
+Jacobian at the solution, computed through the SVD of J (never by inverting ``J^T J``). Consecutive
+samples are correlated (smooth motion), so these standard deviations are lower bounds; the test
+suite checks that synthetic, noise-free data are recovered to ~1e-8.
 
 Frames: ``B`` base (the configuration's frame of the pulleys), ``V`` Vicon, ``M`` marker frame
-(:mod:`cdprid.io.vicon`), ``P`` platform frame (origin P, the configuration's frame of the
+(:mod:`cdprid.io._vicon`), ``P`` platform frame (origin P, the configuration's frame of the
 attachments ``points``, centre of mass ``PtoG``). Rotations are parametrised as
 ``R = R0 exp([r]x)`` around a starting guess ``R0`` (multi-start over yaw multiples of 90 deg).
 """
@@ -39,12 +38,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import ConvergenceError, InputError
-from cdprid.model._geometry import CableRobot, cable_lengths, swivel_angles
-from cdprid.model._rotations import matrix_to_quat, quat_to_matrix, rotvec_to_quat
-
-__all__ = ["CalibrationData", "CalibrationResult", "calibrate_geometry", "platform_pose",
-           "write_calibrated_dataset", "calibration_data", "import_calibrated_uacdpr"]
+from cdprid.base import ConvergenceError, InputError
+from cdprid.model import (
+    CableRobot,
+    cable_lengths,
+    matrix_to_quat,
+    quat_to_matrix,
+    rotvec_to_quat,
+    swivel_angles,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -147,9 +149,7 @@ class CalibrationResult:
         return out
 
 
-# --------------------------------------------------------------------------- model
-
-
+# ----------------------------------------------------------------------- the model
 def _rot(R0, r):
     return R0 @ quat_to_matrix(rotvec_to_quat(r))
 
@@ -459,8 +459,7 @@ def write_calibrated_dataset(src, result: CalibrationResult, out, overwrite: boo
     out : folder to write
     overwrite : bool
     """
-    from cdprid.io.dataset import Dataset, read_dataset
-    from cdprid.io.writer import write_dataset
+    from cdprid.io import Dataset, read_dataset, write_dataset
 
     ds = src if isinstance(src, Dataset) else read_dataset(src)
     q = ds.quaternion if ds.quaternion is not None else np.tile([1.0, 0, 0, 0], (len(ds.pose_t), 1))
@@ -480,7 +479,7 @@ def write_calibrated_dataset(src, result: CalibrationResult, out, overwrite: boo
 
 
 def calibration_data(rec) -> CalibrationData:
-    """:class:`CalibrationData` of a :class:`cdprid.io.uacdpr.UacdprRecording`, on the overlap
+    """:class:`CalibrationData` of a :class:`cdprid.io._uacdpr.UacdprRecording`, on the overlap
     of the Vicon stream and the robot log (swivel angles averaged and interpolated at the
     pose times).
 
@@ -505,7 +504,7 @@ def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
                              progress=None) -> Path:
     """Convert a UACDPR recording, calibrate its geometry and fit its nuisances.
 
-    The three stages of ``cdprid import uacdpr``: :mod:`cdprid.io.uacdpr` converts the
+    The three stages of ``cdprid import uacdpr``: :mod:`cdprid.io._uacdpr` converts the
     formats, :func:`calibrate_geometry` (``anchors="config"``, every ``subsample``-th Vicon
     frame) gives the pose of the configuration's PLATFORM frame in the robot BASE frame
     (robot.toml's anchors and exits apply unchanged; meta.toml ``[calibration]``), and with
@@ -521,7 +520,7 @@ def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
     force : bool
         Replace an existing ``out``.
     swivel_axis : {"first", "third"}, optional
-        Default :data:`cdprid.io.uacdpr.DEFAULT_SWIVEL_AXIS`.
+        Default :data:`cdprid.io._uacdpr.DEFAULT_SWIVEL_AXIS`.
     subsample, yaw_starts : int
         Calibration options.
     nuisance : bool
@@ -535,11 +534,12 @@ def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
     """
     import time
 
-    from cdprid.base._outputs import atomic_dir, check_output
-    from cdprid.io.dataset import DATASET_FILES, read_dataset
-    from cdprid.io.uacdpr import (
+    from cdprid.base import atomic_dir, check_output
+    from cdprid.io import (
+        DATASET_FILES,
         DEFAULT_SWIVEL_AXIS,
         load_uacdpr,
+        read_dataset,
         sources_of,
         uacdpr_meta,
         write_uacdpr,
@@ -564,8 +564,8 @@ def import_calibrated_uacdpr(vicon, robot_log, config, out, force: bool = False,
     with atomic_dir(out, force=force, owned=DATASET_FILES) as tmp:
         write_uacdpr(rec, tmp, meta, R, p, overwrite=True)
         if nuisance:
-            from cdprid.base._errors import ConvergenceError
-            from cdprid.core._nuisance import InsufficientDataError
+            from cdprid.base import ConvergenceError
+            from cdprid.core import InsufficientDataError
             from cdprid.identify._real import nuisance_summary, prepare_real
 
             say("nuisance fit (offsets, delay, dynamics; whole recording) ...")
@@ -584,7 +584,7 @@ def _calibrated_meta(meta: dict, res: CalibrationResult, subsample: int) -> dict
     meta = dict(meta)
     meta["description"] = (
         "UACDPR (Univ. Bologna) recording with locked winches, imported by "
-        "cdprid.io.uacdpr: pose of the configuration's platform frame in the robot base "
+        "cdprid.io._uacdpr: pose of the configuration's platform frame in the robot base "
         "frame (rigid-body fit of the raw markers + geometric calibration); raw load-cell "
         "tensions at the robot's rate.")
     meta["frames"] = dict(meta["frames"])

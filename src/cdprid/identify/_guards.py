@@ -21,9 +21,8 @@ import math
 
 import numpy as np
 
-from cdprid.base._errors import UserError
-from cdprid.core._motion import rotation_matrices
-from cdprid.core._noise import estimate_noise
+from cdprid.base import UserError
+from cdprid.core import estimate_noise, rotation_matrices
 
 #: Relative gap between the identified and the stated mass above which identify warns.
 MASS_WARN_RATIO = 0.3
@@ -110,7 +109,7 @@ def _clock_warning(pose_t, tension_t) -> str | None:
 def _snr_warning(signals, differentiator: str, params: dict, acceleration=None) -> str | None:
     """Accelerations of the motion against those the differentiator makes of pure noise
     (``acceleration``: the ones the identification already estimated, else computed here)."""
-    from cdprid.signal._differentiators import differentiate
+    from cdprid.signal import differentiate
 
     pos = np.asarray(signals.position, float)
     if len(pos) < 50:
@@ -189,7 +188,7 @@ def swapped_columns_warning(robot, report, tension) -> str | None:
     """Name two tension columns that look swapped: exchanging them lowers the residual of the
     same least-squares fit below :data:`SWAP_RESIDUAL_RATIO` of what it is (tensions in the
     wrong cable order gave a confident mzG off by 4 sigma with no warning)."""
-    from cdprid.core._regression import cable_wrench
+    from cdprid.core import cable_wrench
     from cdprid.identify._batch import _wrench_filter
 
     motion, reg = report.motion, report.regression

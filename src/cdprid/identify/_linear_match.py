@@ -34,11 +34,9 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
-from cdprid.core import Motion, StreamedRegression, regressor_blocks
-from cdprid.core._motion import angular_rates
-from cdprid.core._regression import cable_wrench
-from cdprid.model._rotations import quat_to_matrix
+from cdprid.base import InputError
+from cdprid.core import Motion, StreamedRegression, angular_rates, cable_wrench, regressor_blocks
+from cdprid.model import quat_to_matrix
 
 __all__ = ["FIR_SECONDS", "FIT_WARN", "LinearMatch", "fir_length", "fit_linear_match",
            "linear_match_regression", "matched_regression", "reference_fir", "reference_rates",
@@ -213,7 +211,7 @@ def reference_fir(method: str, params: dict, dt: float) -> np.ndarray:
     regression exact on noise-free data (every term passes the same filter); fitting them to
     the differentiator keeps its noise behaviour.
     """
-    from cdprid.signal._differentiators import differentiate
+    from cdprid.signal import differentiate
 
     n = int(round(40.0 / dt))
     t = np.arange(n) * dt

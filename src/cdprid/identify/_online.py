@@ -68,12 +68,11 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
-from cdprid.core._identification import condition_number
+from cdprid.base import InputError
+from cdprid.core import condition_number
 from cdprid.identify._online_step import _online_scan, _x64_scope, online_init, online_step
 from cdprid.identify._online_types import OnlineOutput, OnlineResult, OnlineSample
-from cdprid.model._dynamics import PARAMETER_NAMES
-from cdprid.model._geometry import CableRobot
+from cdprid.model import PARAMETER_NAMES, CableRobot
 
 """Treatments of the measured wrench ``W tau`` (see the module docstring, item 3)."""
 

@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.identify._linear_match import reference_fir
 from cdprid.identify._online_types import (
     _SIHD,
@@ -33,12 +33,16 @@ from cdprid.identify._rls import (
     _rls_update,
     _x64_scope,
 )
-from cdprid.model._dynamics import PARAMETER_NAMES, regressor_full, regressor_translation
-from cdprid.model._geometry import CableRobot, wrench_matrix
-from cdprid.model._rotations import angular_rates_from_quat, quat_to_matrix
-from cdprid.signal._differentiators import METHODS
-from cdprid.signal._scan import scan_blocked
-from cdprid.signal._sihd_steps import sihd2_step
+from cdprid.model import (
+    PARAMETER_NAMES,
+    CableRobot,
+    angular_rates_from_quat,
+    quat_to_matrix,
+    regressor_full,
+    regressor_translation,
+    wrench_matrix,
+)
+from cdprid.signal import METHODS, scan_blocked, sihd2_step
 
 
 def online_init(

@@ -10,9 +10,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core._covariance import hac_covariance, std_from_cov
-from cdprid.model._dynamics import PARAMETER_NAMES
-from cdprid.model._geometry import CableRobot
+from cdprid.core import hac_covariance, std_from_cov
+from cdprid.model import PARAMETER_NAMES, CableRobot
 
 WRENCH_FILTERS = ("matched", "delay", "none")
 

@@ -31,27 +31,25 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._defaults import CUTOFF_HZ, FILTER_ORDER, TAUT_THRESHOLD_N, TRIM_S
-from cdprid.base._errors import InputError
-from cdprid.core._motion import estimate_motion
-from cdprid.core._nuisance import (
+from cdprid.base import CUTOFF_HZ, FILTER_ORDER, TAUT_THRESHOLD_N, TRIM_S, InputError
+from cdprid.core import (
     INTERPOLATION,
     SMOOTH_HZ,
     InsufficientDataError,
     NuisanceSpec,
     TensionStream,
+    estimate_motion,
     fit_nuisance,
     mask_windows,
+    regressors,
     rest_mask,
     tension_at,
+    wrench_matrices,
 )
-from cdprid.core._nuisance import taut_mask as _stream_taut_mask
-from cdprid.core._regression import regressors, wrench_matrices
-from cdprid.io.align import align
-from cdprid.io.dataset import Dataset
-from cdprid.model._dynamics import PARAMETER_NAMES
-from cdprid.model._geometry import CableRobot
-from cdprid.signal._filters import make_zero_phase_filter
+from cdprid.core import taut_mask as _stream_taut_mask
+from cdprid.io import Dataset, align
+from cdprid.model import PARAMETER_NAMES, CableRobot
+from cdprid.signal import make_zero_phase_filter
 
 __all__ = [
     "RealData",

@@ -27,8 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdprid.core import Motion, StreamedRegression
-from cdprid.core._regression import cable_wrench
+from cdprid.core import Motion, StreamedRegression, cable_wrench
 from cdprid.identify._linear_match import rotation_remainder
 
 __all__ = ["platform_radius", "regressor_scale", "seen_mass", "uses_zero_phase_match",

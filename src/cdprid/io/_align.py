@@ -7,7 +7,7 @@ import dataclasses
 
 import numpy as np
 
-from cdprid.io.dataset import (
+from cdprid.io._dataset import (
     GAP_FACTOR,
     MIN_SEGMENT_SAMPLES,
     NEGATIVE_TENSION_N,

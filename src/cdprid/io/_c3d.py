@@ -2,7 +2,7 @@
 
 Vicon, Qualisys and OptiTrack export C3D. The platform's markers (``markers``: names in the
 file; default every marker) give the platform pose by the shared rigid-body fit of
-:mod:`cdprid.io.markers`:
+:mod:`cdprid.io._markers`:
 
 - with a **given layout** (``layout``: a CSV ``name,x,y,z`` of the markers in the platform
   frame, origin P), the pose is the platform's in the motion-capture frame;
@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.base._errors import UserError
-from cdprid.io.table import UNITS, unit_scale
+from cdprid.base import UserError
+from cdprid.io._table import UNITS, unit_scale
 
 __all__ = ["import_c3d", "marker_gaps", "platform_pose", "read_c3d_markers", "read_layout"]
 
@@ -117,7 +117,7 @@ def read_c3d_markers(c, path, markers: list[str] | None):
 
 def read_layout(path: str | Path, names: list[str], units: str = "m"):
     """Marker layout (k, 3) in the platform frame, m, from a CSV ``name,x,y,z`` (header line)."""
-    from cdprid.io.table import read_table
+    from cdprid.io._table import read_table
 
     tab = read_table(path, "--layout")
     raw = Path(path).read_text(encoding="utf-8-sig").splitlines()
@@ -200,14 +200,14 @@ MAX_FIT_RMS_MM = 20.0
 
 def platform_pose(V_m, names: list[str], t, path, layout=None, layout_units: str = "m",
                   origin_marker: str | None = None, min_markers: int = 3):
-    """Rigid-body pose of every frame (:mod:`cdprid.io.markers`), NaN where too few markers.
+    """Rigid-body pose of every frame (:mod:`cdprid.io._markers`), NaN where too few markers.
 
     Returns
     -------
     V_R_M : (n, 3, 3), V_p_M : (n, 3), residual : (n, k) m, layout M_m : (k, 3) m, and a
     sentence saying which frame the pose is of.
     """
-    from cdprid.io.markers import estimate_layout, fit_rigid_body
+    from cdprid.io._markers import estimate_layout, fit_rigid_body
 
     if layout is not None:
         M_m = read_layout(layout, names, layout_units)
@@ -269,9 +269,9 @@ def import_c3d(path: str | Path, robot: str | Path, out: str | Path,
     -------
     Path
     """
-    from cdprid.base._outputs import check_output
-    from cdprid.io.table import write_imported
-    from cdprid.model._geometry import load_robot
+    from cdprid.base import check_output
+    from cdprid.io._table import write_imported
+    from cdprid.model import load_robot
 
     check_output(out, force, "--out", kind="dir", inputs=[path, robot, layout, tensions])
     rob = load_robot(robot)
@@ -355,7 +355,7 @@ def _c3d_tensions(c, path, m: int, analog_tensions, analog_units, tensions, tens
     ``(t, tau (n, m) N, the [import] tensions entry)``."""
     if analog_tensions is not None:
         return _analog_tensions(c, path, analog_tensions, m, analog_units)
-    from cdprid.io.table import parse_mapping, parse_units, read_tension_table
+    from cdprid.io._table import parse_mapping, parse_units, read_tension_table
 
     tu = parse_units(tension_units, "--tension-units", ("time", "force"))
     tmap = parse_mapping(tension_columns, "--tension-columns") or \

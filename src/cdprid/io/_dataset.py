@@ -28,10 +28,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 import tomllib
 
-from cdprid.base._errors import InputError, UserError
+from cdprid.base import InputError, UserError
 
 if TYPE_CHECKING:  # geometry imports JAX: loaded only when a dataset is read or written
-    from cdprid.model._geometry import CableRobot
+    from cdprid.model import CableRobot
 
 
 QUAT_COLS = ("qw", "qx", "qy", "qz")
@@ -269,7 +269,7 @@ def read_dataset(path: str | Path) -> Dataset:
     DatasetError
         One sentence naming the file, line or column, and the problem.
     """
-    from cdprid.model._geometry import RobotFileError, load_robot
+    from cdprid.model import RobotFileError, load_robot
 
     root = Path(path)
     if not root.exists():

@@ -1,8 +1,8 @@
 # ruff: noqa: F722  (jaxtyping shape strings)
 """Rigid-body pose from marker trajectories: the one Kabsch/Horn fit of every importer.
 
-Used by the UACDPR importer (raw Vicon exports, :mod:`cdprid.io.vicon`) and the C3D importer
-(:mod:`cdprid.io.c3d`). The body's marker layout ``M_m`` (k, 3) is either given or estimated
+Used by the UACDPR importer (raw Vicon exports, :mod:`cdprid.io._vicon`) and the C3D importer
+(:mod:`cdprid.io._c3d`). The body's marker layout ``M_m`` (k, 3) is either given or estimated
 from the data (:func:`estimate_layout`): an initial layout from a reference frame, then
 alternately (1) fit every frame by Kabsch (:func:`kabsch`) and (2) replace the layout by the
 mean, over frames, of the measured markers brought back into the marker frame
@@ -25,7 +25,7 @@ import dataclasses
 import numpy as np
 from jaxtyping import Float
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 
 __all__ = ["MarkerFit", "kabsch", "fit_rigid_body", "estimate_layout"]
 

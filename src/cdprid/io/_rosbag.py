@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.base._errors import InputError, UserError
+from cdprid.base import InputError, UserError
 
 __all__ = ["POSE_TYPES", "TENSION_TYPES", "import_rosbag", "list_topics", "read_pose_topic",
            "read_tension_topics", "write_rosbag", "open_bag", "pose_values", "fast_decode",
@@ -387,9 +387,9 @@ def import_rosbag(bag: str | Path, robot: str | Path, out: str | Path, pose_topi
     -------
     Path
     """
-    from cdprid.base._outputs import check_output
-    from cdprid.io.table import write_imported
-    from cdprid.model._geometry import load_robot
+    from cdprid.base import check_output
+    from cdprid.io._table import write_imported
+    from cdprid.model import load_robot
 
     check_output(out, force, "--out", kind="dir", inputs=[bag, robot])
     rob = load_robot(robot)

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 from jaxtyping import Float
 
-from cdprid.base._errors import UserError
+from cdprid.base import UserError
 
 __all__ = ["UNITS", "Table", "import_table", "parse_mapping", "parse_units", "read_table",
            "read_tension_table", "unit_scale", "euler_to_quaternion", "write_imported"]
@@ -292,7 +292,7 @@ def _unmapped_notes(ptab, pmap: dict, ttab, tmap: dict, m: int) -> list[str]:
 def _validate_with_reader(tmp: Path, out) -> None:
     """Read the dataset just written with the reader every command uses: an importer never
     writes what its reader would reject (NaN from a bag or C3D, a broken time column)."""
-    from cdprid.io.dataset import DatasetError, read_dataset
+    from cdprid.io._dataset import DatasetError, read_dataset
 
     try:
         read_dataset(tmp)
@@ -309,9 +309,9 @@ def write_imported(out: str | Path, robot, pose_t, position, tension_t, tension,
     Checks that the pose and tension time ranges overlap (UserError otherwise), then writes
     with :func:`cdprid.io.write_dataset` inside :func:`cdprid.base.atomic_dir`.
     """
-    from cdprid.base._outputs import atomic_dir
-    from cdprid.io.dataset import DATASET_FILES
-    from cdprid.io.writer import write_dataset
+    from cdprid.base import atomic_dir
+    from cdprid.io._dataset import DATASET_FILES
+    from cdprid.io._writer import write_dataset
 
     if pose_t[-1] < tension_t[0] or tension_t[-1] < pose_t[0]:
         raise UserError(f"the pose time range [{pose_t[0]:g}, {pose_t[-1]:g}] s and the tension "
@@ -359,8 +359,8 @@ def import_table(pose: str | Path, tensions: str | Path, robot: str | Path, out:
     Path
         The dataset folder.
     """
-    from cdprid.base._outputs import check_output
-    from cdprid.model._geometry import load_robot
+    from cdprid.base import check_output
+    from cdprid.model import load_robot
 
     check_output(out, force, "--out", kind="dir", inputs=[pose, tensions, robot])
     rob = load_robot(robot)

@@ -9,10 +9,9 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
-from cdprid.io.dataset import read_csv_stream
-from cdprid.model._sampled import SampledTrajectory
-from cdprid.model._trajectories import POSITION_COLUMNS, ROTATION_COLUMNS
+from cdprid.base import InputError
+from cdprid.io._dataset import read_csv_stream
+from cdprid.model import POSITION_COLUMNS, ROTATION_COLUMNS, SampledTrajectory
 
 
 def save_trajectory_csv(

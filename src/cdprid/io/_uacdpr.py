@@ -2,7 +2,7 @@
 
 Inputs (see ``docs/importers.md``):
 
-- a raw Vicon "Trajectories" export (:mod:`cdprid.io.vicon`), 100 Hz, markers in mm;
+- a raw Vicon "Trajectories" export (:mod:`cdprid.io._vicon`), 100 Hz, markers in mm;
 - the robot log ``<name>_exp.mat`` with the struct ``st_out`` (fields ``t`` 1 x N at 1 kHz on
   the Vicon clock, ``tensions`` 4 x N in N, ``swivel`` 4 x N in rad, ``cable_length`` 4 x N,
   ``epsilon`` 3 x N inclinometer angles in rad); Vicon frame f is at ``t = (f - 1) / rate``;
@@ -11,7 +11,7 @@ Inputs (see ``docs/importers.md``):
   ``PtoG``, ``InertialMatrix``, ``points``).
 
 The written pose is that of the MARKER frame in the VICON frame (both defined in
-:mod:`cdprid.io.vicon`: origin at marker 9, axes = Vicon axes at the first frame); robot.toml
+:mod:`cdprid.io._vicon`: origin at marker 9, axes = Vicon axes at the first frame); robot.toml
 holds the configuration's geometry in the robot base frame and attachments in the platform
 frame. The two frames pairs differ by transforms that :mod:`cdprid.identify._calibration` estimates;
 meta.toml says so.
@@ -34,9 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.base._errors import InputError
-from cdprid.io.vicon import MarkerFit, ViconTrajectories, estimate_layout, read_vicon_trajectories
-from cdprid.model._geometry import CableRobot, robot_from_dict
+from cdprid.base import InputError
+from cdprid.io._vicon import MarkerFit, ViconTrajectories, estimate_layout, read_vicon_trajectories
+from cdprid.model import CableRobot, robot_from_dict
 
 __all__ = [
     "RobotLog",
@@ -281,7 +281,7 @@ def uacdpr_meta(rec: UacdprRecording, sources: dict, swivel_axis: str) -> dict:
     log = rec.log
     return {
         "description": "UACDPR (Univ. Bologna) recording with locked winches, imported by "
-                       "cdprid.io.uacdpr: pose of the marker frame in the Vicon frame from a "
+                       "cdprid.io._uacdpr: pose of the marker frame in the Vicon frame from a "
                        "rigid-body fit of the raw markers; tensions at the robot's rate.",
         "source": "; ".join(f"{k}: {v}" for k, v in sources.items()),
         "frames": {
@@ -329,8 +329,8 @@ def write_uacdpr(rec: UacdprRecording, out: str | Path, meta: dict, R=None, p=No
         Pose to write at ``rec.pose_t`` (default: the marker frame in the Vicon frame).
     overwrite : bool
     """
-    from cdprid.io.writer import write_dataset
-    from cdprid.model._rotations import matrix_to_quat
+    from cdprid.io._writer import write_dataset
+    from cdprid.model import matrix_to_quat
 
     v = rec.valid
     R = rec.fit.V_R_M[v] if R is None else R
@@ -372,8 +372,8 @@ def import_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
     cdprid.base._errors.OutputError
         ``out`` exists and ``overwrite`` is False (checked before reading).
     """
-    from cdprid.base._outputs import atomic_dir, check_output
-    from cdprid.io.dataset import DATASET_FILES
+    from cdprid.base import atomic_dir, check_output
+    from cdprid.io._dataset import DATASET_FILES
 
     check_output(out, force=overwrite, kind="dir", inputs=[vicon, robot_log, config])
     rec = load_uacdpr(vicon, robot_log, config, swivel_axis)

@@ -12,7 +12,7 @@ A Vicon Nexus "Trajectories" export (tab- or comma-separated) looks like::
 Missing markers appear as empty fields (or, in some exports, as exact zeros); both are read
 as NaN. :func:`read_vicon_trajectories` returns positions in metres.
 
-Pose from markers: :mod:`cdprid.io.markers` (the one Kabsch/Horn rigid-body fit shared with the
+Pose from markers: :mod:`cdprid.io._markers` (the one Kabsch/Horn rigid-body fit shared with the
 C3D importer; re-exported here). The UACDPR authors take marker 9, the lowest one, as the
 marker-frame origin. The relation between this marker frame and the robot's platform frame is
 a nuisance that :mod:`cdprid.identify._calibration` estimates.
@@ -28,11 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.base._errors import InputError
-from cdprid.io.markers import MarkerFit as MarkerFit
-from cdprid.io.markers import estimate_layout as estimate_layout
-from cdprid.io.markers import fit_rigid_body as fit_rigid_body
-from cdprid.io.markers import kabsch as kabsch
+from cdprid.base import InputError
+from cdprid.io._markers import MarkerFit as MarkerFit
+from cdprid.io._markers import estimate_layout as estimate_layout
+from cdprid.io._markers import fit_rigid_body as fit_rigid_body
+from cdprid.io._markers import kabsch as kabsch
 
 __all__ = [
     "ViconTrajectories",

@@ -9,11 +9,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cdprid.base._errors import OutputError, OutputExistsError
-from cdprid.io.dataset import DATASET_FILES, QUAT_COLS
+from cdprid.base import OutputError, OutputExistsError
+from cdprid.io._dataset import DATASET_FILES, QUAT_COLS
 
 if TYPE_CHECKING:  # geometry imports JAX
-    from cdprid.model._geometry import CableRobot
+    from cdprid.model import CableRobot
 
 
 def _toml_value(v) -> str:
@@ -93,8 +93,8 @@ def write_dataset(
     """
     import tomli_w
 
-    from cdprid.base._outputs import atomic_dir
-    from cdprid.model._geometry import robot_to_dict
+    from cdprid.base import atomic_dir
+    from cdprid.model import robot_to_dict
 
     root = Path(path)
     if root.exists() and not root.is_dir():

@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.model._geometry import CableRobot, leave_points
 
 __all__ = [

@@ -24,7 +24,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.model._rotations import skew
 
 __all__ = [

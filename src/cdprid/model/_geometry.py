@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 import tomllib
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 
 __all__ = [
     "CableRobot",

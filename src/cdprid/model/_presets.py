@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.model._trajectories import PRESETS, Orbit, Trajectory, TrajectoryState, orbit_sequence
 
 

@@ -6,7 +6,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.model._rotations import angular_rates_from_quat, rotvec_to_quat
 from cdprid.model._smoothstep import _derivs, smoothstep7
 

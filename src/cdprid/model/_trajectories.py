@@ -41,7 +41,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.model._rotation_paths import Rotation, _identity, _rotation_state, small_rotation
 from cdprid.model._smoothstep import _binom, smoothstep7_derivs
 

@@ -7,9 +7,9 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from cdprid.base._outputs import save_figure
-from cdprid.identify._calibration import CalibrationData, CalibrationResult, platform_pose
-from cdprid.model._geometry import CableRobot, cable_lengths, swivel_angles
+from cdprid.base import save_figure
+from cdprid.identify import CalibrationData, CalibrationResult, platform_pose
+from cdprid.model import CableRobot, cable_lengths, swivel_angles
 
 __all__ = ["calibration_figures"]
 

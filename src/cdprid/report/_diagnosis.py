@@ -110,8 +110,8 @@ def unexplained_figure(result, out: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cdprid.diagnosis.unexplained import decimate_runs, periodogram
-    from cdprid.report.figures import save_fig
+    from cdprid.diagnosis import decimate_runs, periodogram
+    from cdprid.report._figures import save_fig
 
     A = result.arrays
     t, r, use = A["t"], A["residual_extended"], A["use"]
@@ -167,7 +167,7 @@ def clock_figure(result, out: Path) -> Path | None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cdprid.report.figures import save_fig
+    from cdprid.report._figures import save_fig
 
     fig, ax = plt.subplots(figsize=(6.4, 3.2))
     d = 1e3 * np.asarray(prof["delay_s"])
@@ -200,7 +200,7 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     Path
         ``out_dir / "report.md"``.
     """
-    from cdprid.report.figures import diagnosis_figures
+    from cdprid.report._figures import diagnosis_figures
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -40,9 +40,8 @@ def plot_trajectory(robot, traj, path, initial=None, title: str = "", n_cables_a
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cdprid.base._outputs import save_figure
-    from cdprid.model._geometry import leave_points
-    from cdprid.model._rotations import quat_to_matrix
+    from cdprid.base import save_figure
+    from cdprid.model import leave_points, quat_to_matrix
 
     t = np.linspace(traj.t_start, traj.t_end, 1500)
     s = traj.evaluate(t)
@@ -97,7 +96,7 @@ def plot_safety_series(series, limits, path, title: str = "", force: bool = True
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cdprid.base._outputs import save_figure
+    from cdprid.base import save_figure
 
     t = series.t
     fig, axs = plt.subplots(5, 1, figsize=(9, 12), sharex=True)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.base._outputs import save_figure
+from cdprid.base import save_figure
 
 __all__ = ["diagnosis_figures", "pyplot", "save_fig"]
 

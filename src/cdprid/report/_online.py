@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cdprid.identify._online_types import OnlineResult
-from cdprid.report.figures import pyplot, save_fig
+from cdprid.identify import OnlineResult
+from cdprid.report._figures import pyplot, save_fig
 
 __all__ = ["plot_online"]
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdprid.base._outputs import save_figure
-from cdprid.signal._baselines import zero_phase_filter
+from cdprid.base import save_figure
+from cdprid.signal import zero_phase_filter
 
 __all__ = ["fig_nuisance", "fig_residuals", "fig_tensions", "fig_wrench"]
 

@@ -23,8 +23,8 @@ def plot_response(resp, path, method: str = "", force: bool = False) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cdprid.base._outputs import save_figure
-    from cdprid.tuning._response import GAIN_MAX_ABOVE, GAIN_MAX_BELOW
+    from cdprid.base import save_figure
+    from cdprid.tuning import GAIN_MAX_ABOVE, GAIN_MAX_BELOW
 
     b = resp.bounds
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6.5, 5.5), sharex=True)

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.signal import _sihd_high as _sihd_high
 from cdprid.signal._filters import butter_sos, sosfilt, sosfilt_zi, sosfiltfilt
 

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import jax
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.signal import _sihd_high as _sihd_high
 from cdprid.signal._baselines import (
     _euler_butter_causal,

@@ -27,7 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 
 __all__ = ["ZeroPhaseFilter", "butter_lowpass", "butter_sos", "lfilter", "lfilter_zi",
            "make_zero_phase_filter", "sosfilt", "sosfilt_zi", "sosfiltfilt"]

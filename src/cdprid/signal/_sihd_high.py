@@ -36,7 +36,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 
 __all__ = [
     "sihdn_step",

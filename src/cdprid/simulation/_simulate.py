@@ -30,26 +30,33 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
-from cdprid.effects._effects import (
+from cdprid.base import InputError
+from cdprid.effects import (
     effect_parameters_table,
     encoder_lengths,
+    load_cell_reading,
+    plant_terms,
     true_gravity,
     true_robot,
     validate_effects,
 )
-from cdprid.effects._plant import plant_terms
-from cdprid.effects._sensor import load_cell_reading
-from cdprid.model._dynamics import InertialParameters, platform_wrench
-from cdprid.model._geometry import CableRobot, cable_lengths, cable_vectors, wrench_matrix
-from cdprid.model._presets import check_workspace
-from cdprid.model._rotations import quat_multiply, quat_to_matrix, rotvec_to_quat
-from cdprid.model._tensions import DEFAULT_PRETENSION, distribute_tensions
-from cdprid.model._trajectories import (
+from cdprid.model import (
+    DEFAULT_PRETENSION,
     POSITION_COLUMNS,
     ROTATION_COLUMNS,
+    CableRobot,
+    InertialParameters,
     TrajectoryState,
+    cable_lengths,
+    cable_vectors,
+    check_workspace,
+    distribute_tensions,
+    platform_wrench,
+    quat_multiply,
+    quat_to_matrix,
+    rotvec_to_quat,
     with_rotation,
+    wrench_matrix,
 )
 
 __all__ = ["SensorNoise", "SimResult", "simulate", "write_simulation", "plant_wrenches"]
@@ -213,7 +220,7 @@ def plant_wrenches(robot_true, params, gravity, drag, rho, p, v, a, q, omega, al
 @eqx.filter_jit
 def _plant(robot_true, params, gravity, drag, rho, tau_ref, p, v, a, q, omega, alpha):
     """Plant wrenches and the closed-form tensions (one compilation for every trajectory)."""
-    from cdprid.model._tensions import closed_form_tensions
+    from cdprid.model import closed_form_tensions
 
     one = lambda *x: _plant_one(robot_true, params, gravity, drag, rho, *x)  # noqa: E731
     W, wp, wext = jax.vmap(one)(p, v, a, q, omega, alpha)
@@ -234,7 +241,7 @@ def _quantise(x, step):
 
 def _default_params(robot):
     """robot.toml's platform parameters, else the CRAFT-like truth."""
-    from cdprid.model._robots import craft_like_truth
+    from cdprid.model import craft_like_truth
 
     pl = robot.platform
     if pl.mass is None or pl.com is None:
@@ -453,7 +460,7 @@ def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Pat
     -------
     Path
     """
-    from cdprid.io.writer import write_dataset
+    from cdprid.io import write_dataset
 
     r = result
     p = r.params

@@ -30,11 +30,14 @@ class ParamProblem:
     """
 
     def __init__(self, signal: TrainingSignal, seeds, tension_std: float = 0.5):
-        from cdprid.model._dynamics import regressor_translation
-        from cdprid.model._geometry import wrench_matrix
-        from cdprid.model._robots import craft_like_robot, craft_like_truth
-        from cdprid.model._sampled import SampledTrajectory
-        from cdprid.simulation._simulate import SensorNoise, simulate
+        from cdprid.model import (
+            SampledTrajectory,
+            craft_like_robot,
+            craft_like_truth,
+            regressor_translation,
+            wrench_matrix,
+        )
+        from cdprid.simulation import SensorNoise, simulate
 
         robot = craft_like_robot()
         truth = craft_like_truth()

@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
+from cdprid.base import InputError
 from cdprid.tuning._sihd_params import SIHD_METHODS, default_params
 from cdprid.tuning._training import any_differentiate
 

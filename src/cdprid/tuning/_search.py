@@ -11,7 +11,7 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._status import Status
+from cdprid.base import Status
 from cdprid.tuning._response import ResponseBounds, acceleration_response, response_penalty
 from cdprid.tuning._sihd_params import PAPER_PARAMS, _order, default_params, theta_from_params
 

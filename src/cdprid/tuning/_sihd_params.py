@@ -9,10 +9,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.base._errors import InputError
-from cdprid.signal._differentiators import METHODS
-from cdprid.signal._sihd_high import METHOD_INFO as HIGH_INFO
-from cdprid.signal._sihd_high import sihdn_channel
+from cdprid.base import InputError
+from cdprid.signal import METHOD_INFO as HIGH_INFO
+from cdprid.signal import METHODS, sihdn_channel
 
 SIHD_METHODS = ("sihd2-cascade", "sihd3", "sihd4", "sihd5")
 

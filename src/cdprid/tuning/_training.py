@@ -8,10 +8,9 @@ import math
 
 import numpy as np
 
-from cdprid.base._errors import InputError
-from cdprid.signal._differentiators import METHODS, differentiate
-from cdprid.signal._sihd_high import METHOD_INFO as HIGH_INFO
-from cdprid.signal._sihd_high import differentiate_high
+from cdprid.base import InputError
+from cdprid.signal import METHOD_INFO as HIGH_INFO
+from cdprid.signal import METHODS, differentiate, differentiate_high
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,7 +64,7 @@ def lissajous_signal(ax=0.25, ay=0.2, az=0.1, f=(0.2, 0.4, 0.3), dt=0.01, durati
 
 def noise_from_dataset(ds) -> float:
     """Position-noise std (m) of a dataset, from robust 4th differences, averaged over axes."""
-    from cdprid.core._noise import estimate_noise
+    from cdprid.core import estimate_noise
     from cdprid.io import align
 
     sig = align(ds)
@@ -179,7 +178,7 @@ def trajectory_signal(traj, dt: float, name: str | None = None, t0: float = 2.0
 
 
 def _orbit_member(f, r, az, tilt, ramp, dt, duration):
-    from cdprid.model._trajectories import Orbit, orbit_sequence
+    from cdprid.model import Orbit, orbit_sequence
 
     ramp = min(ramp, duration / 3)
     plane = {0.0: "horizontal"}.get(tilt, "vertical" if abs(tilt - math.pi / 2) < 1e-9 else
@@ -212,7 +211,7 @@ def trajectory_family(which: str = "train", dt: float = 0.01, duration: float = 
     rows = TRAIN_FAMILY if which == "train" else HELDOUT_FAMILY
     out = [_orbit_member(*row, dt, duration) for row in rows]
     if which == "heldout":
-        from cdprid.model._trajectories import Orbit, orbit_sequence
+        from cdprid.model import Orbit, orbit_sequence
 
         d = (duration - 1.5) / 2
         seq = orbit_sequence([Orbit(0.2, 0.2, d, 0.0, 0.0, 0.0, min(3.0, d / 3)),

@@ -64,8 +64,7 @@ import time
 import jax
 import numpy as np
 
-from cdprid.base._errors import InputError
-from cdprid.base._status import Status
+from cdprid.base import InputError, Status
 from cdprid.tuning._losses import ParamProblem as ParamProblem
 from cdprid.tuning._losses import _accel_loss as _accel_loss
 from cdprid.tuning._losses import _groups as _groups
