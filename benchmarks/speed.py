@@ -103,8 +103,9 @@ def _diagnose(d: Path, rev: str | None, n: int = 3, load: int = 0) -> list[str]:
     that many busy Python processes run beside it (a machine shared with other jobs)."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import numpy as np
-    from diagnosis import PAIRS, simulate_case
     from many_effects import craft_case
+
+    from diagnosis import PAIRS, simulate_case
 
     pair = PAIRS["anchor+gain"](np.random.default_rng([3, 8, len("anchor+gain")]), 8)
     recs = {"many effects, case 1": simulate_case(craft_case(1), 1, d),
@@ -135,7 +136,7 @@ def _diagnose(d: Path, rev: str | None, n: int = 3, load: int = 0) -> list[str]:
              f"median of {n}. Recordings (52 s, `rich`, noise 0.3 mm / 0.7 N / 0.2 mrad): the "
              "CRAFT-like many-effects case 1 of benchmarks/many_effects.py (delay, friction on "
              "all pulleys, offset, gain, exit-point error, rotations) and the anchor + gain pair "
-             "of benchmarks/diagnosis.py, seed 3 (tests/test_restart.py).", "",
+             "of benchmarks/diagnosis.py, seed 3 (tests/diagnosis/test_restart.py).", "",
              "| recording | tree | wall least [s] | wall median [s] | CPU least [s] | "
              "CPU median [s] |", "|---|---|---:|---:|---:|---:|"]
     for label in recs:

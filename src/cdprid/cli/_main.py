@@ -384,7 +384,7 @@ class _Parser(argparse.ArgumentParser):
 
 # Commands listed by `cdprid --help` without importing their modules (which load JAX, SciPy):
 # name -> (module registering it, or None for identify here; its one-line help). The help
-# strings must equal those the modules register (tests/test_robustness.py checks it).
+# strings must equal those the modules register (tests/cli/test_robustness.py checks it).
 COMMANDS: dict[str, tuple[str | None, str]] = {
     "identify": (None, "identify the platform's dynamic parameters (least squares)"),
     "differentiate": ("cdprid.cli._differentiate",

@@ -37,8 +37,8 @@ low (measured: worst RMS z 1.55-1.68). Each window's score ``m_w`` is therefore 
 jackknife estimate of the error's window score ``Z^T Z (Z^T Z - G_w)^-1 m_w`` (``G_w`` the
 window's Gram matrix), i.e. ``Z^T Z (b - b_(-w))`` with ``b_(-w)`` the leave-window-out fit.
 Larger bandwidths, the Quadratic-Spectral kernel and AR(1) prewhitening were measured and not
-chosen (docs/uncertainty.md); ``tests/test_coverage.py`` and ``benchmarks/coverage.py`` measure
-the coverage on simulated robots.
+chosen (docs/uncertainty.md); ``tests/core/test_covariance.py`` and ``benchmarks/coverage.py``
+measure the coverage on simulated robots.
 
 References
 ----------

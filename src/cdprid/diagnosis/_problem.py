@@ -117,7 +117,7 @@ def sliding_sign(lengths, dt: float, cutoff_hz: float):
     it goes to 0. The sign of the estimate itself would attenuate a fitted Coulomb level (an
     errors-in-variables bias), and a sign set to 0 in a dead zone inflates it once the
     regression is filtered; the conditional expectation leaves a residual uncorrelated with
-    the regressor (``tests/test_sliding.py`` measures the three).
+    the regressor (``tests/diagnosis/test_sliding.py`` measures the three).
 
     Returns
     -------

@@ -391,7 +391,7 @@ def vocabulary_markdown() -> str:
     """``docs/effects.md``: the vocabulary table and each effect's model, from this module.
 
     Generated from :data:`VOCABULARY` and the module docstring (one definition of each
-    effect); ``tests/test_effects.py`` checks that the committed file is up to date.
+    effect); ``tests/effects/test_vocabulary.py`` checks that the committed file is up to date.
     """
     doc = __doc__ or ""
     lines = ["# Effect vocabulary", "",

@@ -11,7 +11,7 @@ Two implementations of one filter:
   state; only the (order, k) state is carried from block to block in Python), on second-order
   sections (:func:`butter_sos`: well conditioned at any order). :func:`sosfiltfilt` uses
   SciPy's odd padding and steady-state (``lfilter_zi``) initial conditions. Tested against
-  ``scipy.signal`` to 1e-12 (``tests/test_differentiators.py``). Importing ``scipy.signal``
+  ``scipy.signal`` to 1e-12 (``tests/signal/test_differentiators.py``). Importing ``scipy.signal``
   took about half of ``cdprid identify``'s cold start, hence this module.
 * JAX (:class:`ZeroPhaseFilter`): the same recursion as a forward then backward ``lax.scan``,
   differentiable, for the diagnosis that refits effects through the matched filter.

@@ -18,7 +18,7 @@ from cdprid.diagnosis import _unexplained as U
 from cdprid.diagnosis._candidates import Candidate
 from cdprid.signal import make_zero_phase_filter, zero_phase_filter
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 
 
 @pytest.mark.parametrize("n", [40, 700])

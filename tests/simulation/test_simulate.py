@@ -37,7 +37,7 @@ def robot():
 
 @pytest.fixture(scope="module")
 def traj():
-    # the same two orbits as tests/test_trajectories.py (shares compilations)
+    # the same two orbits as tests/model/test_trajectories.py (shares compilations)
     orbits = [
         Orbit(0.3, 0.4, 5.0, azimuth=0.3, tilt=1.0, phase=0.2, ramp=1.5),
         Orbit(0.2, 0.6, 4.0, azimuth=1.2, tilt=0.4, ramp=1.0, centre=(0.1, -0.1, 1.3)),

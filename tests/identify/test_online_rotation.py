@@ -1,8 +1,8 @@
 """Online identification on rotating, noise-free data (issue 24): the first moment is right
 and the inertia has the right sign on the CRAFT-like and 6-cable robots. Before, a causal
 filter's lag gave mzG -0.80 (truth -1.06) and Ixx -1.34 on the CRAFT-like robot. The full
-model now takes the rotation-consistent path (tests/test_rotation_consistent.py holds the 5 %
-inertia check)."""
+model now takes the rotation-consistent path (tests/identify/test_rotation_consistent.py holds
+the 5 % inertia check)."""
 
 from __future__ import annotations
 

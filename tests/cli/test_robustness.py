@@ -26,7 +26,7 @@ from cdprid.io import DatasetError, align, read_csv_stream, read_dataset, write_
 from cdprid.model import robot_from_dict
 from conftest import ROBOT_CRAFT
 
-SRC = str(Path(__file__).resolve().parents[1] / "src")
+SRC = str(Path(__file__).resolve().parents[2] / "src")
 
 
 def _sha(path: Path) -> str:

@@ -38,7 +38,7 @@ def test_docs_effects_md_is_generated_from_the_table():
     text = vocabulary_markdown()
     for name in VOCABULARY:
         assert f"| `{name}` |" in text and f"### ``{name}" in text
-    doc = Path(__file__).resolve().parents[1] / "docs" / "effects.md"
+    doc = Path(__file__).resolve().parents[2] / "docs" / "effects.md"
     assert doc.read_text() == text, "regenerate docs/effects.md with vocabulary_markdown()"
 
 
@@ -68,7 +68,7 @@ def test_diagnosis_candidates_and_layout_name_no_effect():
 
     blocks = {b for f in DIAGNOSIS.values() for b, _ in f.blocks}  # theta blocks ("pulley")
     names = (set(VOCABULARY) | set(DIAGNOSIS)) - blocks
-    root = Path(__file__).resolve().parents[1] / "src" / "cdprid" / "diagnosis"
+    root = Path(__file__).resolve().parents[2] / "src" / "cdprid" / "diagnosis"
     for mod in ("candidates.py", "model.py"):
         tree = ast.parse((root / mod).read_text())
         found = {n.value for n in ast.walk(tree)
@@ -120,7 +120,7 @@ def test_no_effect_name_as_a_string_outside_the_effects_package(tmp_path):
     package (plant_terms, DiagnosisForm flags) instead of testing names."""
     from pathlib import Path
 
-    src = Path(__file__).resolve().parents[1] / "src" / "cdprid"
+    src = Path(__file__).resolve().parents[2] / "src" / "cdprid"
     assert _effect_name_literals(src) == []
     # the detector can fail
     (tmp_path / "m.py").write_text('if name == "time_delay":\n    pass\n')

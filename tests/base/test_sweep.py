@@ -77,7 +77,7 @@ def test_a_killed_sweep_completes_only_its_missing_runs(tmp_path):
     script.write_text(textwrap.dedent(f"""
         import os, sys, time
         sys.path.insert(0, {str(Path(__file__).parent)!r})
-        from test_cluster import counted_run, _specs
+        from test_sweep import counted_run, _specs
         from cdprid.base import run_sweep
 
         def slow(spec):
