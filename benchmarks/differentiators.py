@@ -40,8 +40,14 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy import signal  # noqa: E402
 
-from cdprid.signal import METHODS, differentiate  # noqa: E402
-from cdprid.signal import _scan as D_scan  # noqa: E402
+from cdprid.signal import (  # noqa: E402  # noqa: E402
+    _CHANNEL_FNS,
+    METHODS,
+    _block_size,
+    _jax_kernel,
+    _sharded_kernel,
+    differentiate,
+)
 
 DT = 0.01
 T_END = 52.0
@@ -248,16 +254,16 @@ def main(argv=None):
     p_vec = jnp.asarray(list(METHODS["sihd2-cascade"].params.values()), jnp.float64)
     h_dev = jnp.asarray(DT, jnp.float64)
     bat_dev = jnp.asarray(batch2d)
-    jax.block_until_ready(D_scan._jax_kernel("sihd2-cascade", bat_dev, h_dev, p_vec))
+    jax.block_until_ready(_jax_kernel("sihd2-cascade", bat_dev, h_dev, p_vec))
     t_bat_k1 = best_time(
-        lambda: jax.block_until_ready(D_scan._jax_kernel("sihd2-cascade", bat_dev, h_dev, p_vec)), 3
+        lambda: jax.block_until_ready(_jax_kernel("sihd2-cascade", bat_dev, h_dev, p_vec)), 3
     )
     # output blocking (scan_blocked) on one signal, kernel only, timed interleaved
     one_dev = jnp.asarray(one)
     plain = jax.jit(lambda y, h, p: jax.vmap(
-        lambda c: D_scan._CHANNEL_FNS["sihd2-cascade"](c, h, p, 0), in_axes=1, out_axes=1)(y))
+        lambda c: _CHANNEL_FNS["sihd2-cascade"](c, h, p, 0), in_axes=1, out_axes=1)(y))
     runs = {"blocked": [], "plain": []}
-    fns = {"blocked": lambda: D_scan._jax_kernel("sihd2-cascade", one_dev, h_dev, p_vec),
+    fns = {"blocked": lambda: _jax_kernel("sihd2-cascade", one_dev, h_dev, p_vec),
            "plain": lambda: plain(one_dev, h_dev, p_vec)}
     for f in fns.values():
         jax.block_until_ready(f())
@@ -269,7 +275,7 @@ def main(argv=None):
     t_blk, t_plain = min(runs["blocked"]), min(runs["plain"])
     t_bat_kn = None
     if ndev > 1:
-        fn_sh, sharding = D_scan._sharded_kernel("sihd2-cascade", ndev)
+        fn_sh, sharding = _sharded_kernel("sihd2-cascade", ndev)
         bat_sh = jax.device_put(batch2d, sharding)
         jax.block_until_ready(fn_sh(bat_sh, h_dev, p_vec))
         t_bat_kn = best_time(lambda: jax.block_until_ready(fn_sh(bat_sh, h_dev, p_vec)), 3)
@@ -369,7 +375,7 @@ machine), which bounds the speed-up over a scalar Python loop (~7.5 us per
 the speed of both sides). The output blocking of
 `cdprid.signal._differentiators.scan_blocked` keeps the body on XLA's sequential
 executor path: kernel alone on this signal, timed interleaved (best of 20),
-{t_blk * 1e3:.2f} ms with output blocks of {D_scan._block_size(3)} steps vs
+{t_blk * 1e3:.2f} ms with output blocks of {_block_size(3)} steps vs
 {t_plain * 1e3:.2f} ms for the plain scan ({t_blk / 5200 * 1e9:.0f} vs
 {t_plain / 5200 * 1e9:.0f} ns per step).
 

@@ -43,7 +43,7 @@ import numpy as np  # noqa: E402
 import scipy.linalg  # noqa: E402
 
 import cdprid.tuning as T  # noqa: E402
-from cdprid.tuning import _tuning as T_tuning  # noqa: E402
+from cdprid.tuning import _golden  # noqa: E402
 
 NOISE = 5e-4
 RELAXED_ABOVE = 1.5  # a variant that allows a gain peak above the bandwidth (below it: unchanged)
@@ -88,7 +88,7 @@ def tune_kalman5(signals, noise, seeds):
     grid = np.linspace(math.log(1e-2), math.log(1e6), 17)
     vals = [cost(g) for g in grid]
     k = int(np.argmin(vals))
-    lq, _ = T_tuning._golden(cost, grid[max(k - 1, 0)], grid[min(k + 1, 16)], 10)
+    lq, _ = _golden(cost, grid[max(k - 1, 0)], grid[min(k + 1, 16)], 10)
     return math.exp(lq), kalman5_params(math.exp(lq), noise**2, h)
 
 

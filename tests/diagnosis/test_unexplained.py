@@ -176,7 +176,7 @@ def _check_json(res):
 @pytest.mark.slow
 @pytest.mark.parametrize("robot,noise_scale", [("SIX_SUSPENDED", 0.7), ("CRAFT_LIKE", 1.5)])
 def test_clean_data_leave_nothing_unexplained(robot, noise_scale, tmp_path):
-    from cdprid.model import _robots as robots
+    import cdprid.model as robots
 
     res = _diagnose(getattr(robots, robot), noise_scale=noise_scale, seed=3, tmp_path=tmp_path)
     js, rule = _check_json(res)

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 import cdprid.excitation as ex
+import cdprid.model as cl
 from cdprid.base import UserError
 from cdprid.excitation import corner_parameters, robust_tension_margins, uncertainty_from_prior
 from cdprid.model import FOUR_POINT, SIX_TIGHT, SMALL_EIGHT, robot_from_dict
-from cdprid.model import _clearance as cl
 
 # ----------------------------------------------------------------------------- robots
 

@@ -18,7 +18,11 @@ from cdprid.signal._filters import make_zero_phase_filter as make_zero_phase_fil
 from cdprid.signal._filters import sosfilt as sosfilt
 from cdprid.signal._filters import sosfilt_zi as sosfilt_zi
 from cdprid.signal._filters import sosfiltfilt as sosfiltfilt
+from cdprid.signal._scan import _CHANNEL_FNS as _CHANNEL_FNS
 from cdprid.signal._scan import TRACE_COUNTS as TRACE_COUNTS
+from cdprid.signal._scan import _block_size as _block_size
+from cdprid.signal._scan import _jax_kernel as _jax_kernel
+from cdprid.signal._scan import _sharded_kernel as _sharded_kernel
 from cdprid.signal._scan import scan_blocked as scan_blocked
 from cdprid.signal._sihd_high import METHOD_INFO as METHOD_INFO
 from cdprid.signal._sihd_high import alpha_min as alpha_min

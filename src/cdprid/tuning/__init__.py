@@ -39,6 +39,7 @@ from cdprid.tuning._tuning import BASELINE_GRIDS as BASELINE_GRIDS
 from cdprid.tuning._tuning import CONTINUATION as CONTINUATION
 from cdprid.tuning._tuning import ParamProblem as ParamProblem
 from cdprid.tuning._tuning import TuneResult as TuneResult
+from cdprid.tuning._tuning import _golden as _golden
 from cdprid.tuning._tuning import penalty_freqs as penalty_freqs
 from cdprid.tuning._tuning import resolve_bounds as resolve_bounds
 from cdprid.tuning._tuning import response_warnings as response_warnings
