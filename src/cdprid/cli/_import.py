@@ -288,6 +288,9 @@ def add_parser(sub) -> None:
                    "written to meta.toml [nuisance]")
     u.set_defaults(func=_cmd_import_uacdpr, swivel_axis=DEFAULT_SWIVEL_AXIS)
     _add_generic_formats(fmt)
+    from cdprid.cli._import_caspr import add_format
+
+    add_format(fmt)
 
     c = sub.add_parser("calibrate", help="geometric calibration of a locked-winch recording",
                        description="Estimate the Vicon->base transform, the marker->platform "

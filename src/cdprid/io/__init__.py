@@ -7,6 +7,8 @@ from cdprid.io._align import AlignedSignals as AlignedSignals
 from cdprid.io._align import align as align
 from cdprid.io._align import sampling_report as sampling_report
 from cdprid.io._c3d import import_c3d as import_c3d
+from cdprid.io._caspr import CasprImport as CasprImport
+from cdprid.io._caspr import read_caspr as read_caspr
 from cdprid.io._dataset import DATASET_FILES as DATASET_FILES
 from cdprid.io._dataset import Dataset as Dataset
 from cdprid.io._dataset import DatasetError as DatasetError
@@ -25,4 +27,5 @@ from cdprid.io._uacdpr import load_uacdpr as load_uacdpr
 from cdprid.io._uacdpr import sources_of as sources_of
 from cdprid.io._uacdpr import uacdpr_meta as uacdpr_meta
 from cdprid.io._uacdpr import write_uacdpr as write_uacdpr
+from cdprid.io._writer import robot_toml as robot_toml
 from cdprid.io._writer import write_dataset as write_dataset
