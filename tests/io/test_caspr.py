@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from cdprid.base import UserError
-from cdprid.cli._main import main
+from cdprid.cli import main
 from cdprid.io import read_caspr
 from cdprid.model import load_robot, robot_from_dict, wrench_matrix
 

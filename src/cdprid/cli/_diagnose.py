@@ -25,14 +25,15 @@ def _run(args) -> int:
     from cdprid.base import atomic_dir, check_distinct, check_output, write_json
     from cdprid.diagnosis import diagnose
     from cdprid.io import dataset_inputs, read_dataset
-    from cdprid.report import format_values, save_report
+    from cdprid.report import format_values, save_report, write_diagnosis_html
 
-    check_distinct({"--json": args.json, "--report": args.report})
+    from cdprid.cli._artifacts import check_outputs, made_by, write_diagnosis_outputs
+
+    check_distinct({"--json": args.json, "--report": args.report, "--mat": args.mat})
     inputs = dataset_inputs(args.dataset)
     if args.json:
         check_output(args.json, force=args.force, flag="--json", inputs=inputs)
-    if args.report:
-        check_output(args.report, force=args.force, flag="--report", kind="dir", inputs=inputs)
+    check_outputs(args, inputs, args.force)
     ds = read_dataset(args.dataset)
 
     def progress(msg):
@@ -75,7 +76,9 @@ def _run(args) -> int:
     if args.report:
         with atomic_dir(args.report, force=args.force) as tmp:
             save_report(res, tmp, dataset_name=str(args.dataset))
-        print(f"wrote {args.report}/report.md")
+            write_diagnosis_html(res, tmp, str(args.dataset), made_by(args))
+        print(f"wrote {args.report}/report.md and {args.report}/report.html")
+    write_diagnosis_outputs(args, res, res.as_json())
     return 0
 
 
@@ -89,7 +92,10 @@ def add_parser(sub) -> None:
         "validation), refit the accepted effects and report the held-out gain.")
     p.add_argument("dataset", help="dataset folder (spec v1)")
     p.add_argument("--json", help="write the diagnosis JSON here")
-    p.add_argument("--report", help="write report.md and PNG figures into this folder")
+    p.add_argument("--report", help="write report.md, PNG figures and a self-contained "
+                   "report.html into this folder")
+    p.add_argument("--mat", help="write the diagnosis as a MATLAB .mat file (estimates, "
+                   "residuals with time, findings, episodes; docs/formats.md)")
     p.add_argument("--train-until", type=V.finite_float, default=None,
                    help="fit on t < S, measure the held-out gain on t >= S")
     p.add_argument("--alpha", type=V.probability, default=1e-3,
@@ -101,5 +107,5 @@ def add_parser(sub) -> None:
     p.add_argument("--seed", type=V.nonneg_int, default=0, help="seed of the null simulation")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--force", action="store_true",
-                   help="replace an existing --json file or --report folder")
+                   help="replace an existing --json / --mat file or --report folder")
     p.set_defaults(func=_run)

@@ -30,6 +30,7 @@ __all__ = ["main", "console_main", "UserError", "build_parser", "load_json_objec
 
 
 from cdprid.base import OutputError, UserError
+from cdprid.cli import _artifacts  # noqa: E402  (--mat, --report of identify)
 from cdprid.cli._signals import install_termination_handlers, restore_handlers  # noqa: E402
 
 
@@ -174,6 +175,7 @@ def _cmd_identify(args) -> int:
                     "--out-csv (its figure)": png if args.online else None})
     if args.json:
         check_output(args.json, force=force, flag="--json", inputs=inputs)
+    _artifacts.check_outputs(args, inputs, force)  # --mat, --report (batch only)
     if args.online:
         if args.out_csv:
             check_output(args.out_csv, force=force, flag="--out-csv", inputs=inputs)
@@ -232,6 +234,7 @@ def _cmd_identify(args) -> int:
     if args.json:
         write_json(args.json, rep.as_json(), force=force)
         print(f"wrote {args.json}")
+    _artifacts.write_identify_outputs(args, rep, rep.as_json(), str(args.dataset))
     return 0
 
 
@@ -313,8 +316,9 @@ def _add_identify(sub) -> None:
                    "the differentiator's own low-pass, batch and online), none, or delay "
                    "(--online only)")
     p.add_argument("--json", help="write the result as JSON to this file")
+    _artifacts.add_identify_options(p)  # --mat, --report
     p.add_argument("--force", action="store_true",
-                   help="overwrite existing --json / --out-csv outputs")
+                   help="overwrite existing --json / --mat / --report / --out-csv outputs")
     p.set_defaults(func=_cmd_identify)
 
 
@@ -525,6 +529,7 @@ def main(argv=None) -> int:
         argv = list(sys.argv[1:] if argv is None else argv)
         parser = build_parser(argv)
         args = parser.parse_args(argv)
+        args._argv = argv  # the command line, for the outputs that say what made them
     except SystemExit as exc:  # --help, --version, or an invalid option (argparse printed it)
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     except KeyboardInterrupt:

@@ -15,6 +15,7 @@ from cdprid.io._dataset import DatasetError as DatasetError
 from cdprid.io._dataset import dataset_inputs as dataset_inputs
 from cdprid.io._dataset import read_csv_stream as read_csv_stream
 from cdprid.io._dataset import read_dataset as read_dataset
+from cdprid.io._mat import write_mat as write_mat
 from cdprid.io._rosbag import import_rosbag as import_rosbag
 from cdprid.io._rosbag import list_topics as list_topics
 from cdprid.io._rosbag import write_rosbag as write_rosbag

@@ -11,6 +11,11 @@ from cdprid.report._diagnosis import not_named_lines as not_named_lines
 from cdprid.report._diagnosis import save_report as save_report
 from cdprid.report._excitation import plot_safety_series as plot_safety_series
 from cdprid.report._excitation import plot_trajectory as plot_trajectory
+from cdprid.report._html_diagnosis import write_diagnosis_html as write_diagnosis_html
+from cdprid.report._html_identify import save_identify_report as save_identify_report
+from cdprid.report._mat import diagnosis_variables as diagnosis_variables
+from cdprid.report._mat import episodes_of as episodes_of
+from cdprid.report._mat import identify_variables as identify_variables
 from cdprid.report._online import plot_online as plot_online
 from cdprid.report._real import fig_nuisance as fig_nuisance
 from cdprid.report._real import fig_residuals as fig_residuals
