@@ -66,7 +66,8 @@ def _caspr_wrench(bodies, cables, cset, r_OP, R):
         base = body = pulley = None
         for a in cab.find("attachments"):
             if a.tag == "base_rotating_pulley":
-                pulley = (_vec(a.findtext("fixed_location")), _vec(a.findtext("cable_entry_vector")),
+                pulley = (_vec(a.findtext("fixed_location")),
+                          _vec(a.findtext("cable_entry_vector")),
                           float(a.findtext("pulley_radius")))
             elif a.findtext("link").strip() == "0":
                 base = _vec(a.findtext("location"))

@@ -46,7 +46,8 @@ class Browser:
         # warns in a forked child of a multithreaded process)
         move = f'exec "$0" "$@" 3<&{cmd_r} 4>&{out_w} {cmd_r}<&- {out_w}>&-'
         self.proc = subprocess.Popen(
-            [shutil.which("bash") or "/bin/bash", "-c", move, CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+            [shutil.which("bash") or "/bin/bash", "-c", move, CHROMIUM, "--headless",
+             "--no-sandbox", "--disable-gpu", "--disable-quic",
              "--no-first-run", "--disable-background-networking", "--disable-component-update",
              "--disable-sync", "--hide-scrollbars", "--remote-debugging-pipe",
              f"--user-data-dir={profile}", "about:blank"],

@@ -8,7 +8,8 @@ from __future__ import annotations
 import shlex
 from pathlib import Path
 
-__all__ = ["add_identify_options", "check_outputs", "made_by", "write_diagnosis_outputs", "write_identify_outputs"]
+__all__ = ["add_identify_options", "check_outputs", "made_by", "write_diagnosis_outputs",
+           "write_identify_outputs"]
 
 
 def made_by(args) -> dict:

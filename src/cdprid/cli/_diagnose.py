@@ -23,11 +23,10 @@ def _refuse_implausible(ds) -> None:
 
 def _run(args) -> int:
     from cdprid.base import atomic_dir, check_distinct, check_output, write_json
+    from cdprid.cli._artifacts import check_outputs, made_by, write_diagnosis_outputs
     from cdprid.diagnosis import diagnose
     from cdprid.io import dataset_inputs, read_dataset
     from cdprid.report import format_values, save_report, write_diagnosis_html
-
-    from cdprid.cli._artifacts import check_outputs, made_by, write_diagnosis_outputs
 
     check_distinct({"--json": args.json, "--report": args.report, "--mat": args.mat})
     inputs = dataset_inputs(args.dataset)
