@@ -28,6 +28,12 @@ run benchmarks/excitation.py
 [ -f benchmarks/online.py ] && run benchmarks/online.py
 run benchmarks/speed.py
 run benchmarks/importers.py ${QUICK:+--quick}
+run benchmarks/caspr.py
+if command -v chromium >/dev/null 2>&1; then
+  run benchmarks/report_example.py
+else
+  echo "[results] skip benchmarks/report_example.py: no chromium (apt-get install chromium)"
+fi
 if [ -f benchmarks/real_uacdpr.py ]; then
   if [ -d "$SHARED/datasets/uacdpr-freemotion02" ]; then
     CDPRID_SHARED="$SHARED" run benchmarks/real_uacdpr.py

@@ -124,10 +124,15 @@ def test_names_are_valid_matlab_and_unique(tmp_path):
 
 def test_mat_refused_before_work(tmp_path, capsys):
     """--mat that exists without --force, or not named .mat: exit 2 before any work."""
+    from cdprid.data import write_sample
+
+    ds = write_sample(tmp_path / "sample")
     (tmp_path / "a.mat").write_text("keep")
-    rc = main(["identify", str(tmp_path / "nodata"), "--mat", str(tmp_path / "a.mat")])
-    assert rc == 2
-    rc = main(["identify", str(tmp_path / "nodata"), "--mat", str(tmp_path / "b.txt")])
+    capsys.readouterr()
+    rc = main(["identify", str(ds), "--mat", str(tmp_path / "a.mat")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "--mat" in err and "exists" in err, err
+    rc = main(["identify", str(ds), "--mat", str(tmp_path / "b.txt")])
     err = capsys.readouterr().err
     assert rc == 2 and "must end in .mat" in err
     assert (tmp_path / "a.mat").read_text() == "keep"

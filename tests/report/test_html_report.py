@@ -264,6 +264,23 @@ def test_identify_report_of_the_example(browser, tmp_path):
     assert facts["footer"].startswith("Made by cdprid identify ")
 
 
+@needs_chromium
+@pytest.mark.slow
+def test_diagnose_report_of_the_example(browser, tmp_path):
+    """`cdprid diagnose --report` of the example dataset (a finding: its clock offset) renders
+    with every figure of report.md; ~20 s of diagnosis, so marked slow (CI runs it)."""
+    from cdprid.cli._main import main
+    from cdprid.data import write_sample
+
+    ds = write_sample(tmp_path / "sample")
+    rc = main(["diagnose", str(ds), "--quiet", "--report", str(tmp_path / "rep")])
+    assert rc == 0
+    facts = check_page(browser, tmp_path / "rep" / "report.html")
+    pngs = sorted(p.name for p in (tmp_path / "rep").glob("*.png"))
+    assert len(facts["figures"]) == 1 + len(pngs)  # the timeline and every PNG of report.md
+    assert "finding" in facts["verdict"]
+
+
 def test_blank_detector_can_fail():
     """The blank check itself: a white image is blank, a drawn one is not."""
     img = np.ones((50, 80, 4))
