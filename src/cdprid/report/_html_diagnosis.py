@@ -119,9 +119,10 @@ def _unexplained(res) -> str:
 
 
 def diagnosis_html(res, out_dir: Path, dataset_name: str, made_by: dict) -> str:
-    """The HTML text of a diagnosis report (figures read from ``out_dir``'s PNG files)."""
+    """The HTML text of a diagnosis report (figures read from ``out_dir``'s PNG files);
+    parameters as :func:`write_diagnosis_html`."""
     A = res.arrays
-    eps = episodes_of(res)
+    eps = episodes_of(res) or episodes_of(res.as_json())  # an attribute or a JSON key
     body = []
     if "t" in A:
         resid = {"base model": A["residual_base"]}
@@ -147,8 +148,25 @@ def diagnosis_html(res, out_dir: Path, dataset_name: str, made_by: dict) -> str:
 
 
 def write_diagnosis_html(res, out_dir, dataset_name: str, made_by: dict) -> Path:
-    """Write ``out_dir/report.html`` (after :func:`cdprid.report.save_report`, whose
-    PNG files it embeds); returns its path."""
+    """Write ``out_dir/report.html`` after :func:`cdprid.report.save_report`, whose
+    PNG files it embeds.
+
+    Parameters
+    ----------
+    res : cdprid.diagnosis.DiagnosisResult
+        The diagnosis; an ``episodes`` attribute (list of objects or dicts with ``start_s``,
+        ``end_s`` in s and ``kind``) is shaded on the residual timeline when present.
+    out_dir : path
+        The report folder holding report.md's PNG figures.
+    dataset_name : str
+    made_by : dict
+        ``command`` and ``version`` shown in the footer.
+
+    Returns
+    -------
+    Path
+        ``out_dir / "report.html"``.
+    """
     out = Path(out_dir) / "report.html"
     out.write_text(diagnosis_html(res, Path(out_dir), dataset_name, made_by), encoding="utf-8")
     return out
