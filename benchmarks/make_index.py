@@ -23,7 +23,7 @@ DESCRIPTIONS = {
     "real-uacdpr.md": "Real UACDPR data: import, calibration, identification, diagnosis",
     "benchmarks.md": "Speed and memory figures",
     "diagnosis_runs.jsonl": "Per-draw records behind diagnosis.md (truth, findings, times)",
-    "caspr.md": "CASPR's single-link spatial robots: import, gentle orbit's cond, certified or why not",
+    "caspr.md": "CASPR single-link spatial robots: import, gentle cond, certified or why not",
     "report_example.md": "How report_example.png was made (command and commit)",
     "report_example.png": "report.html of the example dataset's diagnosis in headless Chromium",
 }
