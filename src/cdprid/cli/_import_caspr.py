@@ -16,7 +16,7 @@ def _cmd_import_caspr(args) -> int:
     check_distinct({"--out": args.out})
     check_output(args.out, force=args.force, flag="--out", inputs=[args.bodies, args.cables])
     imp = read_caspr(args.bodies, args.cables, cable_set=args.cable_set)
-    robot = robot_from_dict(imp.robot, source=str(args.out))  # the file it writes reads back
+    robot = robot_from_dict(imp.robot, source=f"{args.cables} (mapped)")  # reads back whole
     for note in imp.notes:
         print(f"note: {note}")
     plat = imp.robot["platform"]
