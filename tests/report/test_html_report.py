@@ -250,7 +250,7 @@ def test_diagnosis_report_renders(browser, tmp_path, episodes):
 @needs_chromium
 def test_identify_report_of_the_example(browser, tmp_path):
     """`cdprid identify --report` of the package's example dataset renders in Chromium."""
-    from cdprid.cli._main import main
+    from cdprid.cli import main
     from cdprid.data import write_sample
 
     ds = write_sample(tmp_path / "sample")
@@ -269,7 +269,7 @@ def test_identify_report_of_the_example(browser, tmp_path):
 def test_diagnose_report_of_the_example(browser, tmp_path):
     """`cdprid diagnose --report` of the example dataset (a finding: its clock offset) renders
     with every figure of report.md; ~20 s of diagnosis, so marked slow (CI runs it)."""
-    from cdprid.cli._main import main
+    from cdprid.cli import main
     from cdprid.data import write_sample
 
     ds = write_sample(tmp_path / "sample")
@@ -292,8 +292,8 @@ def test_blank_detector_can_fail():
 @needs_chromium
 def test_checker_catches_a_broken_and_a_blank_figure(browser, tmp_path):
     """check_page fails on a figure that does not decode and on a white figure."""
+    from cdprid.report._figures import pyplot
     from cdprid.report._html import img, page, png_bytes
-    from cdprid.report.figures import pyplot
 
     fig = pyplot().figure(figsize=(4, 3))  # nothing drawn: white
     white = img(png_bytes(fig), "white")

@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import scipy.io
 
-from cdprid.cli._main import main
+from cdprid.cli import main
 from cdprid.diagnosis import DiagnosisResult, Finding
 from cdprid.io import write_mat
 from cdprid.report import diagnosis_variables, episodes_of
