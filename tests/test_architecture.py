@@ -534,3 +534,98 @@ def test_old_module_paths_warn_and_forward():
     from cdprid.io import read_dataset
 
     assert old.read_dataset is read_dataset
+
+
+# ------------------------------------------------------------------- the diagnosis on the core
+# Issue 36 item 2: the diagnosis derives nothing the core owns. Its motion, tension
+# interpolation, noise levels, rest rule and friction sign are the core's, called by name; it
+# may import the matched filter from cdprid.signal, never a differentiator.
+DIAGNOSIS_SIGNAL_NAMES = {"zero_phase_filter", "make_zero_phase_filter", "ZeroPhaseFilter"}
+DIAGNOSIS_CORE_NAMES = {"estimate_motion", "differentiate_pose", "tension_at", "tension_rate_at",
+                        "TensionStream", "estimate_noise", "rest_mask", "sliding_sign"}
+_OWN_ESTIMATOR_DEF = ("differentiat", "derivative", "interp", "catmull", "tension_at",
+                      "tension_rate", "estimate_noise", "rest_mask", "sliding")
+_OWN_ESTIMATOR_CALLS = {"gradient", "convolve", "interp", "minimum_filter1d", "binary_erosion",
+                        "CubicSpline", "savgol_filter", "differentiate"}
+# "file: what" -> reason (no line number: the other stages' edits move lines)
+ALLOWED_DIAGNOSIS_ESTIMATORS: dict[str, str] = {
+    "src/cdprid/diagnosis/_lengths.py: calls interp":
+        "the winch-encoder lengths onto the pose times (lengths.csv is no tension stream); "
+        "to move to the core with the lengths stream",
+}
+
+
+def _attr_name(func: ast.AST) -> str:
+    return func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+
+
+def _diff_order(call: ast.Call) -> int:
+    n = [k.value for k in call.keywords if k.arg == "n"] + call.args[1:2]
+    return n[0].value if n and isinstance(n[0], ast.Constant) else 1
+
+
+def _own_estimators(files) -> list[str]:
+    """What a diagnosis source derives by itself: differentiators or filters imported from
+    cdprid.signal, functions named like an estimator, finite differences of order >= 2, an
+    interpolation or convolution, a speed threshold on a norm, a MAD noise constant."""
+    found = []
+    for rel, src in files:
+        for node in ast.walk(ast.parse(src)):
+            where = f"{rel}:{getattr(node, 'lineno', 0)}:"
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("cdprid.signal"):
+                found += [f"{where} imports {a.name} from cdprid.signal" for a in node.names
+                          if a.name not in DIAGNOSIS_SIGNAL_NAMES]
+            elif isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) \
+                    and any(k in node.name.lower() for k in _OWN_ESTIMATOR_DEF):
+                found.append(f"{where} defines {node.name}")
+            elif isinstance(node, ast.Call):
+                name = _attr_name(node.func)
+                if name in _OWN_ESTIMATOR_CALLS:
+                    found.append(f"{where} calls {name}")
+                elif name == "diff" and _diff_order(node) >= 2:
+                    found.append(f"{where} calls diff of order {_diff_order(node)}")
+            elif isinstance(node, ast.Compare) and isinstance(node.left, ast.Call) \
+                    and _attr_name(node.left.func) == "norm" \
+                    and any(isinstance(op, ast.Lt | ast.LtE) for op in node.ops):
+                found.append(f"{where} thresholds a norm (a rest rule)")
+            elif isinstance(node, ast.Constant) and node.value == 1.4826:
+                found.append(f"{where} MAD constant (a noise estimate)")
+    return sorted(set(found))
+
+
+def _diagnosis_files() -> list[tuple[str, str]]:
+    return [(str(p.relative_to(ROOT)), p.read_text())
+            for p in sorted((SRC / "diagnosis").glob("*.py")) if not _is_moved_stub(p)]
+
+
+def test_diagnosis_derives_nothing_the_core_owns():
+    found = {}
+    for k in _own_estimators(_diagnosis_files()):
+        path, line, what = k.split(":", 2)
+        found[f"{path}:{what}"] = f"line {line}"
+    _check(found, ALLOWED_DIAGNOSIS_ESTIMATORS,
+           "estimators of the diagnosis' own (use cdprid.core's by name)")
+
+
+def test_diagnosis_uses_the_core_estimators_by_name():
+    """Motion, tension interpolation, noise, rest rule and friction sign come from cdprid.core."""
+    used = set()
+    for _rel, src in _diagnosis_files():
+        for node in ast.walk(ast.parse(src)):
+            if isinstance(node, ast.ImportFrom) and node.module == "cdprid.core":
+                used |= {a.name for a in node.names}
+    assert not DIAGNOSIS_CORE_NAMES - used, \
+        f"the diagnosis does not import {sorted(DIAGNOSIS_CORE_NAMES - used)} from cdprid.core"
+
+
+def test_own_estimator_check_can_fail():
+    files = [("d/_a.py", "from cdprid.signal import differentiate, zero_phase_filter\n"),
+             ("d/_b.py", "def tension_at(d, s):\n    return s\n"),
+             ("d/_c.py", "import numpy as np\nx = np.diff(y, 3, axis=0)\nz = np.diff(y)\n"),
+             ("d/_d.py", "import numpy as np\nr = np.linalg.norm(v, axis=1) < 0.03\n"),
+             ("d/_e.py", "s = 1.4826 * mad\nq = np.interp(t, tt, y)\n"),
+             ("d/_f.py", "from cdprid.core import tension_at\nv = tension_at(st, t)\n")]
+    assert _own_estimators(files) == [
+        "d/_a.py:1: imports differentiate from cdprid.signal", "d/_b.py:1: defines tension_at",
+        "d/_c.py:2: calls diff of order 3", "d/_d.py:2: thresholds a norm (a rest rule)",
+        "d/_e.py:1: MAD constant (a noise estimate)", "d/_e.py:2: calls interp"]

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from cdprid.core import noise_gains, whitening
 from cdprid.identify import identify_dataset
-from cdprid.identify._eiv import noise_gains, whitening
 from cdprid.io import read_dataset
 from cdprid.model import (
     EIGHT_REDUNDANT,

@@ -1,5 +1,5 @@
 """Causal differentiators on rotating data (issue 24): every regressor term and W tau pass one
-linear filter (:mod:`cdprid.identify._linear_match`), so a causal method is unbiased on
+linear filter (:mod:`cdprid.core._linear_match`), so a causal method is unbiased on
 noise-free rotating data.
 
 Before, on a noise-free 6-cable recording rotating 5 deg, the principal inertias came out
@@ -11,9 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cdprid.core import Motion
+from cdprid.core import Motion, fit_linear_match, reference_rates
 from cdprid.identify import identify_dataset
-from cdprid.identify._linear_match import _second, fit_linear_match, reference_rates
 from cdprid.io import read_dataset
 from cdprid.model import SIX_SUSPENDED, craft_like_robot, craft_like_truth, preset, robot_from_dict
 from cdprid.signal import acceleration_filter, differentiate
@@ -80,17 +79,6 @@ def test_fir_reproduces_a_linear_causal_filter():
     np.testing.assert_allclose(lm(np.full((n, 2), 4.0)), 4.0, atol=1e-9)  # DC passes
 
 
-def test_second_difference_skips_the_centre_sample_and_is_exact_on_cubics():
-    dt = 0.01
-    t = np.arange(200) * dt
-    x = (1.0 + 2.0 * t - 3.0 * t ** 2 + 0.5 * t ** 3)[:, None]
-    d2 = _second(x, dt)
-    np.testing.assert_allclose(d2[3:-3, 0], -6.0 + 3.0 * t[3:-3], atol=1e-8)
-    spike = np.zeros((20, 1))
-    spike[10] = 1.0  # noise on sample 10 does not reach its own second derivative
-    assert _second(spike, dt)[10, 0] == 0.0
-
-
 def test_reference_rates_match_the_trajectory_oracle():
     robot = robot_from_dict(SIX_SUSPENDED)
     sim = simulate(robot, preset("rich", robot, duration=26.0, rotation_amplitude=0.05),
@@ -126,7 +114,7 @@ def test_online_full_model_unbiased_on_noise_free_rotation():
 def test_fir_fit_is_well_conditioned():
     """The taps stay of the size of a second difference (a free 100-tap fit gave norm 1e9) and
     the acceleration response decays above the motion's band."""
-    from cdprid.identify._linear_match import reference_fir
+    from cdprid.core import reference_fir
     from cdprid.signal import METHODS
 
     dt = 0.01

@@ -26,7 +26,8 @@ from cdprid.model import angular_rates_from_quat, quat_to_matrix
 from cdprid.signal import differentiate
 
 __all__ = ["BLOCK", "Motion", "ROTATION_WARN_DEG", "angular_rates", "blockwise",
-           "estimate_motion", "rotation_angle_deg", "rotation_matrices", "segment_mask"]
+           "differentiate_pose", "estimate_motion", "rotation_angle_deg", "rotation_matrices",
+           "segment_mask"]
 
 BLOCK = 16384
 """Samples per jitted call when the per-sample rotation functions are evaluated block by block
@@ -51,6 +52,9 @@ class Motion:
         Differentiator used.
     segments : tuple of (int, int)
         Half-open index ranges of the gap-free segments, each differentiated separately.
+    params : dict
+        The differentiator's parameters (with ``method``: what :func:`differentiate_pose`
+        needs to differentiate anything else the same way, e.g. noise replicates).
     """
 
     t: np.ndarray
@@ -62,6 +66,7 @@ class Motion:
     alpha: np.ndarray
     method: str
     segments: tuple = ()
+    params: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
         if not self.segments:
@@ -174,9 +179,44 @@ def angular_rates(q: Float[np.ndarray, "n 4"], qd: Float[np.ndarray, "n 4"],
     return om, al
 
 
+def differentiate_pose(x, dt: float, segments=None, method: str = "euler-filtfilt",
+                       params: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """First and second time derivatives of sampled channels, segment by segment.
+
+    The differentiation :func:`estimate_motion` applies to positions and quaternions; the
+    diagnosis passes its noise replicates through it with the motion's own ``method`` and
+    ``params`` (:attr:`Motion.method`, :attr:`Motion.params`).
+
+    Parameters
+    ----------
+    x : ndarray (n, k)
+        Channels sampled every ``dt`` s.
+    dt : float
+        Sampling period, s.
+    segments : sequence of (int, int), optional
+        Half-open gap-free index ranges, each differentiated on its own (default: one).
+    method : str
+        A differentiator name (see ``cdprid.signal.METHODS``).
+    params : dict, optional
+        Its parameters.
+
+    Returns
+    -------
+    xd, xdd : ndarray (n, k)
+        Units of ``x`` per s and per s^2.
+    """
+    x = np.asarray(x, float)
+    params = dict(params or {})
+    xd, xdd = np.empty_like(x), np.empty_like(x)
+    for i0, i1 in (segments or ((0, len(x)),)):
+        d1, d2 = differentiate(x[i0:i1], dt, method=method, **params)
+        xd[i0:i1], xdd[i0:i1] = np.asarray(d1), np.asarray(d2)
+    return xd, xdd
+
+
 def estimate_motion(sig: AlignedSignals, method: str = "euler-filtfilt", params: dict | None = None,
                     angular: bool = True) -> Motion:
-    """Differentiate the aligned pose.
+    """Differentiate the aligned pose (each gap-free segment on its own).
 
     Parameters
     ----------
@@ -184,25 +224,25 @@ def estimate_motion(sig: AlignedSignals, method: str = "euler-filtfilt", params:
     method : str
         A differentiator name (see ``cdprid.signal.METHODS``).
     params : dict, optional
-        Its parameters.
+        Its parameters (e.g. ``{"cutoff_hz": 4.0}`` for ``"euler-filtfilt"``).
     angular : bool
         Also estimate omega and alpha from the quaternions (needed by the full model).
+
+    Returns
+    -------
+    Motion
     """
     params = dict(params or {})
     segs = tuple(getattr(sig, "segments", ()) or ((0, len(sig.t)),))
     R = rotation_matrices(sig.quaternion)
-    rot = angular and sig.has_rotation
+    v, a = differentiate_pose(sig.position, sig.dt, segs, method, params)
     n = len(sig.t)
-    v, a = np.empty((n, 3)), np.empty((n, 3))
     om, al = np.zeros((n, 3)), np.zeros((n, 3))
-    for i0, i1 in segs:
-        vs, as_ = differentiate(sig.position[i0:i1], sig.dt, method=method, **params)
-        v[i0:i1], a[i0:i1] = np.asarray(vs), np.asarray(as_)
-        if rot:
-            q = sig.quaternion[i0:i1]
-            qd, qdd = differentiate(q, sig.dt, method=method, **params)
-            om[i0:i1], al[i0:i1] = angular_rates(q, qd, qdd)
-    return Motion(sig.t, sig.position, v, a, R, om, al, method, segs)
+    if angular and sig.has_rotation:
+        qd, qdd = differentiate_pose(sig.quaternion, sig.dt, segs, method, params)
+        for i0, i1 in segs:
+            om[i0:i1], al[i0:i1] = angular_rates(sig.quaternion[i0:i1], qd[i0:i1], qdd[i0:i1])
+    return Motion(sig.t, sig.position, v, a, R, om, al, method, segs, params)
 
 
 ROTATION_WARN_DEG = 1.0

@@ -21,7 +21,8 @@ Masks (pose time base ``t``):
 - :func:`mask_windows` ``(t, mask) -> [(t0, t1), ...]``: the runs of a mask as time windows.
 - :class:`InsufficientDataError` (a ``ValueError``): too few usable samples.
 
-Interpolation of the tension stream at shifted times ``tau(t + delay)``:
+Interpolation of the tension stream at shifted times ``tau(t + delay)``
+(:mod:`cdprid.core._tension`):
 
 - :class:`TensionStream` (``eqx.Module``: ``t``, ``values``; uniform step checked when built);
 - :func:`tension_at` ``(stream, s, method) -> (n, m)``, pure JAX, differentiable in ``s``;
@@ -64,14 +65,14 @@ from __future__ import annotations
 
 import dataclasses
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Bool, Float
+from jaxtyping import Bool, Float
 
 from cdprid.base import REST_SPEED_M_S, TAUT_THRESHOLD_N, ConvergenceError, InputError
 from cdprid.core._covariance import hac_covariance, std_from_cov
+from cdprid.core._tension import _METHODS, INTERPOLATION, TensionStream, tension_at
 
 __all__ = [
     "INTERPOLATION",
@@ -95,9 +96,6 @@ filter spreads a slack event over about ``1 / cutoff`` s."""
 REST_MIN_DURATION_S: float = 0.5
 """Shortest run (s) of low speed that counts as rest (vibrations average out)."""
 
-INTERPOLATION: str = "linear"
-"""Default interpolant of the tension stream at shifted times (module docstring)."""
-
 DELAY_RANGE_S: float = 0.1
 """Half-width (s) of the delay scan that gives the Levenberg-Marquardt start."""
 
@@ -112,9 +110,6 @@ zero start). A low-pass well above the matched filter's 4 Hz (20 Hz: gain 0.998 
 
 DELAY_SCAN_STEP_S: float = 0.005
 """Step (s) of that scan (the Levenberg-Marquardt refinement does the rest)."""
-
-_METHODS = ("linear", "catmull-rom")
-
 
 class InsufficientDataError(ValueError):
     """Too few usable (taut, trimmed) samples for the fit; the message says how many."""
@@ -174,6 +169,7 @@ def rest_mask(
     speed: Float[np.ndarray, " n"],
     max_speed: float = REST_SPEED_M_S,
     min_duration_s: float = REST_MIN_DURATION_S,
+    edge_s: float = 0.0,
 ) -> Bool[np.ndarray, " n"]:
     """The one "at rest" rule: speed below ``max_speed`` during at least ``min_duration_s``.
 
@@ -187,6 +183,9 @@ def rest_mask(
         m/s, default :data:`cdprid.base.REST_SPEED_M_S`.
     min_duration_s : float
         Shortest run that counts.
+    edge_s : float
+        Seconds dropped inside each run where it meets motion (the platform still
+        accelerates there; the recording's own ends are kept), default 0.
 
     Returns
     -------
@@ -197,7 +196,9 @@ def rest_mask(
     out = np.zeros(len(t), bool)
     for i, j in _runs(still):
         if t[j - 1] - t[i] >= min_duration_s:
-            out[i:j] = True
+            lo = t[i] + edge_s if i > 0 else -np.inf
+            hi = t[j - 1] - edge_s if j < len(t) else np.inf
+            out[i:j] = (t[i:j] >= lo) & (t[i:j] <= hi)
     return out
 
 
@@ -206,93 +207,6 @@ def mask_windows(t: Float[np.ndarray, " n"], mask: Bool[np.ndarray, " n"]
     """The runs of ``mask`` as ``(t_first, t_last)`` windows, s."""
     t = np.asarray(t, float)
     return [(float(t[i]), float(t[j - 1])) for i, j in _runs(mask)]
-
-
-# --------------------------------------------------------------------------- interpolation
-
-
-class TensionStream(eqx.Module):
-    """The raw tension stream on its own uniform time grid.
-
-    Attributes
-    ----------
-    t : array (k,)
-        Times, s (uniform step, checked by :meth:`from_arrays`).
-    values : array (k, m)
-        Tensions, N.
-    t0, dt : float
-        First time and step (static).
-    """
-
-    t: Float[Array, " k"]
-    values: Float[Array, "k m"]
-    t0: float = eqx.field(static=True)
-    dt: float = eqx.field(static=True)
-
-    @classmethod
-    def from_arrays(cls, t, values, rel_tol: float = 0.01) -> TensionStream:
-        """Build the stream; raises ``ValueError`` when the step is not uniform to ``rel_tol``
-        (the cubic interpolant assumes a uniform grid; gaps are never bridged silently)."""
-        t = np.asarray(t, float)
-        values = np.asarray(values, float)
-        if t.ndim != 1 or values.ndim != 2 or values.shape[0] != t.size or t.size < 4:
-            raise InputError(f"tension stream: times {t.shape} and values {values.shape} do "
-                             "not match (expected (k,) and (k, m), k >= 4).")
-        d = np.diff(t)
-        dt = float(np.median(d))
-        if np.max(np.abs(d - dt)) > rel_tol * dt:
-            raise InputError(f"tension stream: the step varies from {d.min():g} to {d.max():g} s "
-                             f"(median {dt:g} s); a gap cannot be interpolated across.")
-        return cls(jnp.asarray(t), jnp.asarray(values), float(t[0]), dt)
-
-    def smoothed(self, cutoff_hz: float | None) -> TensionStream:
-        """The stream through a zero-phase Butterworth low-pass at ``cutoff_hz`` (None: self)."""
-        if cutoff_hz is None:
-            return self
-        from cdprid.signal import make_zero_phase_filter
-
-        f = make_zero_phase_filter(self.dt, cutoff_hz)
-        return TensionStream(self.t, jnp.asarray(f(self.values)), self.t0, self.dt)
-
-
-def _catmull_rom(stream: TensionStream, s):
-    k = stream.values.shape[0]
-    u = (s - stream.t0) / stream.dt
-    i = jnp.clip(jnp.floor(u).astype(int), 1, k - 3)
-    f = (u - i)[:, None]
-    v = stream.values
-    y0, y1, y2, y3 = v[i - 1], v[i], v[i + 1], v[i + 2]
-    m1 = 0.5 * (y2 - y0)
-    m2 = 0.5 * (y3 - y1)
-    f2, f3 = f * f, f * f * f
-    return ((2 * f3 - 3 * f2 + 1) * y1 + (f3 - 2 * f2 + f) * m1 + (-2 * f3 + 3 * f2) * y2
-            + (f3 - f2) * m2)
-
-
-def tension_at(stream: TensionStream, s: Float[Array, " n"], method: str = INTERPOLATION
-               ) -> Float[Array, "n m"]:
-    """Tensions at times ``s`` by ``"linear"`` or ``"catmull-rom"`` interpolation (pure JAX).
-
-    Parameters
-    ----------
-    stream : TensionStream
-    s : array (n,)
-        Query times, s (differentiable: the delay enters through them).
-    method : {"linear", "catmull-rom"}
-
-    Returns
-    -------
-    array (n, m)
-        Values beyond the ends are clamped (linear) or extrapolated from the end cells
-        (Catmull-Rom): callers keep their rows inside the stream (:func:`taut_mask`).
-    """
-    s = jnp.asarray(s)
-    if method == "linear":
-        return jax.vmap(lambda col: jnp.interp(s, stream.t, col), in_axes=1, out_axes=1)(
-            stream.values)
-    if method == "catmull-rom":
-        return _catmull_rom(stream, s)
-    raise InputError(f"unknown interpolation {method!r}; use one of {', '.join(_METHODS)}.")
 
 
 # --------------------------------------------------------------------------- joint fit

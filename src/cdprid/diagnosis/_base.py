@@ -15,12 +15,11 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core import least_squares
+from cdprid.core import differentiate_pose, least_squares
 from cdprid.diagnosis._model import regs_jit, rotvec_from_quat
 from cdprid.diagnosis._problem import Problem, cable_side
 from cdprid.diagnosis._testing import estimate_noise, wald
 from cdprid.model import PARAMETER_NAMES
-from cdprid.signal import differentiate
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,12 +101,17 @@ def noise_levels(prob: Problem) -> NoiseLevels:
 
 
 def null_residuals(prob: Problem, noise: NoiseLevels, x, n_null: int, rng):
-    """Residual replicates of the base model under sensor noise alone, ``(n, 6)`` each."""
+    """Residual replicates of the base model under sensor noise alone, ``(n, 6)`` each.
+
+    The position noise reaches the accelerations through the differentiator of the problem's
+    motion (:attr:`Problem.motion`, :func:`cdprid.core.differentiate_pose`).
+    """
     n, m, dt = prob.n, prob.m, prob.dt
+    mo = prob.motion
     for _ in range(n_null):
         eta_t = rng.normal(size=(n, m)) * noise.tension_N[None, :] * math.sqrt(prob.tdt / dt)
         eta_p = rng.normal(size=(n, 3)) * noise.position_m
-        _, acc = differentiate(eta_p, dt, method="euler-filtfilt", cutoff_hz=prob.cutoff_hz)
+        _, acc = differentiate_pose(eta_p, dt, method=mo.method, params=mo.params)
         yw = prob.filt(np.einsum("nij,nj->ni", prob.W_all, eta_t))
         ms = np.einsum("nij,j->ni", prob.R, x[1:4])  # first moment, base frame
         yield yw - np.concatenate([x[0] * acc, np.cross(ms, acc)], axis=1)

@@ -23,8 +23,8 @@ import jax
 import numpy as np
 from scipy import stats
 
+from cdprid.core import CATMULL_ROM, tension_at
 from cdprid.diagnosis._candidates import Candidate, implausible, vocab_interval, vocab_params
-from cdprid.diagnosis._model import tension_at
 from cdprid.diagnosis._problem import Problem, heldout_rms
 from cdprid.diagnosis._result import Finding
 from cdprid.diagnosis._selection import Selection, linear_model, refit
@@ -49,7 +49,7 @@ def clock_candidate(candidates) -> Candidate | None:
 def delay_profile(prob: Problem, base, grid=GRID_S) -> np.ndarray:
     """Held-out RMS (weighted units) of the base model with the tension stream shifted by
     each delay of ``grid`` (the exact shift, the model refitted at each)."""
-    shifted = jax.jit(lambda s: tension_at(prob.d, prob.d.t + s))
+    shifted = jax.jit(lambda s: tension_at(prob.d.stream, prob.d.t + s, CATMULL_ROM))
     tau0 = np.asarray(shifted(0.0))
     Z = base.A * prob.wrow[None, :, None]
     out = []

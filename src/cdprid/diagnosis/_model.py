@@ -17,6 +17,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.core import CATMULL_ROM, TensionStream, tension_at, tension_rate_at
 from cdprid.effects import DIAGNOSIS, tilt_gravity
 from cdprid.model import (
     CableRobot,
@@ -99,38 +100,22 @@ class DiagData(eqx.Module):
     tau_t0: float = eqx.field(static=True)
     tau_dt: float = eqx.field(static=True)
     #: the expected sign of each cable's sliding speed (in [-1, 1], (n, m)); the
-    #: Coulomb terms use it (see :func:`cdprid.diagnosis._problem.sliding_sign`); ``None``:
+    #: Coulomb terms use it (see :func:`cdprid.core.sliding_sign`); ``None``:
     #: ``sign(ldot)``
     slide: jnp.ndarray | None = None
+
+    @property
+    def stream(self) -> TensionStream:
+        """The raw tension stream as the core's :class:`cdprid.core.TensionStream` (the forward
+        model reads it with :func:`cdprid.core.tension_at`, Catmull-Rom)."""
+        k = self.tau_grid.shape[0]
+        return TensionStream(self.tau_t0 + self.tau_dt * jnp.arange(k), self.tau_grid,
+                             self.tau_t0, self.tau_dt)
 
 
 def slide_of(d: DiagData):
     """The friction sign of every sample and cable, ``(n, m)``."""
     return jnp.sign(d.ldot) if d.slide is None else d.slide
-
-
-def tension_at(d: DiagData, s):
-    """Tensions at times s (n,) by cubic Hermite (Catmull-Rom) on the uniform tension grid.
-
-    The first and last grid intervals are interpolated linearly, and times outside the grid
-    read its end values: a delay shifts the first or last samples off the tension stream, where
-    the cubic extrapolated before ran away (-175 N from a 50 N stream 25 ms before its start)
-    and the wrench filter spread it into the neighbouring samples.
-    """
-    k = d.tau_grid.shape[0]
-    u = jnp.clip((s - d.tau_t0) / d.tau_dt, 0.0, k - 1.0)
-    i = jnp.clip(jnp.floor(u).astype(int), 1, k - 3)
-    f = (u - i)[:, None]
-    y0, y1, y2, y3 = d.tau_grid[i - 1], d.tau_grid[i], d.tau_grid[i + 1], d.tau_grid[i + 2]
-    m1 = 0.5 * (y2 - y0)
-    m2 = 0.5 * (y3 - y1)
-    f2, f3 = f * f, f * f * f
-    cubic = ((2 * f3 - 3 * f2 + 1) * y1 + (f3 - 2 * f2 + f) * m1 + (-2 * f3 + 3 * f2) * y2
-             + (f3 - f2) * m2)
-    g = d.tau_grid
-    lo = g[0] + u[:, None] * (g[1] - g[0])
-    hi = g[k - 2] + (u[:, None] - (k - 2)) * (g[k - 1] - g[k - 2])
-    return jnp.where(u[:, None] < 1.0, lo, jnp.where(u[:, None] > k - 2.0, hi, cubic))
 
 
 def shifted_robot(robot: CableRobot, th):
@@ -148,7 +133,7 @@ def measured_side(d: DiagData, th):
     An independent whole-robot implementation of the effects (no flipped pulley), the
     oracle the tests compare :func:`meas_and_jac` (built from the hooks) with.
     """
-    tau = tension_at(d, d.t + th["delay"])
+    tau = tension_at(d.stream, d.t + th["delay"], CATMULL_ROM)
     tau = (tau - th["offset"] - th["drift"] * d.clock[:, None]) / (1.0 + th["gain"])
     tau = tau + (th["coulomb"] + th["coulomb_all"]) * slide_of(d) \
         + (th["pvisc"] + th["pvisc_all"]) * d.ldot
@@ -193,11 +178,6 @@ def model_side(d: DiagData, th, x, rotational: bool):
         if form.model is not None:
             y = form.model(y, d, th)
     return y
-
-
-def tension_rate_at(d: DiagData, s):
-    """Time derivative of the Catmull-Rom interpolant of :func:`tension_at`."""
-    return jax.jacfwd(lambda h: tension_at(d, s + h))(0.0)
 
 
 #: the per-cable local parameter vector: every theta block, in layout order, (block, size)
@@ -282,8 +262,8 @@ def meas_and_jac(d, theta, layout):
     th = layout.unpack(theta)
     m = layout.m
     loc = cable_locals(d, th, layout)
-    tau_c = tension_at(d, d.t + th["delay"])  # (n, m)
-    taud_c = tension_rate_at(d, d.t + th["delay"])
+    tau_c = tension_at(d.stream, d.t + th["delay"], CATMULL_ROM)  # (n, m)
+    taud_c = tension_rate_at(d.stream, d.t + th["delay"], CATMULL_ROM)
     rob = d.robot
 
     def per_sample(p, R, tc, tdc, ld, clk, sl):

@@ -21,6 +21,7 @@ import time
 import numpy as np
 
 from cdprid.base import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
+from cdprid.core import rest_mask
 from cdprid.diagnosis._base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from cdprid.diagnosis._budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis._candidates import alias_label, candidate_list
@@ -49,19 +50,19 @@ from cdprid.io import Dataset
 from cdprid.model import PARAMETER_NAMES
 
 
-def weight_at_rest(prob: Problem, theta, min_rest_s: float = 0.5):
+def weight_at_rest(prob: Problem, theta, min_rest_s: float = 0.5, max_speed: float = 0.03):
     """Platform weight (kg) from the cable forces where the platform is at rest.
 
-    Rest: speed < 3 cm/s over at least ``min_rest_s`` (vibrations average out). Given
+    Rest: the core's rule (:func:`cdprid.core.rest_mask`) with the diagnosis' threshold
+    ``max_speed`` (3 cm/s, above :data:`cdprid.base.REST_SPEED_M_S`) over at least
+    ``min_rest_s``, ``min_rest_s / 2`` dropped where a rest meets motion. Given
     with the raw tensions and with the extended model's sensor corrections (offsets, gains,
     delay), to compare with the mass identified from the motion: a common load-cell gain is
     indistinguishable from the mass, the two must agree under the same sensor model.
     """
-    from scipy.ndimage import minimum_filter1d
-
-    still = np.linalg.norm(prob.v, axis=1) < 0.03
     win = max(1, int(round(min_rest_s / prob.dt)))
-    rest = minimum_filter1d(still.astype(int), size=win, mode="nearest") > 0
+    rest = rest_mask(prob.t, np.linalg.norm(prob.v, axis=1), max_speed, min_rest_s,
+                     edge_s=min_rest_s / 2)
     if rest.sum() < win:
         return None
     g = np.asarray(prob.d.robot.gravity)

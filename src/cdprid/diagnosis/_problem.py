@@ -15,7 +15,19 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S, UserError
-from cdprid.core import ROTATION_WARN_DEG, rotation_angle_deg, taut_mask, wrench_matrices
+from cdprid.core import (
+    CATMULL_ROM,
+    ROTATION_WARN_DEG,
+    SLIDE_NOISE_M_S,  # noqa: F401  (the diagnosis' friction sign: re-exported)
+    Motion,
+    TensionStream,
+    estimate_motion,
+    rotation_angle_deg,
+    sliding_sign,
+    taut_mask,
+    tension_at,
+    wrench_matrices,
+)
 from cdprid.diagnosis._model import (
     DiagData,
     ThetaLayout,
@@ -26,8 +38,8 @@ from cdprid.diagnosis._model import (
 )
 from cdprid.diagnosis._testing import blocks, cv_sse, fold_sse
 from cdprid.io import Dataset, align
-from cdprid.model import cable_lengths, quat_to_matrix
-from cdprid.signal import differentiate, zero_phase_filter
+from cdprid.model import cable_lengths
+from cdprid.signal import zero_phase_filter
 
 
 @dataclasses.dataclass(frozen=True)
@@ -39,7 +51,7 @@ class Problem:
     t: np.ndarray
     position: np.ndarray
     quaternion: np.ndarray
-    tension: np.ndarray  # (n, m) at the pose times
+    tension: np.ndarray  # (n, m) at the pose times (the forward model's interpolant, no delay)
     tau_grid: np.ndarray
     R: np.ndarray
     v: np.ndarray
@@ -62,6 +74,9 @@ class Problem:
     rotational_base: bool = False
     #: rotation of the used samples, deg (99th percentile from the mean orientation)
     rotation_deg: float = 0.0
+    #: the core's motion estimate (:func:`cdprid.core.estimate_motion`): its differentiator
+    #: and settings serve every later derivative (the null replicates)
+    motion: Motion | None = dataclasses.field(default=None, compare=False, repr=False)
     #: linearisations already computed (see :func:`design`); not part of the problem's value
     cache: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
@@ -80,87 +95,6 @@ class Problem:
         x = np.asarray(x)
         y = zero_phase_filter(x.reshape(x.shape[0], -1), self.dt, self.cutoff_hz, 2)
         return y.reshape(x.shape)
-
-
-#: floor of the sliding-speed std, m/s (motion capture better than this is not trusted)
-SLIDE_NOISE_M_S = 1e-3
-
-
-def _gauss_derivative(x, dt: float, sigma_s: float):
-    """Derivative of ``x`` (n, k) by a sampled Gaussian-derivative kernel, and the kernel.
-
-    The kernel has no overshoot (unlike a Butterworth), so a sign change of the true rate is
-    not doubled by ringing; it is exact on linear signals (normalised so), and the ends are
-    extended by odd reflection.
-    """
-    half = max(1, int(math.ceil(4.0 * sigma_s / dt)))
-    tk = np.arange(-half, half + 1) * dt
-    g = np.exp(-0.5 * (tk / sigma_s) ** 2)
-    h = -tk * g
-    h /= np.sum(-h * tk)  # sum_k h_k (t - t_k) = 1: exact on x = t
-    n = x.shape[0]
-    if n <= half:
-        raise UserError(f"the recording holds {n} pose samples; too few to differentiate.")
-    xp = np.pad(x, ((half, half), (0, 0)), mode="reflect", reflect_type="odd")
-    out = np.stack([np.convolve(xp[:, j], h, mode="valid") for j in range(x.shape[1])], 1)
-    return out, h
-
-
-def sliding_sign(lengths, dt: float, cutoff_hz: float):
-    """The expected sign of each cable's sliding speed over its pulley, given the data.
-
-    The rate of the nominal cable lengths ``lengths`` (n, m) by a Gaussian derivative whose
-    -3 dB frequency is ``cutoff_hz``; its noise std per cable is the lengths' white-noise
-    level (from third differences, robust) times the kernel's norm, at least
-    :data:`SLIDE_NOISE_M_S`. The Coulomb regressor is ``E[sign(dl/dt) | estimate] =
-    erf(speed / (sqrt(2) std))``: near reversals, where the estimated sign is a coin toss,
-    it goes to 0. The sign of the estimate itself would attenuate a fitted Coulomb level (an
-    errors-in-variables bias), and a sign set to 0 in a dead zone inflates it once the
-    regression is filtered; the conditional expectation leaves a residual uncorrelated with
-    the regressor (``tests/diagnosis/test_sliding.py`` measures the three).
-
-    Returns
-    -------
-    sign : (n, m) in [-1, 1]
-    speed : (n, m) the sliding speed, m/s
-    std : (m,) its noise std, m/s
-    """
-    from scipy.special import erf
-
-    lengths = np.asarray(lengths, float)
-    sigma_s = math.sqrt(math.log(2.0)) / (2.0 * math.pi * cutoff_hz)
-    speed, h = _gauss_derivative(lengths, dt, sigma_s)
-    d3 = np.diff(lengths, 3, axis=0)
-    noise = 1.4826 * np.median(np.abs(d3 - np.median(d3, 0)), 0) / math.sqrt(20.0)
-    std = np.maximum(noise * math.sqrt(float(np.sum(h**2))), SLIDE_NOISE_M_S)
-    return erf(speed / (math.sqrt(2.0) * std)), speed, std
-
-
-def _motion(sig, cutoff_hz):
-    dt = sig.dt
-    v, a = differentiate(sig.position, dt, method="euler-filtfilt", cutoff_hz=cutoff_hz)
-    R = np.asarray(jax.jit(jax.vmap(quat_to_matrix))(sig.quaternion))  # one compile
-    if sig.has_rotation:
-        from cdprid.model import angular_rates_from_quat
-
-        qd, qdd = differentiate(sig.quaternion, dt, method="euler-filtfilt", cutoff_hz=cutoff_hz)
-        om, al = (np.asarray(z) for z in
-                  jax.jit(jax.vmap(angular_rates_from_quat))(sig.quaternion, qd, qdd))
-    else:
-        om = np.zeros_like(v)
-        al = np.zeros_like(v)
-    return v, a, R, om, al
-
-
-def _tension_grid(ds: Dataset, m: int):
-    """The raw tension stream on a uniform grid (for the fractional delay)."""
-    tt = ds.tension_t
-    tdt = float(np.median(np.diff(tt)))
-    if np.max(np.abs(np.diff(tt) - tdt)) > 0.01 * tdt:
-        grid_t = np.arange(tt[0], tt[-1], tdt)
-        tau_grid = np.column_stack([np.interp(grid_t, tt, ds.tension[:, i]) for i in range(m)])
-        return grid_t, tau_grid, tdt
-    return tt, ds.tension, tdt
 
 
 def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CUTOFF_HZ,
@@ -188,8 +122,11 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     robot = ds.robot
     m = robot.n_cables
     dt = sig.dt
-    v, a, R, om, al = _motion(sig, cutoff_hz)
-    grid_t, tau_grid, tdt = _tension_grid(ds, m)
+    motion = estimate_motion(sig, "euler-filtfilt", {"cutoff_hz": cutoff_hz})
+    v, a, R, om, al = (motion.velocity, motion.acceleration, motion.B_R_P, motion.omega,
+                       motion.alpha)
+    stream = TensionStream.on_uniform_grid(ds.tension_t, ds.tension)
+    grid_t, tau_grid, tdt = np.asarray(stream.t), np.asarray(stream.values), stream.dt
     W_all = np.asarray(jax.jit(wrench_matrices)(robot, jnp.asarray(sig.position),
                                                  jnp.asarray(R)))
     ldot = -np.einsum("nim,ni->nm", W_all, np.concatenate([v, om], axis=1))
@@ -200,8 +137,8 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
            else np.asarray(clock(np.asarray(sig.t)), float))
     d = DiagData(robot, jnp.asarray(sig.t), jnp.asarray(sig.position), jnp.asarray(R),
                  jnp.asarray(v), jnp.asarray(a), jnp.asarray(om), jnp.asarray(al),
-                 jnp.asarray(tau_grid), jnp.asarray(ldot), jnp.asarray(clk), float(grid_t[0]),
-                 tdt, jnp.asarray(slide))
+                 stream.values, jnp.asarray(ldot), jnp.asarray(clk), stream.t0, tdt,
+                 jnp.asarray(slide))
     margin = max(trim, 0.1)
     use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
            & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))
@@ -224,7 +161,8 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     return Problem(
         rotational_base=bool(rot_deg > ROTATION_WARN_DEG), rotation_deg=float(rot_deg),
         d=d, layout=ThetaLayout(m), t=sig.t, position=sig.position, quaternion=sig.quaternion,
-        tension=sig.tension, tau_grid=np.asarray(tau_grid), R=R, v=v, a=a, om=om, W_all=W_all,
+        tension=np.asarray(tension_at(stream, sig.t, CATMULL_ROM)), tau_grid=tau_grid, R=R, v=v,
+        a=a, om=om, W_all=W_all, motion=motion,
         has_rotation=bool(sig.has_rotation), dt=dt, tdt=tdt, cutoff_hz=cutoff_hz, use=use,
         train=train, test=test, n_slack=n_slack, n_folds=n_folds,
         lags=int(math.ceil(3.0 / (cutoff_hz * dt))),  # correlation length, filtered residual

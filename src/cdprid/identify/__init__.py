@@ -4,6 +4,10 @@ calibration.
 
 # ruff: noqa: F401  (explicit re-exports)
 
+from cdprid.core import fit_linear_match as fit_linear_match
+from cdprid.core import matched_regression as matched_regression
+from cdprid.core import reference_rates as reference_rates
+from cdprid.core import settled as settled
 from cdprid.identify._batch import COND_WARN as COND_WARN
 from cdprid.identify._batch import DEFAULT_TRIM_S as DEFAULT_TRIM_S
 from cdprid.identify._batch import MODELS as MODELS
@@ -28,10 +32,6 @@ from cdprid.identify._guards import input_warnings as input_warnings
 from cdprid.identify._guards import refusals as refusals
 from cdprid.identify._guards import result_warnings as result_warnings
 from cdprid.identify._guards import swapped_columns_warning as swapped_columns_warning
-from cdprid.identify._linear_match import fit_linear_match as fit_linear_match
-from cdprid.identify._linear_match import matched_regression as matched_regression
-from cdprid.identify._linear_match import reference_rates as reference_rates
-from cdprid.identify._linear_match import settled as settled
 from cdprid.identify._online import online_identify as online_identify
 from cdprid.identify._online_step import OnlineStepper as OnlineStepper
 from cdprid.identify._online_step import _online_scan as _online_scan

@@ -8,8 +8,7 @@ or an explicit cutoff, is left as given.
 
 from __future__ import annotations
 
-from cdprid.core import choose_cutoff
-from cdprid.identify._eiv import noise_levels
+from cdprid.core import choose_cutoff, noise_levels
 
 __all__ = ["AUTO_BANDWIDTH_METHODS", "cutoff_from_data", "resolve_params"]
 

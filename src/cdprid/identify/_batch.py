@@ -27,6 +27,7 @@ import numpy as np
 from cdprid.base import TRIM_S, InputError
 from cdprid.core import (
     CHUNK,
+    EIV_NOTE,
     ROTATION_WARN_DEG,
     CRBResult,
     LSResult,
@@ -35,25 +36,27 @@ from cdprid.core import (
     StreamedRegression,
     cable_wrench,
     crb,
+    eiv_fit,
     estimate_motion,
     inertia_about_com,
     least_squares_blocks,
+    linear_match_regression,
+    noise_gains,
+    noise_levels,
     physical_fit,
     physical_warnings,
+    platform_radius,
     regressor_blocks,
+    regressor_scale,
     regressors,
     rotation_angle_deg,
-)
-from cdprid.identify._auto import cutoff_from_data, resolve_params
-from cdprid.identify._eiv import EIV_NOTE, eiv_fit, noise_gains, noise_levels
-from cdprid.identify._linear_match import linear_match_regression, settled, uses_linear_match
-from cdprid.identify._zero_phase_match import (
-    platform_radius,
-    regressor_scale,
     seen_mass,
+    settled,
+    uses_linear_match,
     uses_zero_phase_match,
     zero_phase_matched_regression,
 )
+from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.io import AlignedSignals, Dataset, align
 from cdprid.model import PARAMETER_NAMES, quat_to_matrix
 from cdprid.signal import METHODS, acceleration_filter
@@ -78,7 +81,7 @@ DEFAULT_TRIM_S = TRIM_S
 MODELS = ("auto", "translation", "full")
 WRENCH_FILTERS = ("matched", "none")
 #: ``none``: ordinary least squares; ``groups``: force and moment row weights (two steps);
-#: ``eiv``: errors-in-variables GLS (:mod:`cdprid.identify._eiv`)
+#: ``eiv``: errors-in-variables GLS (:mod:`cdprid.core._eiv`)
 WEIGHTINGS = ("none", "groups", "eiv")
 
 COND_WARN = 1.0e3
@@ -375,7 +378,7 @@ def identify_dataset(
     trim : float
         Seconds dropped at each end of the window after differentiation.
     weighting : {"eiv", "none", "groups"}
-        ``eiv`` (default): errors-in-variables GLS (:mod:`cdprid.identify._eiv`), each sample
+        ``eiv`` (default): errors-in-variables GLS (:mod:`cdprid.core._eiv`), each sample
         whitened by its residual covariance (noise levels from the data), and the pose noise's
         second-order bias removed when the cutoff is chosen from the data; ``none``: the
         paper's OLS; ``groups``: separate force and moment row weights.
@@ -425,8 +428,8 @@ def identify_dataset(
 
 def _regression(ds, sig, motion, model, differentiator, wrench_filter, wf, keep, trim, chunk,
                 notes: list, warns: list):
-    """Regression, wrench filter and kept samples: :mod:`cdprid.identify._zero_phase_match` for
-    the full model with euler-filtfilt, :mod:`cdprid.identify._linear_match` for the full model
+    """Regression, wrench filter and kept samples: :mod:`cdprid.core._zero_phase_match` for
+    the full model with euler-filtfilt, :mod:`cdprid.core._linear_match` for the full model
     with a causal differentiator (its note replaces the matched filter's), else
     :func:`_streamed_regression`."""
     if uses_zero_phase_match(model, differentiator, wrench_filter, sig.quaternion):
@@ -484,7 +487,7 @@ def _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weightin
     """The regression's least-squares fit with the chosen weighting (:data:`WEIGHTINGS`).
 
     ``bias_fix``: the errors-in-variables estimate gets the second-order bias correction
-    (:func:`cdprid.identify._eiv.bias_correction`): only with a cutoff chosen from the data,
+    (:func:`cdprid.core._eiv.bias_correction`): only with a cutoff chosen from the data,
     whose noise budget keeps the first-order correction accurate (at a fixed 4 Hz or with a
     causal differentiator it raised the median RMSE / CRB by 5-17 % on 10 recordings per robot
     in ``benchmarks/efficiency.py``)."""

@@ -28,7 +28,7 @@ filter (section 7). This module does it sample by sample, in ONE ``jax.lax.scan`
      ``|F_0| / |g|``, the mass seen at the first sample; moment rows additionally by the
      platform radius ``max |P_b|``) — an approximation, measured in ``benchmarks/online.py``.
      For the **full model**, matched filtering is rotation-consistent instead
-     (:mod:`cdprid.identify._linear_match`): every regressor term and ``y`` pass one causal
+     (:mod:`cdprid.core._linear_match`): every regressor term and ``y`` pass one causal
      FIR (fitted at :func:`online_init` to the cascade's response on a reference motion),
      the rotation terms are formed from centred differences of samples ``k - 6 .. k``, and the
      rows ``(A, y)`` output at sample ``k`` are those of sample ``k - 3``. The cascade's own

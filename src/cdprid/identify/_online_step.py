@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base import InputError
-from cdprid.identify._linear_match import reference_fir
+from cdprid.core import reference_fir
 from cdprid.identify._online_types import (
     _SIHD,
     WRENCH_FILTERS,

@@ -46,7 +46,7 @@ class OnlineConfig(eqx.Module):
         Minimum RMS regressor entry along the weakest direction, m/s^2.
     fir : array (L + 1,)
         Taps of the rotation-consistent matched filter of the full model (position ->
-        acceleration, :func:`cdprid.identify._linear_match.reference_fir`; empty otherwise).
+        acceleration, :func:`cdprid.core._linear_match.reference_fir`; empty otherwise).
     model : str
         ``"translation"`` (4 parameters) or ``"full"`` (10).
     wrench_filter : str
@@ -123,7 +123,7 @@ class MatchedFilterState(NamedTuple):
 
 
 class LinearMatchState(NamedTuple):
-    """Rotation-consistent matched filter of the full model (:mod:`cdprid.identify._linear_match`).
+    """Rotation-consistent matched filter of the full model (:mod:`cdprid.core._linear_match`).
 
     The rows are those of sample ``k - 3``: its accelerations and angular rates come from
     centred differences over samples ``k - 6 .. k`` (never from the sample itself), every
@@ -347,7 +347,7 @@ class OnlineResult:
         e = (y - np.einsum("nrp,p->nr", A, self.x_final)) * w
         mb = 1.0
         if self.model == "full" and self.wrench_filter == "matched":  # the FIR's memory
-            from cdprid.identify._linear_match import fir_length
+            from cdprid.core import fir_length
 
             mb = float(fir_length(float(np.median(np.diff(self.t)))) + 1)
         cov, bw = hac_covariance(A * w[:, :, None], e, min_bandwidth=mb)

@@ -1,4 +1,5 @@
-"""The friction sign of the diagnosis: the expected sign of a Gaussian-derivative speed.
+"""The friction sign of the diagnosis (:func:`cdprid.core.sliding_sign`): the expected sign
+of a Gaussian-derivative speed.
 
 Oracles: exact derivatives of polynomials, the kernel's noise gain against a Monte-Carlo
 std, and the errors-in-variables bias of a Coulomb level fitted on a sign with errors.
@@ -7,7 +8,7 @@ std, and the errors-in-variables bias of a Coulomb level fitted on a sign with e
 import numpy as np
 import pytest
 
-from cdprid.diagnosis._problem import SLIDE_NOISE_M_S, _gauss_derivative, sliding_sign
+from cdprid.core import SLIDE_NOISE_M_S, gauss_derivative, sliding_sign
 from cdprid.signal import zero_phase_filter
 
 DT = 0.01
@@ -16,13 +17,13 @@ DT = 0.01
 def test_gaussian_derivative_is_exact_on_quadratics_and_attenuates_like_a_gaussian():
     t = np.arange(2000) * DT
     x = np.column_stack([3.0 * t - 1.0, 0.5 * t**2])
-    dx, h = _gauss_derivative(x, DT, 0.033)
+    dx, h = gauss_derivative(x, DT, 0.033)
     half = len(h) // 2
     inner = slice(half, -half)  # away from the reflected ends
     assert np.allclose(dx[inner, 0], 3.0, atol=1e-9)
     assert np.allclose(dx[inner, 1], t[inner], atol=1e-9)
     f, sig = 1.3, 0.033
-    dx, _ = _gauss_derivative(np.sin(2 * np.pi * f * t)[:, None], DT, sig)
+    dx, _ = gauss_derivative(np.sin(2 * np.pi * f * t)[:, None], DT, sig)
     want = 2 * np.pi * f * np.cos(2 * np.pi * f * t) * np.exp(-0.5 * (2 * np.pi * f * sig) ** 2)
     assert np.max(np.abs(dx[inner, 0] - want[inner])) < 2e-3 * 2 * np.pi * f
 

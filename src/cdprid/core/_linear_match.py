@@ -35,7 +35,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base import InputError
-from cdprid.core import Motion, StreamedRegression, angular_rates, cable_wrench, regressor_blocks
+from cdprid.core._motion import Motion, angular_rates
+from cdprid.core._regression import StreamedRegression, cable_wrench, regressor_blocks
 from cdprid.model import quat_to_matrix
 
 __all__ = ["FIR_SECONDS", "FIT_WARN", "LinearMatch", "fir_length", "fit_linear_match",

@@ -24,7 +24,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core import estimate_noise, regressor_jacobians, sample_jacobians
+from cdprid.core._crb import regressor_jacobians, sample_jacobians
+from cdprid.core._noise import estimate_noise
 from cdprid.signal import differentiate
 
 __all__ = ["noise_gains", "noise_levels", "whitening", "input_covariance", "eiv_fit", "EIV_NOTE",
@@ -195,7 +196,7 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
     import dataclasses
     from types import SimpleNamespace
 
-    from cdprid.core import least_squares_blocks
+    from cdprid.core._identification import least_squares_blocks
 
     n = len(reg.t)
     first = least_squares_blocks(reg.wrench_block, n, names, covariance="iid", chunk=chunk)

@@ -10,9 +10,9 @@ so this mismatch, 1-2e-4 N m at a 2 Hz cutoff on noise-free data, moved an 8-cab
 Ixx by 0.36 % (``benchmarks/bias_sources.py --mode mismatch --cutoff 2``; 1e-5 N m and 0.01 %
 with this path).
 
-Here, as :mod:`cdprid.identify._linear_match` does for the causal differentiators, the
+Here, as :mod:`cdprid.core._linear_match` does for the causal differentiators, the
 rotation-dependent part of the regressor is formed from accurate rates (central differences of
-the poses and quaternions, :func:`cdprid.identify._linear_match.reference_rates`) and passed
+the poses and quaternions, :func:`cdprid.core._linear_match.reference_rates`) and passed
 through ``F`` term by term; its part linear in the translational acceleration at the mean
 orientation uses the differentiator's own ``a_hat`` (``= F[a]``):
 
@@ -27,8 +27,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdprid.core import Motion, StreamedRegression, cable_wrench
-from cdprid.identify._linear_match import rotation_remainder
+from cdprid.core._linear_match import rotation_remainder
+from cdprid.core._motion import Motion
+from cdprid.core._regression import StreamedRegression, cable_wrench
 
 __all__ = ["platform_radius", "regressor_scale", "seen_mass", "uses_zero_phase_match",
            "zero_phase_matched_regression"]
