@@ -6,7 +6,7 @@ import jax
 import numpy as np
 import pytest
 
-from cdprid.core import BLOCK, angular_rates, estimate_motion, rotation_matrices
+from cdprid.core import BLOCK, angular_rates, differentiate_pose, estimate_motion, rotation_matrices
 from cdprid.io import AlignedSignals
 from cdprid.model import angular_rates_from_quat, quat_to_matrix
 from cdprid.signal import differentiate
@@ -111,3 +111,27 @@ def test_estimate_motion_equals_the_eager_per_sample_evaluation():
     translation_only = estimate_motion(sig, "euler-filtfilt", {"cutoff_hz": 4.0}, angular=False)
     assert not translation_only.omega.any() and not translation_only.alpha.any()
     np.testing.assert_array_equal(translation_only.B_R_P, mo.B_R_P)
+
+
+def test_differentiate_pose_never_spans_a_segment_edge_and_is_exact_on_a_line():
+    """Each segment differentiated alone (a jump between segments leaves no trace), with the
+    method and parameters that :func:`estimate_motion` records on its Motion."""
+    dt = 0.01
+    t = np.arange(600) * dt
+    x = np.column_stack([2.0 + 0.3 * t, -1.0 + 0.0 * t])
+    x[300:, 0] += 5.0  # a gap: the second segment starts elsewhere
+    segs = ((0, 300), (300, 600))
+    v, a = differentiate_pose(x, dt, segs, "euler-filtfilt", {"cutoff_hz": 4.0})
+    inner = np.r_[100:200, 400:500]
+    np.testing.assert_allclose(v[inner, 0], 0.3, atol=1e-9)
+    np.testing.assert_allclose(a[inner], 0.0, atol=1e-8)
+    for i0, i1 in segs:
+        want = differentiate(x[i0:i1], dt, method="euler-filtfilt", cutoff_hz=4.0)
+        np.testing.assert_array_equal(v[i0:i1], np.asarray(want[0]))
+        np.testing.assert_array_equal(a[i0:i1], np.asarray(want[1]))
+    sig = AlignedSignals(t, dt, np.column_stack([x, 0 * t]), np.tile([1.0, 0, 0, 0], (600, 1)),
+                         np.ones((600, 4)), False, False, segments=segs)
+    mo = estimate_motion(sig, "euler-filtfilt", {"cutoff_hz": 4.0})
+    assert mo.method == "euler-filtfilt" and mo.params == {"cutoff_hz": 4.0}
+    np.testing.assert_array_equal(mo.velocity[:, :2], v)
+

@@ -42,6 +42,20 @@ def test_rest_mask_needs_the_minimum_duration():
     assert len(w) == 1 and w[0][0] == pytest.approx(5.0) and w[0][1] == pytest.approx(5.99)
 
 
+def test_rest_mask_edge_drops_where_a_rest_meets_motion_not_at_the_recording_ends():
+    t = np.arange(0.0, 10.0, 0.01)
+    speed = np.full(t.size, 0.1)
+    speed[t < 1.0] = 0.001  # the recording starts at rest
+    speed[(t >= 5.0) & (t < 6.0)] = 0.001
+    speed[t >= 9.0] = 0.001  # and ends at rest
+    m = rest_mask(t, speed, max_speed=0.005, min_duration_s=0.5, edge_s=0.25)
+    w = mask_windows(t, m)
+    assert [a for a, _ in w] == pytest.approx([0.0, 5.25, 9.25])
+    assert [b for _, b in w] == pytest.approx([0.74, 5.74, 9.99])
+    plain = rest_mask(t, speed, max_speed=0.005, min_duration_s=0.5)
+    assert np.all(plain[m]) and plain.sum() - m.sum() == 25 + 25 + 25 + 25
+
+
 @pytest.mark.parametrize("method, degree", [("linear", 1), ("catmull-rom", 2)])
 def test_interpolation_reproduces_polynomials(method, degree, rng):
     t = np.arange(0.0, 1.0, 0.01)
