@@ -281,7 +281,7 @@ def test_streamed_identify_equals_the_materialised_regression(rotating_ds, metho
             rot.shape)
         y = reg.y
     else:  # a causal method: the rotation-consistent linear match, built in one block
-        from cdprid.identify import fit_linear_match, matched_regression, settled
+        from cdprid.core import fit_linear_match, matched_regression, settled
 
         lm = fit_linear_match(motion, keep, 1.0)
         reg = matched_regression(ds.robot, motion, sig.quaternion, sig.tension, "full", keep, lm,
