@@ -211,7 +211,7 @@ def test_nothing_below_report_imports_report():
 # the features (identify, diagnosis, excitation, tuning) never import each other. The tree is
 # the architecture: ``ls src/cdprid`` shows these subpackages (docs/architecture.md).
 LAYERS = [("base",), ("model",), ("io",), ("signal",), ("core",), ("effects",), ("simulation",),
-          ("identify", "diagnosis", "excitation", "tuning"), ("report",), ("cli",)]
+          ("episodes",), ("identify", "diagnosis", "excitation", "tuning"), ("report",), ("cli",)]
 OUTSIDE_LAYERS = {"cdprid", "cdprid.__main__", "cdprid.data", "cdprid._moved"}
 
 

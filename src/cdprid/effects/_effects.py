@@ -67,7 +67,8 @@ from 1). How each effect is modelled by :func:`cdprid.simulation.simulate`:
 
 Several effects may be combined (also the same effect on several cables). ``docs/effects.md``
 is generated from this docstring, the effects defined in their own modules
-(``tension_drift``: :mod:`cdprid.effects._tension_drift`) and :data:`VOCABULARY`
+(``tension_drift``: :mod:`cdprid.effects._tension_drift`; ``external_wrench``:
+:mod:`cdprid.effects._external_wrench`) and :data:`VOCABULARY`
 (:func:`vocabulary_markdown`). The load cells' sensor chain is declared once, in physical
 order, in :mod:`cdprid.effects._sensor`.
 """
@@ -80,7 +81,7 @@ import json
 import numpy as np
 
 from cdprid.base import InputError
-from cdprid.effects import _tension_drift
+from cdprid.effects import _external_wrench, _tension_drift
 from cdprid.effects._form import DiagnosisForm
 
 __all__ = [
@@ -98,6 +99,7 @@ __all__ = [
     "DIAGNOSIS",
     "DiagnosisForm",
     "tilt_gravity",
+    "EPISODE_EFFECTS",
 ]
 
 #: effect name -> {parameter name: kind}; kinds: 'float', 'cable', 'vec3', 'vec2'
@@ -116,7 +118,12 @@ VOCABULARY: dict[str, dict[str, str]] = {
     "pulley_friction": {"cable": "cable", "coulomb_N": "float", "viscous_Ns_per_m": "float"},
     "cable_elasticity": {"cable": "cable", "EA_N": "float"},
     _tension_drift.NAME: _tension_drift.PARAMETERS,
+    _external_wrench.NAME: _external_wrench.PARAMETERS,
 }
+
+#: effects located in time by the episodes stage (:mod:`cdprid.episodes`), not candidates of
+#: the diagnosis
+EPISODE_EFFECTS = frozenset({_external_wrench.NAME})
 
 
 #: per-cable effects that also have a form common to every cable (``"cable": "all"``)
@@ -234,6 +241,8 @@ class Effect:
                 raise InputError(
                     f"effect '{self.name}' parameter '{key}' must be >= 0, got {clean[key]}."
                 )
+        if self.name == _external_wrench.NAME:
+            _external_wrench.check(clean)
         object.__setattr__(self, "params", clean)
 
 
@@ -406,7 +415,8 @@ def vocabulary_markdown() -> str:
         lines.append(f"| `{name}` | {params} |")
     lines += ["", "## Models", ""]
     body = doc.split("\n\n", 2)[-1] if doc.count("\n\n") >= 2 else doc
-    body = body.split("\n\nSeveral effects")[0] + "\n" + _tension_drift.DOC
+    body = (body.split("\n\nSeveral effects")[0] + "\n" + _tension_drift.DOC + "\n"
+            + _external_wrench.DOC)
     for block in body.strip().split("\n``"):
         text = block if block.startswith("``") else "``" + block
         head, _, rest = text.partition("\n")

@@ -40,6 +40,7 @@ from cdprid.effects import (
     true_robot,
     validate_effects,
 )
+from cdprid.effects import external_wrench as push_wrench
 from cdprid.model import (
     DEFAULT_PRETENSION,
     POSITION_COLUMNS,
@@ -394,7 +395,7 @@ def simulate(
     ref = np.broadcast_to(np.asarray(tau_ref, float), (robot.n_cables,))
     mt, motion, W, wp, tau_true, n_qp = _run_plant(
         robot_true, params, g_true, terms, ref, trajectory, pose_t, tension_t, tmin, tmax,
-        robot if check_workspace_box else None)
+        robot if check_workspace_box else None, effects)
     # sensors
     has_rotation = bool(trajectory.has_rotation)
     position, quaternion, tension = _measure(motion, tau_true, W, mt, tension_t, effects,
@@ -409,13 +410,13 @@ def simulate(
 
 
 def _run_plant(robot_true, params, g_true, terms, ref, trajectory, pose_t, tension_t, tmin,
-               tmax, box_robot):
+               tmax, box_robot, effects=()):
     """The plant: motion at the tension times (delayed) and at the pose times, the true
     wrench matrices and the tensions distributed within their limits.
 
     Returns ``(motion at tension times, motion at pose times, W, required wrench, true
     tensions, number of QP fallback samples)``; ``box_robot`` (or None) checks the
-    workspace box of robot.toml.
+    workspace box of robot.toml; ``effects`` give the pushes (``external_wrench``).
     """
     # one evaluation of the trajectory at [tension times - delay, pose times]
     t_all = np.concatenate([tension_t - terms.delay_s, pose_t])
@@ -431,9 +432,12 @@ def _run_plant(robot_true, params, g_true, terms, ref, trajectory, pose_t, tensi
     if box_robot is not None:
         check_workspace(trajectory, box_robot, state=motion)
     W, wp, wext = (np.asarray(x)[:k] for x in (W, wp, wext))
+    # pushes (external_wrench) at the plant's times; the cables hold the trajectory
+    push = push_wrench(effects, tension_t - terms.delay_s)
+    wext = wext + push
     tau_true, n_qp = distribute_tensions(
-        W, wp - wext, tmin, tmax, tau_ref=ref, t=tension_t, tau_initial=np.asarray(tau0)[:k]
-    )
+        W, wp - wext, tmin, tmax, tau_ref=ref, t=tension_t,
+        tau_initial=None if np.any(push) else np.asarray(tau0)[:k])
     return mt, motion, W, wp, tau_true, n_qp
 
 

@@ -1,0 +1,307 @@
+"""The episodes stage: fit, locate what happens only sometimes, refit without it, locate again.
+
+:func:`find_episodes` works on a recording's aligned signals (:func:`cdprid.io.align`) and
+the robot; ``identify`` and ``diagnose`` call it before their fits and leave the samples of
+:attr:`Episodes.excluded` out (the blocks keep their own time stamps; nothing is bridged).
+
+1. Pose glitches (:mod:`cdprid.episodes._glitches`) are found on the raw positions.
+2. The motion is differentiated (``euler-filtfilt`` at ``cutoff_hz``) and the measured wrench
+   ``W tau`` and each cable's column of W go through the same zero-phase filter (matched).
+3. The paper's model (the full model when the platform rotates) plus one zero offset per
+   load cell is fitted by least squares on the samples outside the episodes, whitened by the
+   residual's noise model; the residual is scanned (:mod:`cdprid.episodes._scan`) at the
+   stated false-alarm rate; each flagged stretch is refined to the interval where a constant
+   wrench explains the most. Repeated until the episodes stop changing (at most
+   :data:`PASSES` passes).
+4. When the winches are locked, the energy balance is a second, independent test
+   (:mod:`cdprid.episodes._energy`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import numpy as np
+from scipy import stats
+
+from cdprid.base import CUTOFF_HZ, TRIM_S
+from cdprid.core import (
+    ROTATION_WARN_DEG,
+    estimate_motion,
+    regressors,
+    rotation_angle_deg,
+    segment_mask,
+    wrench_matrices,
+)
+from cdprid.effects import EXTERNAL_WRENCH
+from cdprid.episodes._energy import energy_runs, locked, mechanical_energy
+from cdprid.episodes._glitches import find_glitches
+from cdprid.episodes._scan import SCALES_S, noise_model, refine, runs, scan, window_level
+from cdprid.model import cable_lengths
+from cdprid.signal import zero_phase_filter
+
+__all__ = ["FAR_PER_HOUR", "PASSES", "Episode", "Episodes", "find_episodes"]
+
+#: default false-alarm rate of the scan, episodes per hour of clean recording
+FAR_PER_HOUR = 0.5
+#: fit -> locate -> refit passes at most
+PASSES = 3
+#: share of an episode's mean residual one load cell's column must explain to be a step
+STEP_SHARE = 0.95
+
+
+@dataclasses.dataclass(frozen=True)
+class Episode:
+    """One time window where the data contradict the model locally.
+
+    Attributes
+    ----------
+    start_s, end_s : float
+        The window, s (the recording's clock).
+    kind : str
+        ``external_wrench``, ``load_cell_step``, ``pose_glitches`` or ``energy``.
+    force_N, moment_Nm : tuple of 3 floats or None
+        Mean external wrench on the platform over the window (base frame, moment about P):
+        minus the mean residual of the model.
+    size_N, size_Nm : float or None
+        Their norms.
+    p_value : float
+        Adjusted for the number of windows scanned (Bonferroni; 0 when below 1e-300).
+    detail : dict
+        Kind-specific: ``cable`` and ``step_N`` of a load-cell step, ``n_samples`` and
+        ``largest_m`` of glitches, ``energy_J`` of an energy episode.
+    """
+
+    start_s: float
+    end_s: float
+    kind: str
+    force_N: tuple | None
+    moment_Nm: tuple | None
+    size_N: float | None
+    size_Nm: float | None
+    p_value: float
+    detail: dict = dataclasses.field(default_factory=dict)
+
+    def as_json(self) -> dict:
+        """The JSON form (the ``episodes`` list of ``identify --json`` and ``diagnose --json``)."""
+        out = {"start_s": self.start_s, "end_s": self.end_s, "kind": self.kind,
+               "force_N": list(self.force_N) if self.force_N is not None else None,
+               "moment_Nm": list(self.moment_Nm) if self.moment_Nm is not None else None,
+               "size_N": self.size_N, "size_Nm": self.size_Nm, "p_value": self.p_value}
+        out.update(self.detail)
+        return out
+
+    def describe(self) -> str:
+        """One line: when, what, how large."""
+        what = {"pose_glitches": f"{self.detail.get('n_samples', 0)} displaced pose sample(s), "
+                                 f"up to {1e3 * self.detail.get('largest_m', 0.0):.0f} mm",
+                "energy": f"{self.detail.get('energy_J', 0.0):+.2g} J of outside work"}.get(
+            self.kind, f"{self.size_N:.3g} N, {self.size_Nm:.3g} N m" if self.size_N is not None
+            else "")
+        if self.kind == "load_cell_step":
+            what = f"load cell {self.detail['cable']} reads {self.detail['step_N']:+.3g} N more"
+        return (f"{self.kind} {self.start_s:.2f}-{self.end_s:.2f} s: {what}"
+                + (f" (p = {self.p_value:.1e})" if self.kind != "pose_glitches" else ""))
+
+
+@dataclasses.dataclass(frozen=True)
+class Episodes:
+    """What :func:`find_episodes` found.
+
+    Attributes
+    ----------
+    episodes : tuple of Episode
+        In time order.
+    t : ndarray (n,)
+        The aligned samples' times, s.
+    excluded : ndarray (n,) of bool
+        Samples every fit leaves out: each episode widened by the filter's transient
+        (``margin_s``) on both sides, each glitch likewise.
+    margin_s : float
+    far_per_hour : float
+        The false-alarm rate the thresholds were set for.
+    passes : int
+        Fit -> locate passes run.
+    """
+
+    episodes: tuple
+    t: np.ndarray
+    excluded: np.ndarray
+    margin_s: float
+    far_per_hour: float
+    passes: int
+
+    def excluded_at(self, t) -> np.ndarray:
+        """Whether each time of ``t`` (s) is within an excluded stretch."""
+        t = np.asarray(t, float)
+        out = np.zeros(t.shape, bool)
+        for a, b in runs(self.excluded):
+            out |= (t >= self.t[a] - 1e-9) & (t <= self.t[b - 1] + 1e-9)
+        return out
+
+    def note(self) -> str | None:
+        """The sentence for a fit's notes (None when nothing was found)."""
+        if not self.episodes:
+            return None
+        kinds = sorted({e.kind for e in self.episodes})
+        return (f"{len(self.episodes)} episode(s) ({', '.join(kinds)}) left out of the fit: "
+                f"{int(self.excluded.sum())} samples ({self.margin_s:g} s of filter transient "
+                "on each side; nothing bridged); --keep-episodes keeps them")
+
+    def as_json(self) -> list:
+        """The ``episodes`` list."""
+        return [e.as_json() for e in self.episodes]
+
+
+def _dilate(mask: np.ndarray, k: int) -> np.ndarray:
+    if k <= 0 or not mask.any():
+        return mask.copy()
+    c = np.concatenate([[0], np.cumsum(mask.astype(int))])
+    n = len(mask)
+    i = np.arange(n)
+    return (c[np.minimum(n, i + k + 1)] - c[np.maximum(0, i - k)]) > 0
+
+
+def _filtered(x, sig, cutoff_hz):
+    """Zero-phase filter of ``x`` (n, ...) along time, each segment on its own."""
+    x = np.asarray(x, float)
+    out = np.empty_like(x)
+    flat = x.reshape(len(x), -1)
+    for a, b in sig.segments:
+        out.reshape(len(x), -1)[a:b] = zero_phase_filter(flat[a:b], sig.dt, cutoff_hz, 2)
+    return out
+
+
+def _data(robot, sig, cutoff_hz):
+    """Filtered measured wrench (n, 6), regressor with offset columns (n, 6, p + m), model."""
+    rot = sig.has_rotation and rotation_angle_deg(sig.quaternion) > ROTATION_WARN_DEG
+    model = "full" if rot else "translation"
+    mo = estimate_motion(sig, "euler-filtfilt", {"cutoff_hz": cutoff_hz}, angular=rot)
+    W = np.asarray(jax.jit(wrench_matrices)(robot, mo.position, mo.B_R_P))
+    Wf = _filtered(W, sig, cutoff_hz)
+    y = _filtered(np.einsum("nim,nm->ni", W, sig.tension), sig, cutoff_hz)
+    A = np.asarray(jax.jit(regressors, static_argnums=0)(
+        model, mo.B_R_P, mo.acceleration, mo.omega, mo.alpha, np.asarray(robot.gravity)))
+    return y, np.concatenate([A, Wf], axis=2), Wf, model, mo
+
+
+def _fit(y, Z, rows, whiten):
+    """Least squares of ``y ~ Z beta`` on ``rows``, whitened (6 x 6); the residual (n, 6)."""
+    Zw = np.einsum("ij,njp->nip", whiten, Z[rows]).reshape(-1, Z.shape[2])
+    yw = (y[rows] @ whiten.T).reshape(-1)
+    scale = np.linalg.norm(Zw, axis=0)
+    scale[scale == 0] = 1.0
+    beta = np.linalg.lstsq(Zw / scale, yw, rcond=1e-10)[0] / scale
+    return y - np.einsum("nip,p->ni", Z, beta), beta
+
+
+def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float = FAR_PER_HOUR,
+                  trim: float = TRIM_S, use=None, lengths=None) -> Episodes:
+    """Locate the episodes of a recording (see the module docstring).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    sig : AlignedSignals
+        The aligned recording (:func:`cdprid.io.align`), as the fit uses it.
+    cutoff_hz : float
+        Differentiator and matched-filter cutoff, Hz.
+    far_per_hour : float
+        False-alarm rate of the scan on clean data, episodes per hour.
+    trim : float
+        Seconds at the edges of every segment left out (filter transients), s.
+    use : ndarray (n,) of bool, optional
+        Samples the fit may use at all (e.g. every cable taut); default all.
+    lengths : ndarray (n, m), optional
+        Winch encoder lengths at the pose times (the energy test runs when they are
+        constant); None: the energy test runs when the platform swings freely.
+
+    Returns
+    -------
+    Episodes
+    """
+    t = np.asarray(sig.t, float)
+    n, dt = len(t), float(sig.dt)
+    margin = max(2, int(math.ceil(2.0 / (cutoff_hz * dt))))
+    keep = segment_mask(t, sig.segments, trim) & (np.ones(n, bool) if use is None
+                                                  else np.asarray(use, bool))
+    glitch, gsize = find_glitches(sig.position, sig.segments)
+    gl_excl = _dilate(glitch, margin)
+    y, Z, Wf, model, mo = _data(robot, sig, cutoff_hz)
+    scan_use = keep & ~gl_excl
+    level = window_level(far_per_hour)
+    max_lag = int(math.ceil(3.0 / (cutoff_hz * dt)))
+    whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
+    excl, found, passes = gl_excl.copy(), [], 0
+    while passes < PASSES:
+        passes += 1
+        r, beta = _fit(y, Z, scan_use & ~excl, whiten)
+        nm = noise_model(r, scan_use & ~excl, max_lag)
+        whiten = nm.whiten
+        found = [refine(r, a, b, nm) for a, b in runs(scan(r, scan_use, dt, nm, level))]
+        new = gl_excl.copy()
+        for a, b, _, _ in found:
+            new[a:b] = True
+        new = _dilate(new, margin) | gl_excl
+        if np.array_equal(new, excl):
+            break
+        excl = new
+    n_windows = (t[-1] - t[0]) * sum(2.0 / s for s in SCALES_S)
+    eps = [_wrench_episode(t, a, b, T, mean, Wf, nm, n_windows) for a, b, T, mean in found]
+    eps += _glitch_episodes(t, glitch, gsize)
+    energy, excl = _energy_episodes(robot, sig, mo, beta, model, scan_use, excl, margin,
+                                    far_per_hour)
+    eps += energy
+    eps.sort(key=lambda e: e.start_s)
+    return Episodes(tuple(eps), t, excl, margin * dt, far_per_hour, passes)
+
+
+def _energy_episodes(robot, sig, mo, beta, model, use, excl, margin, far_per_hour):
+    """The energy test's episodes when the winches are locked, and the exclusion widened."""
+    L = np.asarray(jax.jit(jax.vmap(cable_lengths, in_axes=(None, 0, 0)))(
+        robot, mo.position, mo.B_R_P))
+    if not locked(L, use):
+        return [], excl
+    E = mechanical_energy(beta, model, mo.velocity, mo.omega, mo.B_R_P, mo.position,
+                          robot.gravity)
+    t = np.asarray(sig.t, float)
+    out, new = [], np.zeros_like(excl)
+    for a, b, work, p in energy_runs(t, E, use, excl, far_per_hour):
+        out.append(Episode(float(t[a]), float(t[b - 1]), "energy", None, None, None, None, p,
+                           {"energy_J": work}))
+        new[a:b] = True
+    return out, _dilate(new, margin) | excl
+
+
+def _wrench_episode(t, a, b, T, mean, Wf, nm, n_windows) -> Episode:
+    """An external wrench or, when one load cell's column explains it, a load-cell step."""
+    p = float(min(1.0, stats.chi2.sf(T, 6) * max(1.0, n_windows)))
+    w = -np.asarray(mean, float)
+    zr = nm.whiten @ mean
+    best, share, step = None, 0.0, 0.0
+    for i in range(Wf.shape[2]):
+        col = nm.whiten @ Wf[a:b, :, i].mean(0)
+        c = float(col @ zr / max(col @ col, 1e-300))
+        s = 1.0 - float(np.sum((zr - c * col) ** 2) / max(zr @ zr, 1e-300))
+        if s > share:
+            best, share, step = i, s, c
+    kind, detail = EXTERNAL_WRENCH, {}
+    if best is not None and share >= STEP_SHARE and (t[b - 1] - t[a]) > 5.0:
+        kind, detail = "load_cell_step", {"cable": best + 1, "step_N": step}
+    return Episode(float(t[a]), float(t[b - 1]), kind, tuple(map(float, w[:3])),
+                   tuple(map(float, w[3:])), float(np.linalg.norm(w[:3])),
+                   float(np.linalg.norm(w[3:])), p, detail)
+
+
+def _glitch_episodes(t, glitch, gsize) -> list:
+    """One episode per burst of glitches (samples within 0.5 s of each other)."""
+    out = []
+    gap = max(1, int(round(0.5 / max(float(np.median(np.diff(t))), 1e-9))))
+    for a, b in runs(_dilate(glitch, gap // 2)):
+        idx = np.flatnonzero(glitch[a:b]) + a
+        out.append(Episode(float(t[idx[0]]), float(t[idx[-1]]), "pose_glitches", None, None,
+                           None, None, 0.0, {"n_samples": int(idx.size),
+                                             "largest_m": float(gsize[idx].max())}))
+    return out
