@@ -41,7 +41,8 @@ def _run(args) -> int:
 
     _refuse_implausible(ds)
     res = diagnose(ds, train_until=args.train_until, alpha=args.alpha, n_null=args.n_null,
-                   max_effects=args.max_effects, seed=args.seed, progress=progress)
+                   max_effects=args.max_effects, seed=args.seed, progress=progress,
+                   keep_episodes=args.keep_episodes)
     for note in res.notes:
         print(f"note: {note}")
     print(f"base model: m = {res.base_parameters['m']['value']:.5g} kg, held-out force residual "
@@ -52,8 +53,15 @@ def _run(args) -> int:
         alias = f"  [indistinguishable here from: {', '.join(f.aliases)}]" if f.aliases else ""
         print(f"finding: {f.effect} {f.parameters}  interval {f.interval}  "
               f"p = {f.p_value:.2e}{alias}")
+    for e in res.episodes:
+        print(f"episode: {e['kind']} {e['start_s']:.2f}-{e['end_s']:.2f} s"
+              + (f", force {e['size_N']:.3g} N" if e.get("size_N") is not None else "")
+              + (f", {e['energy_J']:+.2g} J" if "energy_J" in e else "")
+              + (f", p = {e['p_value']:.2g}" if e["kind"] != "pose_glitches" else ""))
+    with_ep = res.extended_heldout_rms_with_episodes
     print(f"extended model: m = {res.extended_parameters['m']['value']:.5g} kg, held-out force "
-          f"residual rms {res.extended_heldout_rms:.4g} N")
+          f"residual rms {res.extended_heldout_rms:.4g} N"
+          + (f" ({with_ep:.4g} N with the episodes)" if res.episodes and with_ep else ""))
     for c in res.competing:
         print(f"competing model: {c['by']} {format_values(c['parameters'])} instead of "
               f"{c['replaces']}: held-out force residual rms {c['heldout_force_rms_N']:.4g} N "
@@ -105,6 +113,9 @@ def add_parser(sub) -> None:
                    help="greedy selection stops here (>= 1)")
     p.add_argument("--seed", type=V.nonneg_int, default=0, help="seed of the null simulation")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--keep-episodes", action="store_true", help="keep the located episodes "
+                   "(pushes, load-cell steps, pose glitches, outside work) in the fits; they "
+                   "are reported either way")
     p.add_argument("--force", action="store_true",
                    help="replace an existing --json / --mat file or --report folder")
     p.set_defaults(func=_run)

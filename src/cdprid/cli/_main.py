@@ -220,8 +220,7 @@ def _cmd_identify(args) -> int:
         weighting=args.weighting or "eiv",
         covariance=args.std,
         wrench_filter=args.wrench_filter or "matched",
-        inertia_about=args.inertia_about,
-    )
+        inertia_about=args.inertia_about, keep_episodes=args.keep_episodes)
     if getattr(args, "physical", False):
         from cdprid.identify import physical_report
 
@@ -315,6 +314,8 @@ def _add_identify(sub) -> None:
                    default=None, help="filter W tau like the accelerations: matched (default; "
                    "the differentiator's own low-pass, batch and online), none, or delay "
                    "(--online only)")
+    p.add_argument("--keep-episodes", action="store_true", help="keep the located episodes "
+                   "(pushes, load-cell steps, pose glitches) in the fit; reported either way")
     p.add_argument("--json", help="write the result as JSON to this file")
     _artifacts.add_identify_options(p)  # --mat, --report
     p.add_argument("--force", action="store_true",

@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
@@ -46,7 +47,8 @@ from cdprid.diagnosis._unexplained import (
     structure_features,
     unexplained_stage,
 )
-from cdprid.io import Dataset
+from cdprid.episodes import find_episodes
+from cdprid.io import Dataset, align
 from cdprid.model import PARAMETER_NAMES
 
 
@@ -117,9 +119,11 @@ def summarize(prob: Problem, base: BaseFit, s: Selection, noise: NoiseLevels, se
         info, resid
 
 
-def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say):
+def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say,
+             keep_episodes=False):
     """The problem on the whole recording or on its budgeted subset (on the recording's own
-    clock), its lengths stream and the notes."""
+    clock) without its episodes (:mod:`cdprid.episodes`, unless kept), its lengths stream, the
+    notes (the alignment's included), the episodes and the problem with them kept."""
     lengths, notes = lengths_stream(ds)
     sub = subset(ds, max_samples, margin_s=max(trim, 0.1))
     if sub is not None:
@@ -131,10 +135,23 @@ def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say
     prob = prepare(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
                    joins=sub.joins if sub is not None else (),
                    clock=sub.clock if sub is not None else None)
+    sig = align(ds)
+    notes.extend(n for n in sig.notes if n not in notes)
+    eps = find_episodes(ds.robot, sig, cutoff_hz, trim=trim, use=prob.use)
+    for e in eps.episodes:
+        say(f"episode: {e.describe()}")
+    prob_with = prob
+    if eps.episodes and not keep_episodes:
+        out = eps.excluded
+        test = None if prob.test is None else prob.test & ~out
+        if (prob.train & ~out).sum() >= 200 and (test is None or test.sum() >= 50):
+            notes.append(eps.note())
+            prob = dataclasses.replace(prob, use=prob.use & ~out, train=prob.train & ~out,
+                                       test=test)
     say(f"aligned {prob.n} samples at {1 / prob.dt:.4g} Hz; {int(prob.train.sum())} used for "
         "fitting" + (f" ({prob.n_slack} samples with a cable below {taut_N:g} N excluded)"
                      if prob.n_slack else ""))
-    return prob, sub, lengths, notes
+    return prob, sub, lengths, notes, (eps, prob_with)
 
 
 def diagnose(
@@ -151,6 +168,7 @@ def diagnose(
     taut_N: float = TAUT_THRESHOLD_N,
     progress=None,
     max_samples: int = MAX_SAMPLES,
+    keep_episodes: bool = False,
 ) -> DiagnosisResult:
     """Diagnose what the paper's model misses in a dataset.
 
@@ -184,6 +202,9 @@ def diagnose(
     max_samples : int
         Sample budget: a longer recording is analysed on evenly spaced contiguous blocks
         (:func:`cdprid.diagnosis._budget.subset`; ``notes`` and ``info["subset"]`` say which).
+    keep_episodes : bool
+        Keep the episodes (:func:`cdprid.episodes.find_episodes`) in every fit; by default
+        they are left out and the held-out figure is given without and with them.
 
     Returns
     -------
@@ -191,8 +212,8 @@ def diagnose(
     """
     t0 = time.perf_counter()
     say = _timed_say(progress, t0)
-    prob, sub, lengths, notes = _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
-                                         max_samples, say)
+    prob, sub, lengths, notes, (eps, prob_with) = _problem(
+        ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say, keep_episodes)
     prob, base, noise, extra = _base_stage(prob, notes, say)
     candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot)
     s, (other, second), clock_info, ranking, thr_first = _search(
@@ -216,7 +237,10 @@ def diagnose(
     say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
     return DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
                            ext_params, ext_ho, ranking, info, _arrays(prob, base, resid),
-                           unexplained=unexplained, notes=notes, competing=competing)
+                           unexplained=unexplained, notes=notes, competing=competing,
+                           episodes=eps.as_json(), extended_heldout_rms_with_episodes=(
+                               force_heldout_rms(dataclasses.replace(
+                                   prob_with, train=prob.train, wrow=prob.wrow), Z, y)))
 
 
 def _timed_say(progress, t0):

@@ -57,6 +57,11 @@ class DiagnosisResult:
     #: complete alternative models within the noise of the final one
     #: (:func:`cdprid.diagnosis._competing.competing_models`), best first
     competing: list = dataclasses.field(default_factory=list)
+    #: the located episodes (:meth:`cdprid.episodes.Episode.as_json`), left out of the fits
+    #: unless ``keep_episodes``
+    episodes: list = dataclasses.field(default_factory=list)
+    #: the extended model's held-out force rms (N) with the episodes' samples kept
+    extended_heldout_rms_with_episodes: float | None = None
 
     def as_json(self) -> dict:
         return {
@@ -69,6 +74,7 @@ class DiagnosisResult:
             "extended": {
                 "parameters": self.extended_parameters,
                 "heldout_residual_rms": self.extended_heldout_rms,
+                "heldout_residual_rms_with_episodes": self.extended_heldout_rms_with_episodes,
                 "effects": [f.effect for f in self.findings],
                 "information_criterion": self.info.get("information_criterion", {}),
             },
@@ -78,6 +84,7 @@ class DiagnosisResult:
             "not_named": list(self.info.get("not_named", [])),
             "competing_models": list(self.competing),
             "notes": list(self.notes),
+            "episodes": list(self.episodes),
             "info": {k: v for k, v in self.info.items()
                      if k not in ("information_criterion", "not_named")},
         }

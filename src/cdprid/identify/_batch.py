@@ -56,7 +56,9 @@ from cdprid.core import (
     uses_zero_phase_match,
     zero_phase_matched_regression,
 )
+from cdprid.episodes import Episodes
 from cdprid.identify._auto import cutoff_from_data, resolve_params
+from cdprid.identify._episodes import without_episodes
 from cdprid.io import AlignedSignals, Dataset, align
 from cdprid.model import PARAMETER_NAMES, quat_to_matrix
 from cdprid.signal import METHODS, acceleration_filter
@@ -135,6 +137,8 @@ class IdentificationReport:
     #: the Cramer-Rao bound of this recording (:func:`cdprid.core.crb`), None when not
     #: computed or not computable
     crb: CRBResult | None = None
+    #: what :func:`cdprid.episodes.find_episodes` located (None when not run)
+    episodes: Episodes | None = None
 
     @property
     def inertia_about_text(self) -> str:
@@ -205,6 +209,7 @@ class IdentificationReport:
                 "noise": self.crb.noise},
             "warnings": list(self.warnings),
             "notes": list(self.notes),
+            "episodes": [] if self.episodes is None else self.episodes.as_json(),
         }
         if self.model == "full":
             out["inertia_about"] = self.inertia_about_text
@@ -359,6 +364,8 @@ def identify_dataset(
     inertia_about: str = "P",
     chunk: int = CHUNK,
     bound: bool = True,
+    keep_episodes: bool = False,
+    episodes: bool = True,
 ) -> IdentificationReport:
     """Identify the platform's dynamic parameters from a dataset.
 
@@ -398,6 +405,9 @@ def identify_dataset(
     bound : bool
         Compute the recording's Cramer-Rao bound (:func:`cdprid.core.crb`, noise levels
         estimated from the data) for ``crb_std`` and ``efficiency``.
+    keep_episodes, episodes : bool
+        Keep the located episodes' samples in the fit (``--keep-episodes``; by default they
+        are left out: :mod:`cdprid.identify._episodes`); locate them at all.
 
     Returns
     -------
@@ -413,8 +423,10 @@ def identify_dataset(
     motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
     wf, note, w2 = _wrench_filter(ds.robot, differentiator, params, sig.dt, wrench_filter)
     warns, notes = warns + w2, notes + ([note] if note else [])
+    keep, eps = without_episodes(ds, sig, params, _trimmed(sig.t, trim, ds.path), trim,
+                                 episodes, keep_episodes, notes)
     reg, wf, keep = _regression(ds, sig, motion, model, differentiator, wrench_filter, wf,
-                                _trimmed(motion.t, trim, ds.path), trim, int(chunk), notes, warns)
+                                keep, trim, int(chunk), notes, warns)
     res = _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weighting,
                covariance, int(chunk), notes, fix)
     warns += excitation_warnings(res.names, res.column_norms, res.cond_scaled)
@@ -423,7 +435,7 @@ def identify_dataset(
     bnd = _bound_noted(ds, sig, motion, keep, model, res.x, notes) if bound else None
     return IdentificationReport(res, model, differentiator, params, int(keep.sum()), sig, motion,
                                 reg, tuple(notes), tuple(warns), inertia_about, wrench_filter,
-                                rot, bnd)
+                                rot, bnd, eps)
 
 
 def _regression(ds, sig, motion, model, differentiator, wrench_filter, wf, keep, trim, chunk,

@@ -17,11 +17,14 @@ def episodes_of(result) -> list[dict]:
     """The result's episodes as dicts (``start_s``, ``end_s``, ``kind``, ...), [] when none.
 
     Reads an ``episodes`` attribute or key holding objects (with ``as_json()`` or attributes)
-    or dicts; anything without ``start_s`` and ``end_s`` is skipped.
+    or dicts, or a container whose ``as_json()`` is that list (:class:`cdprid.episodes.Episodes`,
+    an identify report's); anything without ``start_s`` and ``end_s`` is skipped.
     """
     eps = getattr(result, "episodes", None)
     if eps is None and isinstance(result, dict):
         eps = result.get("episodes")
+    if eps is not None and not isinstance(eps, (list, tuple)) and hasattr(eps, "as_json"):
+        eps = eps.as_json()
     out = []
     for e in eps or []:
         if hasattr(e, "as_json"):
