@@ -10,9 +10,8 @@ energy (the fitted rigid body: mass, first moment and inertia about P)
 can then rise only by outside work (friction and drag take energy away). Its trend (a
 moving mean over :data:`TREND_S`, which averages out most of the exchange between kinetic
 and potential energy
-within a swing) rises at a rate whose null spread comes from the recording itself (see
-:func:`energy_runs`); a stretch of at least :data:`MIN_S` where it rises beyond the
-threshold of the stated false-alarm rate (one window per ``TREND_S``) is an episode of kind
+within a swing) rises by more than its null spread, which comes from the recording itself
+(:func:`energy_runs`), over windows of 1 to 4 s: such a stretch is an episode of kind
 ``energy``; its size is the work done, J.
 """
 
@@ -31,8 +30,10 @@ __all__ = ["LOCKED_RANGE_M", "TREND_S", "MIN_S", "locked", "energy_runs"]
 LOCKED_RANGE_M = 2e-2
 #: window of the energy trend, s
 TREND_S = 2.0
-#: shortest energy episode above the threshold, s (the trend is already a 2 s mean)
-MIN_S = 0.1
+#: shortest energy episode, s
+MIN_S = 0.3
+#: window lengths over which the trend's rise is tested, s
+WINDOWS_S = (1.0, 2.0, 4.0)
 
 
 def locked(lengths: np.ndarray, use: np.ndarray) -> bool:
@@ -61,10 +62,12 @@ def energy_runs(t, E, use, exclude, far_per_hour: float):
     """Stretches of outside work: ``[(a, b, work J, p-value)]`` (half-open sample ranges).
 
     One-sided: a passive platform on locked cables can only lose energy, so a rise is
-    tested. The rate's null spread is the robust std (MAD) of its part faster than the
-    trend (the rate minus its own moving mean over :data:`TREND_S`) on the samples outside
-    ``exclude``; a stretch whose rate exceeds the threshold for at least :data:`MIN_S` is
-    widened to where the rate stays positive (the whole rise).
+    tested. The trend's rise over windows of :data:`WINDOWS_S` is compared with its null
+    spread, ``sqrt(2)`` times the robust std (MAD) of the trend's part faster than
+    :data:`TREND_S` (the exchange left by the mean, measurement noise) on the samples
+    outside ``exclude``. Windows beyond the threshold of the stated false-alarm rate
+    (Bonferroni over ``2 / L`` windows per second and length) are joined, kept where the
+    trend rises, and stretches of at least :data:`MIN_S` are reported.
 
     Parameters
     ----------
@@ -80,24 +83,35 @@ def energy_runs(t, E, use, exclude, far_per_hour: float):
         False alarms per hour on a clean recording.
     """
     dt = float(np.median(np.diff(t)))
-    k = max(1, int(round(TREND_S / dt)))
+    n, k = len(t), max(1, int(round(TREND_S / dt)))
     trend = uniform_filter1d(E, k, mode="nearest")
-    rate = np.gradient(trend, dt)
-    hp = rate - uniform_filter1d(rate, k, mode="nearest")
+    hp = trend - uniform_filter1d(trend, k, mode="nearest")
     ref = use & ~exclude
     if ref.sum() < 2 * k:
         return []
     scale = max(1.4826 * float(np.median(np.abs(hp[ref] - np.median(hp[ref])))), 1e-12)
-    n_windows = max(1.0, (t[-1] - t[0]) / TREND_S)
-    z_thr = float(stats.norm.isf(far_per_hour * TREND_S / 3600.0))
+    scale *= np.sqrt(2.0)
+    n_per_s = sum(2.0 / w for w in WINDOWS_S)
+    z_thr = float(stats.norm.isf(far_per_hour / (3600.0 * n_per_s)))
+    bad = np.concatenate([[0], np.cumsum(~use)])
+    mark, zstart, longest = np.zeros(n + 1, int), np.zeros(n), 1
+    for w in WINDOWS_S:
+        L = max(1, int(round(w / dt)))
+        if L >= n:
+            continue
+        longest = max(longest, L)
+        z = (trend[L:] - trend[:-L]) / scale
+        hit = np.flatnonzero((z > z_thr) & ((bad[L + 1:] - bad[:-L - 1]) == 0))
+        np.add.at(mark, hit, 1)
+        np.add.at(mark, np.minimum(hit + L + 1, n), -1)
+        zstart[hit] = np.maximum(zstart[hit], z[hit])
+    flagged = np.cumsum(mark)[:n] > 0
+    rising = np.gradient(trend, dt) > 0
     found = []
-    rising = runs((rate > 0) & use)
-    for a, b in runs((rate > z_thr * scale) & use):
+    for a, b in runs(flagged & rising & use):
         if t[b - 1] - t[a] < MIN_S:
             continue
-        a, b = next(((a2, b2) for a2, b2 in rising if a2 <= a and b2 >= b), (a, b))
-        work = float(trend[b - 1] - trend[a])
-        zmax = float(np.max(rate[a:b]) / scale)
-        p = float(min(1.0, stats.norm.sf(zmax) * n_windows))
-        found.append((a, b, work, p))
+        zmax = float(zstart[max(0, a - longest):b].max())
+        p = float(min(1.0, stats.norm.sf(zmax) * n_per_s * (t[-1] - t[0])))
+        found.append((a, b, float(trend[b - 1] - trend[a]), p))
     return found

@@ -39,7 +39,6 @@ from cdprid.effects import EXTERNAL_WRENCH
 from cdprid.episodes._energy import energy_runs, locked, mechanical_energy
 from cdprid.episodes._glitches import find_glitches
 from cdprid.episodes._scan import SCALES_S, noise_model, refine, runs, scan, window_level
-from cdprid.model import cable_lengths
 from cdprid.signal import zero_phase_filter
 
 __all__ = ["FAR_PER_HOUR", "PASSES", "Episode", "Episodes", "find_episodes"]
@@ -174,15 +173,19 @@ def _filtered(x, sig, cutoff_hz):
     return out
 
 
+_wrench_jit = jax.jit(wrench_matrices)
+_regressors_jit = jax.jit(regressors, static_argnums=0)
+
+
 def _data(robot, sig, cutoff_hz):
     """Filtered measured wrench (n, 6), regressor with offset columns (n, 6, p + m), model."""
     rot = sig.has_rotation and rotation_angle_deg(sig.quaternion) > ROTATION_WARN_DEG
     model = "full" if rot else "translation"
     mo = estimate_motion(sig, "euler-filtfilt", {"cutoff_hz": cutoff_hz}, angular=rot)
-    W = np.asarray(jax.jit(wrench_matrices)(robot, mo.position, mo.B_R_P))
+    W = np.asarray(_wrench_jit(robot, mo.position, mo.B_R_P))
     Wf = _filtered(W, sig, cutoff_hz)
     y = _filtered(np.einsum("nim,nm->ni", W, sig.tension), sig, cutoff_hz)
-    A = np.asarray(jax.jit(regressors, static_argnums=0)(
+    A = np.asarray(_regressors_jit(
         model, mo.B_R_P, mo.acceleration, mo.omega, mo.alpha, np.asarray(robot.gravity)))
     return y, np.concatenate([A, Wf], axis=2), Wf, model, mo
 
@@ -251,8 +254,9 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     n_windows = (t[-1] - t[0]) * sum(2.0 / s for s in SCALES_S)
     eps = [_wrench_episode(t, a, b, T, mean, Wf, nm, n_windows) for a, b, T, mean in found]
     eps += _glitch_episodes(t, glitch, gsize)
-    energy, excl = _energy_episodes(robot, sig, mo, beta, model, scan_use, excl, margin,
-                                    far_per_hour)
+    energy, excl = _energy_episodes(robot, sig, mo, beta, model,
+                                    segment_mask(t, sig.segments, trim) & ~gl_excl, excl,
+                                    margin, far_per_hour)
     eps += energy
     eps.sort(key=lambda e: e.start_s)
     return Episodes(tuple(eps), t, excl, margin * dt, far_per_hour, passes)
@@ -260,8 +264,10 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
 
 def _energy_episodes(robot, sig, mo, beta, model, use, excl, margin, far_per_hour):
     """The energy test's episodes when the winches are locked, and the exclusion widened."""
-    L = np.asarray(jax.jit(jax.vmap(cable_lengths, in_axes=(None, 0, 0)))(
-        robot, mo.position, mo.B_R_P))
+    # straight exit-to-attachment distances (a pulley's wrap changes them by far less than
+    # the locked range)
+    b = np.einsum("nij,mj->nmi", np.asarray(mo.B_R_P), np.asarray(robot.P_b))
+    L = np.linalg.norm(np.asarray(robot.B_A)[None] - np.asarray(mo.position)[:, None] - b, axis=2)
     if not locked(L, use):
         return [], excl
     E = mechanical_energy(beta, model, mo.velocity, mo.omega, mo.B_R_P, mo.position,
