@@ -1,28 +1,30 @@
 """Pose glitches: a few marker samples displaced far from the motion, found robustly.
 
-A glitch is a sample whose position departs from the running median of its neighbours
-(:data:`WINDOW` samples, so a burst of up to ``WINDOW // 2`` displaced samples does not move
-the median) by more than :data:`GLITCH_SIGMAS` robust standard deviations of that
-innovation and by at least :data:`GLITCH_MIN_M`. The median of a monotone stretch is its
-centre sample, so smooth motion gives no innovation except near a turning point, where it is
-at most ``|a| (WINDOW dt / 2)^2 / 2`` (1.6 mm at 2 m/s^2 and 100 Hz): the floor keeps those
-out. A glitch's samples are excluded from every fit with the differentiator's transient on
-both sides (the caller's margin); nothing is interpolated.
+Candidates: samples whose second difference ``x_i - (x_{i-1} + x_{i+1}) / 2`` exceeds half
+the limit (smooth motion gives ``a dt^2 / 2``, a hundredth of a millimetre at 2 m/s^2 and
+100 Hz; a displaced sample gives half its displacement, to it and to its neighbours), with
+:data:`SPREAD` samples on each side (the inside of a burst). A candidate is a glitch when it
+departs from a cubic fitted to the other samples within :data:`FIT_HALF` on each side (every
+candidate left out) by more than the limit: :data:`GLITCH_SIGMAS` robust standard deviations
+of the second difference, and at least :data:`GLITCH_MIN_M`. A glitch's samples are excluded
+from every fit with the differentiator's transient on both sides (the caller's margin);
+nothing is interpolated.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import median_filter
 
-__all__ = ["GLITCH_MIN_M", "GLITCH_SIGMAS", "WINDOW", "find_glitches", "add_glitches"]
+__all__ = ["GLITCH_MIN_M", "GLITCH_SIGMAS", "SPREAD", "find_glitches", "add_glitches"]
 
-#: running-median window, samples
-WINDOW = 9
-#: a glitch departs from the running median by more than this many robust std
+#: candidates extend this many samples on each side of a large second difference
+SPREAD = 2
+#: a glitch departs from the local cubic by more than this many robust std
 GLITCH_SIGMAS = 10.0
-#: ... and by at least this much, m (far above motion-capture noise and the median's bias)
+#: ... and by at least this much, m (far above motion-capture noise)
 GLITCH_MIN_M = 5e-3
+#: half-width of the local cubic that confirms a candidate, samples
+FIT_HALF = 12
 
 
 def find_glitches(position: np.ndarray, segments=None) -> tuple[np.ndarray, np.ndarray]:
@@ -33,25 +35,50 @@ def find_glitches(position: np.ndarray, segments=None) -> tuple[np.ndarray, np.n
     position : ndarray (n, 3)
         Measured positions, m.
     segments : sequence of (int, int), optional
-        Gap-free segments (each filtered on its own); default the whole array.
+        Gap-free segments (each on its own); default the whole array.
 
     Returns
     -------
     glitch : ndarray (n,) of bool
     size : ndarray (n,)
-        Distance from the running median, m.
+        Distance of a glitch from the local cubic, m (0 elsewhere).
     """
     x = np.asarray(position, float)
     n = len(x)
-    segments = segments or ((0, n),)
-    dev = np.zeros((n, 3))
+    segments = tuple(segments or ((0, n),))
+    c = np.zeros((n, 3))
     for a, b in segments:
-        if b - a >= WINDOW:
-            dev[a:b] = x[a:b] - median_filter(x[a:b], size=(WINDOW, 1), mode="nearest")
-    size = np.linalg.norm(dev, axis=1)
-    mad = 1.4826 * np.median(np.abs(dev - np.median(dev, 0)), 0)
+        if b - a >= 3:
+            c[a + 1:b - 1] = x[a + 1:b - 1] - 0.5 * (x[a:b - 2] + x[a + 2:b])
+    mad = 1.4826 * np.median(np.abs(c - np.median(c, 0)), 0)
     limit = np.maximum(GLITCH_SIGMAS * mad, GLITCH_MIN_M)
-    glitch = np.any(np.abs(dev) > limit[None, :], axis=1)
+    flag = np.any(np.abs(c) > 0.5 * limit[None, :], axis=1)
+    k = np.concatenate([[0], np.cumsum(flag.astype(int))])
+    i = np.arange(n)
+    candidate = (k[np.minimum(n, i + SPREAD + 1)] - k[np.maximum(0, i - SPREAD)]) > 0
+    return _confirmed(x, candidate, limit, segments)
+
+
+def _confirmed(x, candidate, limit, segments):
+    """The candidates confirmed by a local cubic fitted to the other samples within
+    :data:`FIT_HALF` on each side (a candidate's neighbours share its second difference)."""
+    n = len(x)
+    glitch, size = np.zeros(n, bool), np.zeros(n)
+    seg_of = np.zeros(n, int)
+    for k, (a, b) in enumerate(segments):
+        seg_of[a:b] = k
+    for i in np.flatnonzero(candidate):
+        a, b = segments[seg_of[i]]
+        lo, hi = max(a, i - FIT_HALF), min(b, i + FIT_HALF + 1)
+        idx = np.arange(lo, hi)
+        ref = idx[~candidate[lo:hi]]
+        if len(ref) < 8:
+            continue
+        tt = (ref - i).astype(float)
+        coef = np.polyfit(tt, x[ref], 3)
+        d = x[i] - np.array([np.polyval(coef[:, j], 0.0) for j in range(3)])
+        size[i] = float(np.linalg.norm(d))
+        glitch[i] = bool(np.any(np.abs(d) > limit))
     return glitch, size
 
 

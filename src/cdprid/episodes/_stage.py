@@ -38,7 +38,14 @@ from cdprid.core import (
 from cdprid.effects import EXTERNAL_WRENCH
 from cdprid.episodes._energy import energy_runs, locked, mechanical_energy
 from cdprid.episodes._glitches import find_glitches
-from cdprid.episodes._scan import SCALES_S, noise_model, refine, runs, scan, window_level
+from cdprid.episodes._scan import (
+    SCALES_S,
+    filter_autocorrelation,
+    locate,
+    noise_model,
+    runs,
+    window_level,
+)
 from cdprid.signal import zero_phase_filter
 
 __all__ = ["FAR_PER_HOUR", "PASSES", "Episode", "Episodes", "find_episodes"]
@@ -187,7 +194,7 @@ def _data(robot, sig, cutoff_hz):
     y = _filtered(np.einsum("nim,nm->ni", W, sig.tension), sig, cutoff_hz)
     A = np.asarray(_regressors_jit(
         model, mo.B_R_P, mo.acceleration, mo.omega, mo.alpha, np.asarray(robot.gravity)))
-    return y, np.concatenate([A, Wf], axis=2), Wf, model, mo
+    return y, A, Wf, model, mo
 
 
 def _fit(y, Z, rows, whiten):
@@ -233,17 +240,20 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     glitch, gsize = find_glitches(sig.position, sig.segments)
     gl_excl = _dilate(glitch, margin)
     y, Z, Wf, model, mo = _data(robot, sig, cutoff_hz)
+    rows = np.std(y, 0) > 1e-9 * np.std(y, 0).max()  # nil rows (point mass): no test there
+    y, Z, Wf = y[:, rows], Z[:, rows], Wf[:, rows]
     scan_use = keep & ~gl_excl
     level = window_level(far_per_hour)
-    max_lag = int(math.ceil(3.0 / (cutoff_hz * dt)))
+    max_lag = int(math.ceil(1.5 / (cutoff_hz * dt)))  # correlation length of the filtered residual
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
+    rho = filter_autocorrelation(dt, cutoff_hz)
     excl, found, passes = gl_excl.copy(), [], 0
     while passes < PASSES:
         passes += 1
         r, beta = _fit(y, Z, scan_use & ~excl, whiten)
-        nm = noise_model(r, scan_use & ~excl, max_lag)
+        nm = noise_model(r, scan_use & ~excl, max_lag, rho)
         whiten = nm.whiten
-        found = [refine(r, a, b, nm) for a, b in runs(scan(r, scan_use, dt, nm, level))]
+        found = locate(r, scan_use, dt, nm, level, guard=margin)
         new = gl_excl.copy()
         for a, b, _, _ in found:
             new[a:b] = True
@@ -252,7 +262,8 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
             break
         excl = new
     n_windows = (t[-1] - t[0]) * sum(2.0 / s for s in SCALES_S)
-    eps = [_wrench_episode(t, a, b, T, mean, Wf, nm, n_windows) for a, b, T, mean in found]
+    eps = [_wrench_episode(t, a, b, T, mean, Wf, nm, n_windows, rows)
+           for a, b, T, mean in found]
     eps += _glitch_episodes(t, glitch, gsize)
     energy, excl = _energy_episodes(robot, sig, mo, beta, model,
                                     segment_mask(t, sig.segments, trim) & ~gl_excl, excl,
@@ -281,10 +292,11 @@ def _energy_episodes(robot, sig, mo, beta, model, use, excl, margin, far_per_hou
     return out, _dilate(new, margin) | excl
 
 
-def _wrench_episode(t, a, b, T, mean, Wf, nm, n_windows) -> Episode:
+def _wrench_episode(t, a, b, T, mean, Wf, nm, n_windows, rows) -> Episode:
     """An external wrench or, when one load cell's column explains it, a load-cell step."""
-    p = float(min(1.0, stats.chi2.sf(T, 6) * max(1.0, n_windows)))
-    w = -np.asarray(mean, float)
+    p = float(min(1.0, stats.chi2.sf(T, len(mean)) * max(1.0, n_windows)))
+    w = np.zeros(6)
+    w[rows] = -np.asarray(mean, float)
     zr = nm.whiten @ mean
     best, share, step = None, 0.0, 0.0
     for i in range(Wf.shape[2]):
