@@ -54,6 +54,8 @@ __all__ = ["FAR_PER_HOUR", "PASSES", "Episode", "Episodes", "find_episodes"]
 FAR_PER_HOUR = 0.5
 #: fit -> locate -> refit passes at most
 PASSES = 3
+#: episodes covering more than this share of the recording are not local in time
+MAX_SHARE = 0.3
 #: share of an episode's mean residual one load cell's column must explain to be a step
 STEP_SHARE = 0.95
 
@@ -130,6 +132,8 @@ class Episodes:
         The false-alarm rate the thresholds were set for.
     passes : int
         Fit -> locate passes run.
+    caveat : str or None
+        Why no wrench episode is reported although the scan flagged some.
     """
 
     episodes: tuple
@@ -138,6 +142,7 @@ class Episodes:
     margin_s: float
     far_per_hour: float
     passes: int
+    caveat: str | None = None
 
     def excluded_at(self, t) -> np.ndarray:
         """Whether each time of ``t`` (s) is within an excluded stretch."""
@@ -150,11 +155,12 @@ class Episodes:
     def note(self) -> str | None:
         """The sentence for a fit's notes (None when nothing was found)."""
         if not self.episodes:
-            return None
+            return self.caveat
         kinds = sorted({e.kind for e in self.episodes})
         return (f"{len(self.episodes)} episode(s) ({', '.join(kinds)}) left out of the fit: "
                 f"{int(self.excluded.sum())} samples ({self.margin_s:g} s of filter transient "
-                "on each side; nothing bridged); --keep-episodes keeps them")
+                "on each side; nothing bridged); --keep-episodes keeps them"
+                + (f"; {self.caveat}" if self.caveat else ""))
 
     def as_json(self) -> list:
         """The ``episodes`` list."""
@@ -243,11 +249,30 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     rows = np.std(y, 0) > 1e-9 * np.std(y, 0).max()  # nil rows (point mass): no test there
     y, Z, Wf = y[:, rows], Z[:, rows], Wf[:, rows]
     scan_use = keep & ~gl_excl
+    found, excl, nm, beta, passes, caveat = _wrench_passes(y, Z, scan_use, gl_excl, dt, margin,
+                                                           cutoff_hz, far_per_hour)
+    n_windows = (t[-1] - t[0]) * sum(2.0 / s for s in SCALES_S)
+    eps = [_wrench_episode(t, a, b, T, mean, Wf, nm, n_windows, rows)
+           for a, b, T, mean in found]
+    eps += _glitch_episodes(t, glitch, gsize)
+    energy, excl = _energy_episodes(robot, sig, mo, beta, model,
+                                    segment_mask(t, sig.segments, trim) & ~gl_excl, excl,
+                                    margin, far_per_hour)
+    eps += energy
+    eps.sort(key=lambda e: e.start_s)
+    return Episodes(tuple(eps), t, excl, margin * dt, far_per_hour, passes, caveat)
+
+
+def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour):
+    """Fit -> locate -> refit passes: ``(episodes (a, b, T, mean), excluded, noise model,
+    beta, passes, caveat)``. When the episodes would cover more than :data:`MAX_SHARE` of the
+    scanned samples, the residual is not local in time (the model misses something all along:
+    the diagnosis's question): no wrench episode is reported, and ``caveat`` says so."""
     level = window_level(far_per_hour)
-    max_lag = int(math.ceil(1.5 / (cutoff_hz * dt)))  # correlation length of the filtered residual
+    max_lag = int(math.ceil(1.5 / (cutoff_hz * dt)))  # correlation length, filtered residual
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
     rho = filter_autocorrelation(dt, cutoff_hz)
-    excl, found, passes = gl_excl.copy(), [], 0
+    excl, found, passes, caveat = gl_excl.copy(), [], 0, None
     while passes < PASSES:
         passes += 1
         r, beta = _fit(y, Z, scan_use & ~excl, whiten)
@@ -258,19 +283,17 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
         for a, b, _, _ in found:
             new[a:b] = True
         new = _dilate(new, margin) | gl_excl
+        share = float((new & scan_use).sum()) / max(1, int(scan_use.sum()))
+        if share > MAX_SHARE:
+            caveat = (f"the wrench residual departs from its noise over {100 * share:.0f} % of "
+                      "the recording: the model misses something all along, not only at "
+                      "times, so no external_wrench episode is reported (see diagnose)")
+            r, beta = _fit(y, Z, scan_use & ~gl_excl, whiten)
+            return [], gl_excl.copy(), nm, beta, passes, caveat
         if np.array_equal(new, excl):
             break
         excl = new
-    n_windows = (t[-1] - t[0]) * sum(2.0 / s for s in SCALES_S)
-    eps = [_wrench_episode(t, a, b, T, mean, Wf, nm, n_windows, rows)
-           for a, b, T, mean in found]
-    eps += _glitch_episodes(t, glitch, gsize)
-    energy, excl = _energy_episodes(robot, sig, mo, beta, model,
-                                    segment_mask(t, sig.segments, trim) & ~gl_excl, excl,
-                                    margin, far_per_hour)
-    eps += energy
-    eps.sort(key=lambda e: e.start_s)
-    return Episodes(tuple(eps), t, excl, margin * dt, far_per_hour, passes)
+    return found, excl, nm, beta, passes, caveat
 
 
 def _energy_episodes(robot, sig, mo, beta, model, use, excl, margin, far_per_hour):
