@@ -117,11 +117,12 @@ def noise_model(r: np.ndarray, use: np.ndarray, max_lag: int, rho=None) -> Noise
     ok = np.zeros(len(use), bool)
     ok[np.flatnonzero(use)[inlier]] = True
     ok = ~_near(~ok, max_lag // 4)  # outliers and their neighbours stay out of the lags
-    z = np.where(ok[:, None], r @ whiten.T, 0.0)
-    gam, span = [], 2 * max_lag  # Bartlett taper: a valid covariance
+    z = np.where(ok[:, None], r @ whiten.T, 0.0)  # zero outside: products vanish there
+    okf = ok.astype(float)
+    gam, span, n = [], 2 * max_lag, len(z)  # Bartlett taper: a valid covariance
     for lag in range(span + 1):
-        both = ok[lag:] & ok[: len(ok) - lag]
-        g = z[lag:][both].T @ z[: len(z) - lag][both] / max(1, int(both.sum()))
+        count = max(1.0, float(okf[lag:] @ okf[: n - lag]))
+        g = z[lag:].T @ z[: n - lag] / count
         gam.append(g * (1.0 - lag / (span + 1.0)))
     return NoiseModel(whiten, np.asarray(gam), np.ones(1) if rho is None else np.asarray(rho))
 
