@@ -208,6 +208,8 @@ def test_glitches_are_found_and_never_give_a_negative_inertia():
 def test_scan_false_alarm_rate_on_correlated_noise():
     """One hour of filtered (correlated) Gaussian residual, no episode: the scan's false
     alarms stay within the stated 0.5 per hour (Poisson(0.5): more than 3 has p = 0.2 %)."""
+    from scipy.signal import butter, filtfilt
+
     from cdprid.episodes._scan import (
         filter_autocorrelation,
         noise_model,
@@ -215,7 +217,6 @@ def test_scan_false_alarm_rate_on_correlated_noise():
         scan,
         window_level,
     )
-    from scipy.signal import butter, filtfilt
 
     rng = np.random.default_rng(5)
     dt, n = 0.01, 360_000

@@ -203,15 +203,13 @@ def diagnose(
         Sample budget: a longer recording is analysed on evenly spaced contiguous blocks
         (:func:`cdprid.diagnosis._budget.subset`; ``notes`` and ``info["subset"]`` say which).
     keep_episodes : bool
-        Keep the episodes (:func:`cdprid.episodes.find_episodes`) in every fit; by default
-        they are left out and the held-out figure is given without and with them.
+        Keep the episodes (:mod:`cdprid.episodes`) in the fits (by default left out).
 
     Returns
     -------
     DiagnosisResult
     """
-    t0 = time.perf_counter()
-    say = _timed_say(progress, t0)
+    say = _timed_say(progress, t0 := time.perf_counter())
     prob, sub, lengths, notes, (eps, prob_with) = _problem(
         ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say, keep_episodes)
     prob, base, noise, extra = _base_stage(prob, notes, say)
@@ -229,18 +227,30 @@ def diagnose(
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
         "train_until": train_until, "taut_threshold_N": taut_N,
         "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
-    info.update({"not_named": not_named_sizes(prob, base, s, candidates, extra, thr_first),
-                 "unexplained_rule": rule, "lengths": el_info, "clock_profile": clock_info,
-                 "second_start": second, "wall_time_s": time.perf_counter() - t0})
+    _complete_info(info, not_named_sizes(prob, base, s, candidates, extra, thr_first), rule,
+                   el_info, clock_info, second, t0, sub)
+    say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
+    res = DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
+                          ext_params, ext_ho, ranking, info, _arrays(prob, base, resid),
+                          unexplained=unexplained, notes=notes, competing=competing)
+    return _with_episodes(res, eps, prob, prob_with, Z, y)
+
+
+def _complete_info(info, not_named, rule, el_info, clock_info, second, t0, sub) -> None:
+    """The stages' remaining entries of ``info`` (the budgeted subset's when there is one)."""
+    info.update({"not_named": not_named, "unexplained_rule": rule, "lengths": el_info,
+                 "clock_profile": clock_info, "second_start": second,
+                 "wall_time_s": time.perf_counter() - t0})
     if sub is not None:
         info["subset"] = sub.as_json()
-    say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
-    return DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
-                           ext_params, ext_ho, ranking, info, _arrays(prob, base, resid),
-                           unexplained=unexplained, notes=notes, competing=competing,
-                           episodes=eps.as_json(), extended_heldout_rms_with_episodes=(
-                               force_heldout_rms(dataclasses.replace(
-                                   prob_with, train=prob.train, wrow=prob.wrow), Z, y)))
+
+
+def _with_episodes(res: DiagnosisResult, eps, prob: Problem, prob_with: Problem, Z, y):
+    """The result with its episodes and the extended model's held-out force rms with the
+    episodes' samples kept (the fit unchanged: ``prob``'s training samples and weights)."""
+    kept = dataclasses.replace(prob_with, train=prob.train, wrow=prob.wrow)
+    return dataclasses.replace(res, episodes=eps.as_json(),
+                               extended_heldout_rms_with_episodes=force_heldout_rms(kept, Z, y))
 
 
 def _timed_say(progress, t0):

@@ -364,8 +364,7 @@ def identify_dataset(
     inertia_about: str = "P",
     chunk: int = CHUNK,
     bound: bool = True,
-    keep_episodes: bool = False,
-    episodes: bool = True,
+    keep_episodes: bool | None = False,
 ) -> IdentificationReport:
     """Identify the platform's dynamic parameters from a dataset.
 
@@ -405,9 +404,8 @@ def identify_dataset(
     bound : bool
         Compute the recording's Cramer-Rao bound (:func:`cdprid.core.crb`, noise levels
         estimated from the data) for ``crb_std`` and ``efficiency``.
-    keep_episodes, episodes : bool
-        Keep the located episodes' samples in the fit (``--keep-episodes``; by default they
-        are left out: :mod:`cdprid.identify._episodes`); locate them at all.
+    keep_episodes : bool or None
+        Keep the located episodes in the fit (``--keep-episodes``); None: none located.
 
     Returns
     -------
@@ -415,24 +413,19 @@ def identify_dataset(
     """
     wrench_filter = _check_options(model, differentiator, weighting, wrench_filter,
                                    matched_filter, inertia_about)
-    sig = align(ds, t_start, t_end)
-    notes = list(sig.notes)
+    notes = list((sig := align(ds, t_start, t_end)).notes)
     fix = cutoff_from_data(differentiator, params)
     params, w0 = resolve_params(ds, sig, differentiator, params, notes)
     model, rot, warns = _choose_model(model, sig, ds.path, w0)
     motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
     wf, note, w2 = _wrench_filter(ds.robot, differentiator, params, sig.dt, wrench_filter)
     warns, notes = warns + w2, notes + ([note] if note else [])
-    keep, eps = without_episodes(ds, sig, params, _trimmed(sig.t, trim, ds.path), trim,
-                                 episodes, keep_episodes, notes)
+    keep, eps = without_episodes(ds, sig, params, trim, keep_episodes, notes)
     reg, wf, keep = _regression(ds, sig, motion, model, differentiator, wrench_filter, wf,
                                 keep, trim, int(chunk), notes, warns)
     res = _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weighting,
                covariance, int(chunk), notes, fix)
-    warns += excitation_warnings(res.names, res.column_norms, res.cond_scaled)
-    w3, n3 = physical_warnings(res.x, model, res.cov)
-    warns, notes = warns + w3, notes + n3
-    bnd = _bound_noted(ds, sig, motion, keep, model, res.x, notes) if bound else None
+    warns, notes, bnd = _checks(ds, sig, motion, keep, model, res, warns, notes, bound)
     return IdentificationReport(res, model, differentiator, params, int(keep.sum()), sig, motion,
                                 reg, tuple(notes), tuple(warns), inertia_about, wrench_filter,
                                 rot, bnd, eps)
@@ -455,14 +448,14 @@ def _regression(ds, sig, motion, model, differentiator, wrench_filter, wf, keep,
     return reg, lm, settled(keep, motion.segments, len(lm.taps))
 
 
-def _trimmed(t, trim: float, path):
-    """Samples more than ``trim`` s from both ends (at least 10, else one sentence)."""
-    keep = (t >= t[0] + trim) & (t <= t[-1] - trim)
-    if keep.sum() < 10:
-        raise InputError(
-            f"{path}: fewer than 10 samples remain after trimming {trim:g} s at each end."
-        )
-    return keep
+def _checks(ds, sig, motion, keep, model, res, warns: list, notes: list, bound: bool):
+    """The excitation and physics warnings, their notes, and the recording's bound (or None):
+    ``(warnings, notes, bound)``."""
+    warns = warns + excitation_warnings(res.names, res.column_norms, res.cond_scaled)
+    w3, n3 = physical_warnings(res.x, model, res.cov)
+    warns, notes = warns + w3, notes + n3
+    return warns, notes, (_bound_noted(ds, sig, motion, keep, model, res.x, notes) if bound
+                          else None)
 
 
 def _bound_noted(ds, sig, motion, keep, model, x, notes: list):

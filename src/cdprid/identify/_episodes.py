@@ -3,15 +3,16 @@ glitches (:func:`cdprid.episodes.find_episodes`) left out of the fit, as gaps ar
 
 from __future__ import annotations
 
-from cdprid.base import CUTOFF_HZ
+from cdprid.base import CUTOFF_HZ, InputError
 from cdprid.episodes import find_episodes
 
 __all__ = ["without_episodes"]
 
 
-def without_episodes(ds, sig, params: dict, keep, trim: float, run: bool, keep_episodes: bool,
+def without_episodes(ds, sig, params: dict, trim: float, keep_episodes: bool | None,
                      notes: list):
-    """The samples ``keep`` without the episodes' (unless kept), and the episodes found.
+    """The samples more than ``trim`` from both ends without the episodes' (unless kept), and
+    the episodes found.
 
     Parameters
     ----------
@@ -21,14 +22,10 @@ def without_episodes(ds, sig, params: dict, keep, trim: float, run: bool, keep_e
     params : dict
         The differentiator's parameters (``cutoff_hz`` sets the episodes' matched filter,
         default :data:`cdprid.base.CUTOFF_HZ`).
-    keep : ndarray (n,) of bool
-        Samples the fit would use (trimmed), on ``sig.t``.
     trim : float
-        Seconds left out at the edges of every segment, s.
-    run : bool
-        Locate the episodes at all.
-    keep_episodes : bool
-        Report them but keep their samples (``--keep-episodes``).
+        Seconds left out at both ends (and at the edges of every segment), s.
+    keep_episodes : bool or None
+        Report them but keep their samples (``--keep-episodes``); None: do not locate them.
     notes : list of str
         One sentence appended when episodes are found.
 
@@ -37,7 +34,8 @@ def without_episodes(ds, sig, params: dict, keep, trim: float, run: bool, keep_e
     keep : ndarray (n,) of bool
     episodes : Episodes or None
     """
-    if not run:
+    keep = _trimmed(sig.t, trim, ds.path)
+    if keep_episodes is None:
         return keep, None
     eps = find_episodes(ds.robot, sig, cutoff_hz=float(params.get("cutoff_hz", CUTOFF_HZ)),
                         trim=trim)
@@ -49,3 +47,13 @@ def without_episodes(ds, sig, params: dict, keep, trim: float, run: bool, keep_e
         if (keep & ~eps.excluded).sum() >= 10:
             keep = keep & ~eps.excluded
     return keep, eps
+
+
+def _trimmed(t, trim: float, path):
+    """Samples more than ``trim`` s from both ends (at least 10, else one sentence)."""
+    keep = (t >= t[0] + trim) & (t <= t[-1] - trim)
+    if keep.sum() < 10:
+        raise InputError(
+            f"{path}: fewer than 10 samples remain after trimming {trim:g} s at each end."
+        )
+    return keep
