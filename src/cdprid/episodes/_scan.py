@@ -110,7 +110,10 @@ def noise_model(r: np.ndarray, use: np.ndarray, max_lag: int, rho=None) -> Noise
     q = stats.chi2.isf(1.0 - _ROBUST_Q, k)
     inlier = np.ones(len(x), bool)
     for _ in range(4):  # leave out the outliers (the covariance then under-states by ~1 %)
-        inlier = np.einsum("ni,ij,nj->n", x, np.linalg.inv(C), x) < q
+        inside = np.einsum("ni,ij,nj->n", x, np.linalg.inv(C), x) < q
+        if inside.sum() < max(10 * k, len(x) // 2):  # not a noise model of most samples
+            break
+        inlier = inside
         C = np.atleast_2d(np.cov(x[inlier].T)) + 1e-12 * np.eye(k)
     L = np.linalg.cholesky(C)
     whiten = np.linalg.inv(L)
