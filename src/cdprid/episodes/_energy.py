@@ -107,8 +107,13 @@ def energy_runs(t, E, use, exclude, far_per_hour: float):
         zstart[hit] = np.maximum(zstart[hit], z[hit])
     flagged = np.cumsum(mark)[:n] > 0
     rising = np.gradient(trend, dt) > 0
-    found = []
-    for a, b in runs(flagged & rising & use):
+    found, joined = [], []
+    for a, b in runs(flagged & rising & use):  # a rise paused for less than MIN_S is one
+        if joined and t[a] - t[joined[-1][1] - 1] < MIN_S:
+            joined[-1] = (joined[-1][0], b)
+        else:
+            joined.append((a, b))
+    for a, b in joined:
         if t[b - 1] - t[a] < MIN_S:
             continue
         zmax = float(zstart[max(0, a - longest):b].max())
