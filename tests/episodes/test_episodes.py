@@ -4,6 +4,7 @@ the fits, on this file's own 4-, 6- and 8-cable robots with hidden pushes and gl
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 import pytest
@@ -267,3 +268,63 @@ def test_energy_test_finds_outside_work_and_nothing_on_a_passive_swing():
     assert len(found) == 1
     a, b, work, p = found[0]
     assert t[a] < 21.0 and t[b - 1] > 21.5 and work > 0.5 and p < 1e-6
+
+
+# ----------------------------------------------------------------------------- contracts
+
+
+def test_json_contracts_of_the_episodes():
+    """The ``episodes`` list (identify and diagnose) and the diagnosis's two held-out
+    figures; the report's section."""
+    from cdprid.diagnosis import DiagnosisResult
+    from cdprid.episodes import Episode, Episodes
+    from cdprid.report import episode_lines, episodes_of
+
+    e = Episode(1.0, 2.5, "external_wrench", (3.0, 0.0, -4.0), (0.0, 0.0, 0.5), 5.0, 0.5,
+                1e-9)
+    g = Episode(4.0, 4.01, "pose_glitches", None, None, None, None, 0.0,
+                {"n_samples": 2, "largest_m": 0.03})
+    j = e.as_json()
+    assert {k: j[k] for k in ("start_s", "end_s", "kind", "size_N", "p_value")} == {
+        "start_s": 1.0, "end_s": 2.5, "kind": "external_wrench", "size_N": 5.0, "p_value": 1e-9}
+    assert j["force_N"] == [3.0, 0.0, -4.0] and j["moment_Nm"] == [0.0, 0.0, 0.5]
+    assert g.as_json()["n_samples"] == 2 and g.as_json()["force_N"] is None
+    res = DiagnosisResult({}, [], 1.0, [], {}, 0.8, [], {}, episodes=[j, g.as_json()],
+                          extended_heldout_rms_with_episodes=1.7)
+    out = res.as_json()
+    assert out["episodes"][0] == j
+    assert out["extended"]["heldout_residual_rms"] == 0.8
+    assert out["extended"]["heldout_residual_rms_with_episodes"] == 1.7
+    text = "\n".join(episode_lines(res))
+    assert "| external_wrench | 1.00 | 2.50 | 5 N, 0.5 N m |" in text and "1.7 N with" in text
+    # identify's report holds the Episodes container: the --mat/report.html hook reads its list
+    t = np.linspace(0.0, 5.0, 51)
+    rep = types.SimpleNamespace(episodes=Episodes((e, g), t, np.zeros(t.size, bool), 0.1, 0.5, 1))
+    assert episodes_of(rep) == [j, g.as_json()] and episodes_of(types.SimpleNamespace()) == []
+
+
+@pytest.mark.slow
+def test_identify_cli_reports_and_leaves_out_a_push(tmp_path):
+    """``cdprid identify --json``: the push in ``episodes`` and out of the fit (mass within
+    0.5 %); ``--keep-episodes`` keeps it in (the mass then pulled by the push)."""
+    import json
+    import subprocess
+    import sys
+
+    from cdprid.simulation import write_simulation
+
+    sim = _sim(6, [("external_wrench", {"start_s": 8.0, "end_s": 10.0, "force_N": [0, 0, -40],
+                                        "moment_Nm": [0, 0, 0]})])
+    ds = write_simulation(sim, tmp_path / "d")
+    out = {}
+    for flag in ([], ["--keep-episodes"]):
+        js = tmp_path / f"id{len(flag)}.json"
+        subprocess.run([sys.executable, "-m", "cdprid", "identify", str(ds), "--json", str(js)]
+                       + flag, check=True, capture_output=True)
+        out[len(flag)] = json.loads(js.read_text())
+    ep = out[0]["episodes"]
+    assert len(ep) == 1 and abs(ep[0]["start_s"] - 8.0) < 0.1 and ep[0]["force_N"][2] < -30
+    assert out[1]["episodes"] == ep
+    m0, m1 = (out[k]["parameters"]["m"]["value"] for k in (0, 1))
+    assert m0 == pytest.approx(sim.params.mass, rel=5e-3)
+    assert abs(m1 - sim.params.mass) > 2 * abs(m0 - sim.params.mass)

@@ -6,6 +6,7 @@ Features compute; this layer draws. Nothing in the core or feature layers import
 # ruff: noqa: F401  (explicit re-exports)
 
 from cdprid.report._calibration import calibration_figures as calibration_figures
+from cdprid.report._diagnosis import episode_lines as episode_lines
 from cdprid.report._diagnosis import format_values as format_values
 from cdprid.report._diagnosis import not_named_lines as not_named_lines
 from cdprid.report._diagnosis import save_report as save_report

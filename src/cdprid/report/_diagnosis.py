@@ -185,6 +185,31 @@ def clock_figure(result, out: Path) -> Path | None:
     return save_fig(fig, out / "clock_profile.png")
 
 
+def episode_lines(result) -> list:
+    """The ``## Episodes`` section: what happened only at times and was left out of the fits
+    (:mod:`cdprid.episodes`), and the held-out figure with and without it."""
+    eps = list(getattr(result, "episodes", []) or [])
+    if not eps:
+        return []
+    lines = ["## Episodes", "", "Located in time and left out of every fit (unless "
+             "`--keep-episodes`); sizes are means over the episode (force on the platform, base "
+             "frame; work done from outside for `energy`).", "",
+             "| kind | start (s) | end (s) | size | p |", "|---|---|---|---|---|"]
+    for e in eps:
+        size = (f"{e['energy_J']:+.3g} J" if "energy_J" in e
+                else f"{e.get('n_samples')} samples, up to {1e3 * e.get('largest_m', 0):.0f} mm"
+                if e["kind"] == "pose_glitches"
+                else f"{e['size_N']:.3g} N, {e['size_Nm']:.3g} N m")
+        lines.append(f"| {e['kind']} | {e['start_s']:.2f} | {e['end_s']:.2f} | {size} | "
+                     f"{e['p_value']:.2g} |")
+    w = getattr(result, "extended_heldout_rms_with_episodes", None)
+    if w is not None:
+        lines += ["", f"Held-out force residual RMS of the extended model: "
+                  f"{result.extended_heldout_rms:.4g} N outside the episodes, {w:.4g} N with "
+                  "them.", ""]
+    return lines + [""]
+
+
 def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     """Write ``report.md`` and PNG figures of a diagnosis into ``out_dir``.
 
@@ -231,7 +256,8 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
                      f"(weighted units); p (Bonferroni) = {f.p_value:.2e}"
                      + (f"; indistinguishable on this data from: {', '.join(f.aliases)}"
                         if f.aliases else ""))
-    lines += competing_lines(result) + not_named_lines(result) + unexplained_lines(result)
+    lines += (competing_lines(result) + not_named_lines(result) + unexplained_lines(result)
+              + episode_lines(result))
     lines += ["## Extended model", "", "| parameter | estimate | std (HAC) | change vs base |",
               "|---|---|---|---|"]
     for k, v in result.extended_parameters.items():
