@@ -50,8 +50,8 @@ def _pushes(rng, duration):
     return out
 
 
-def run(seeds: int) -> dict:
-    """Detection and false-alarm counts per robot."""
+def run(seeds: int, on_robot=None) -> dict:
+    """Detection and false-alarm counts per robot (``on_robot(results so far)`` after each)."""
     import jax
 
     jax.config.update("jax_enable_x64", True)
@@ -88,6 +88,8 @@ def run(seeds: int) -> dict:
             print(f"{m} cables seed {seed}: {det['hit']}/{det['n']} pushes, "
                   f"{fa['false']} false episodes", file=sys.stderr, flush=True)
         out[m] = (det, fa)
+        if on_robot is not None:
+            on_robot(out)
     return out
 
 
@@ -102,7 +104,8 @@ def table(res: dict, seeds: int, wall: float) -> list:
              "| cables | pushes | detected | start error (median, max) s | end error (median) s "
              "| clean hours | false episodes | per hour |", "|---|---|---|---|---|---|---|---|"]
     for m, (det, fa) in res.items():
-        se, ee = np.abs(det["start_err"]), np.asarray(det["end_err"])
+        se = np.abs(det["start_err"]) if det["start_err"] else np.array([np.nan])
+        ee = np.asarray(det["end_err"]) if det["end_err"] else np.array([np.nan])
         lines.append(
             f"| {m} | {det['n']} | {det['hit']} ({100 * det['hit'] / det['n']:.0f} %) | "
             f"{np.median(se):.3f}, {se.max():.3f} | {np.median(ee):+.3f} | {fa['hours']:.3f} "
@@ -126,10 +129,13 @@ def main(argv=None) -> int:
     p.add_argument("--out", default=str(ROOT / "results" / "episodes.md"))
     a = p.parse_args(argv)
     t0 = time.perf_counter()
-    res = run(a.seeds)
-    text = "\n".join(table(res, a.seeds, time.perf_counter() - t0))
-    Path(a.out).write_text(text)
-    print(text)
+
+    def write(res):  # after each robot: a partial table is better than none
+        text = "\n".join(table(res, a.seeds, time.perf_counter() - t0))
+        Path(a.out).write_text(text)
+        print(text, flush=True)
+
+    run(a.seeds, write)
     return 0
 
 
