@@ -125,6 +125,7 @@ def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say
     clock) without its episodes (:mod:`cdprid.episodes`, unless kept), its lengths stream, the
     notes (the alignment's included), the episodes and the problem with them kept."""
     lengths, notes = lengths_stream(ds)
+    t_first = float(ds.tension_t[0])  # the recording's clock starts there (Subset.clock)
     sub = subset(ds, max_samples, margin_s=max(trim, 0.1))
     if sub is not None:
         notes.append(sub.note)
@@ -138,6 +139,8 @@ def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say
     sig = align(ds)
     notes.extend(n for n in sig.notes if n not in notes)
     eps = find_episodes(ds.robot, sig, cutoff_hz, trim=trim, use=prob.use)
+    if sub is not None:  # report the recording's own times, not the joined axis
+        eps = eps.retimed(lambda x: float(sub.clock(np.array([x]))[0]) + t_first)
     for e in eps.episodes:
         say(f"episode: {e.describe()}")
     prob_with = prob

@@ -162,6 +162,14 @@ class Episodes:
                 "on each side; nothing bridged); --keep-episodes keeps them"
                 + (f"; {self.caveat}" if self.caveat else ""))
 
+    def retimed(self, clock) -> Episodes:
+        """The same episodes with their times mapped by ``clock`` (s -> s), e.g. from the
+        joined axis of a budgeted subset to the recording's own clock (``t`` and
+        ``excluded`` stay on the analysed samples)."""
+        eps = tuple(dataclasses.replace(e, start_s=clock(e.start_s), end_s=clock(e.end_s))
+                    for e in self.episodes)
+        return dataclasses.replace(self, episodes=eps)
+
     def as_json(self) -> list:
         """The ``episodes`` list."""
         return [e.as_json() for e in self.episodes]
