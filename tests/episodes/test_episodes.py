@@ -192,7 +192,7 @@ def test_glitches_are_found_and_never_give_a_negative_inertia():
     assert all(e.detail["n_samples"] == 2 for e in gl)
     assert not [e for e in rep.episodes.episodes if e.kind != "pose_glitches"]
     x = dict(zip(rep.result.names, rep.result.x, strict=True))
-    assert x["m"] == pytest.approx(sim.params.mass, rel=0.01)
+    assert x["m"] == pytest.approx(float(sim.params.mass), rel=0.01)
     assert min(x["Ixx"], x["Iyy"], x["Izz"]) > 0
     assert any("episode(s) (pose_glitches) left out" in n for n in rep.notes)
     c, m = np.asarray(sim.params.com), float(sim.params.mass)
@@ -326,5 +326,5 @@ def test_identify_cli_reports_and_leaves_out_a_push(tmp_path):
     assert len(ep) == 1 and abs(ep[0]["start_s"] - 8.0) < 0.1 and ep[0]["force_N"][2] < -30
     assert out[1]["episodes"] == ep
     m0, m1 = (out[k]["parameters"]["m"]["value"] for k in (0, 1))
-    assert m0 == pytest.approx(sim.params.mass, rel=5e-3)
+    assert m0 == pytest.approx(float(sim.params.mass), rel=5e-3)
     assert abs(m1 - sim.params.mass) > 2 * abs(m0 - sim.params.mass)

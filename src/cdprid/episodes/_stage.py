@@ -54,6 +54,8 @@ __all__ = ["FAR_PER_HOUR", "PASSES", "Episode", "Episodes", "find_episodes"]
 FAR_PER_HOUR = 0.5
 #: fit -> locate -> refit passes at most
 PASSES = 3
+#: the robust fit leaves out samples beyond this many robust std (MAD) in any row
+REJECT_SIGMAS = 5.0
 #: episodes covering more than this share of the recording are not local in time
 MAX_SHARE = 0.3
 #: share of an episode's mean residual one load cell's column must explain to be a step
@@ -211,6 +213,22 @@ def _data(robot, sig, cutoff_hz):
     return y, A, Wf, model, mo
 
 
+def _robust_fit(y, Z, rows, whiten, steps: int = 3):
+    """:func:`_fit` with the samples whose residual is beyond :data:`REJECT_SIGMAS` robust std
+    (the rows' MAD) in any row left out, refitted ``steps`` times: a push must not pull the
+    fit (it would leave an offset everywhere else)."""
+    r, beta = _fit(y, Z, rows, whiten)
+    for _ in range(steps):
+        x = r[rows]
+        med = np.median(x, 0)  # a pushed fit is offset elsewhere: centre on the bulk
+        mad = 1.4826 * np.median(np.abs(x - med), 0)
+        ok = np.all(np.abs(r - med) <= REJECT_SIGMAS * np.maximum(mad, 1e-12), axis=1)
+        if (rows & ok).sum() < max(10 * Z.shape[2], rows.sum() // 2):
+            break
+        r, beta = _fit(y, Z, rows & ok, whiten)
+    return r, beta
+
+
 def _fit(y, Z, rows, whiten):
     """Least squares of ``y ~ Z beta`` on ``rows``, whitened (6 x 6); the residual (n, 6)."""
     Zw = np.einsum("ij,njp->nip", whiten, Z[rows]).reshape(-1, Z.shape[2])
@@ -283,7 +301,7 @@ def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour)
     excl, found, passes, caveat = gl_excl.copy(), [], 0, None
     while passes < PASSES:
         passes += 1
-        r, beta = _fit(y, Z, scan_use & ~excl, whiten)
+        r, beta = _robust_fit(y, Z, scan_use & ~excl, whiten)
         nm = noise_model(r, scan_use & ~excl, max_lag, rho)
         whiten = nm.whiten
         found = locate(r, scan_use, dt, nm, level, guard=margin)
