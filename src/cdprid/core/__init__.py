@@ -18,6 +18,12 @@ from cdprid.core._crb import CRBResult as CRBResult
 from cdprid.core._crb import crb as crb
 from cdprid.core._crb import regressor_jacobians as regressor_jacobians
 from cdprid.core._crb import sample_jacobians as sample_jacobians
+from cdprid.core._drives import DRIVE_PARAMETER_NAMES as DRIVE_PARAMETER_NAMES
+from cdprid.core._drives import DRIVE_UNITS as DRIVE_UNITS
+from cdprid.core._drives import DriveParameters as DriveParameters
+from cdprid.core._drives import drive_columns as drive_columns
+from cdprid.core._drives import drive_names as drive_names
+from cdprid.core._drives import drive_tension as drive_tension
 from cdprid.core._eiv import EIV_NOTE as EIV_NOTE
 from cdprid.core._eiv import bias_correction as bias_correction
 from cdprid.core._eiv import eiv_fit as eiv_fit

@@ -58,3 +58,7 @@ from cdprid.identify._real import rest_windows as rest_windows
 from cdprid.identify._real import taut_mask as taut_mask
 from cdprid.identify._real import weight_at_rest as weight_at_rest
 from cdprid.identify._rls import recursive_least_squares as recursive_least_squares
+from cdprid.identify._currents import CurrentsReport as CurrentsReport
+from cdprid.identify._currents import identify_currents as identify_currents
+from cdprid.identify._scale import ScaleReference as ScaleReference
+from cdprid.identify._scale import choose_reference as choose_reference

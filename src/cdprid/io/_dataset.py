@@ -37,7 +37,8 @@ if TYPE_CHECKING:  # geometry imports JAX: loaded only when a dataset is read or
 QUAT_COLS = ("qw", "qx", "qy", "qz")
 #: The files of a spec-v1 dataset folder that cdprid writes (``lengths.csv`` optional): the
 #: only files a dataset-writing command replaces or removes in an existing folder with --force.
-DATASET_FILES = ("robot.toml", "pose.csv", "tensions.csv", "meta.toml", "lengths.csv")
+DATASET_FILES = ("robot.toml", "pose.csv", "tensions.csv", "meta.toml", "lengths.csv",
+                 "currents.csv")
 
 
 def dataset_inputs(path) -> list:
@@ -105,8 +106,10 @@ class Dataset:
         P in the base frame, m.
     quaternion : ndarray (n, 4) or None
         Scalar-first unit quaternions platform -> base; None when absent (identity).
-    tension_t : ndarray (k,)
-    tension : ndarray (k, m)
+    tension_t : ndarray (k,) or None
+    tension : ndarray (k, m) or None
+        None only when read with ``require_tensions=False`` from a dataset without
+        tensions.csv (format 1.2: drives' currents instead of load cells).
     meta : dict
         Parsed meta.toml ({} when absent).
     extra : dict
@@ -261,8 +264,16 @@ def _read_toml(path: Path) -> dict:
         raise DatasetError(f"{path}: not valid UTF-8 text.") from None
 
 
-def read_dataset(path: str | Path) -> Dataset:
+def read_dataset(path: str | Path, require_tensions: bool = True) -> Dataset:
     """Read and validate a spec-v1 dataset folder.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dataset folder.
+    require_tensions : bool
+        False: tensions.csv may be absent (format 1.2, identification from motor currents or
+        free motion); the dataset's ``tension_t`` and ``tension`` are then None.
 
     Raises
     ------
@@ -304,7 +315,36 @@ def read_dataset(path: str | Path) -> Dataset:
                 f"norm {norms[k]:.6g}, not 1 within 1e-3."
             )
         quaternion = quaternion / norms[:, None]
-    m = robot.n_cables
+    meta = _read_toml(root / "meta.toml") if (root / "meta.toml").is_file() else {}
+    extra = _extra_streams(root)
+    if not require_tensions and not (root / "tensions.csv").exists():
+        _check_magnitude(root / "pose.csv", position, ("x", "y", "z"), MAX_ABS_POSITION_M, "m")
+        return Dataset(root, robot, pose_t, position, quaternion, None, None, meta, extra)
+    tension_t, tension = _read_tensions(root, robot.n_cables)
+    _check_magnitude(root / "pose.csv", position, ("x", "y", "z"), MAX_ABS_POSITION_M, "m")
+    if pose_t[-1] < tension_t[0] or tension_t[-1] < pose_t[0]:
+        raise DatasetError(
+            f"{root}: the time ranges of pose.csv [{pose_t[0]:g}, {pose_t[-1]:g}] s and "
+            f"tensions.csv [{tension_t[0]:g}, {tension_t[-1]:g}] s do not overlap."
+        )
+    return Dataset(root, robot, pose_t, position, quaternion, tension_t, tension, meta, extra)
+
+
+def _extra_streams(root: Path) -> dict:
+    """Further ``*.csv`` streams (malformed ones ignored: spec, anything else ignored)."""
+    extra = {}
+    for f in sorted(root.glob("*.csv")):
+        if f.name in ("pose.csv", "tensions.csv"):
+            continue
+        try:
+            extra[f.stem] = read_csv_stream(f, required=("t",))
+        except DatasetError:
+            continue
+    return extra
+
+
+def _read_tensions(root: Path, m: int):
+    """``(tension_t, tension)`` of tensions.csv, validated (columns, magnitude, signs)."""
     tcols, tens = read_csv_stream(root / "tensions.csv", required=("t",))
     tau_cols = [c for c in tcols if c != "t"]
     if len(tau_cols) != m:
@@ -322,24 +362,9 @@ def read_dataset(path: str | Path) -> Dataset:
     tidx = {c: i for i, c in enumerate(tcols)}
     tension_t = tens[:, tidx["t"]]
     tension = tens[:, [tidx[c] for c in expected]]
-    _check_magnitude(root / "pose.csv", position, ("x", "y", "z"), MAX_ABS_POSITION_M, "m")
     _check_magnitude(root / "tensions.csv", tension, expected, MAX_ABS_TENSION_N, "N")
     _check_tension_signs(root / "tensions.csv", tension, expected)
-    if pose_t[-1] < tension_t[0] or tension_t[-1] < pose_t[0]:
-        raise DatasetError(
-            f"{root}: the time ranges of pose.csv [{pose_t[0]:g}, {pose_t[-1]:g}] s and "
-            f"tensions.csv [{tension_t[0]:g}, {tension_t[-1]:g}] s do not overlap."
-        )
-    meta = _read_toml(root / "meta.toml") if (root / "meta.toml").is_file() else {}
-    extra = {}
-    for f in sorted(root.glob("*.csv")):
-        if f.name in ("pose.csv", "tensions.csv"):
-            continue
-        try:
-            extra[f.stem] = read_csv_stream(f, required=("t",))
-        except DatasetError:
-            continue  # optional streams are ignored when malformed (spec: anything else ignored)
-    return Dataset(root, robot, pose_t, position, quaternion, tension_t, tension, meta, extra)
+    return tension_t, tension
 
 
 def _check_magnitude(path: Path, values: np.ndarray, names, limit: float, unit: str) -> None:

@@ -60,6 +60,7 @@ def write_dataset(
     meta: dict | None = None,
     extra: dict | None = None,
     overwrite: bool = False,
+    drives: list | None = None,
 ) -> Path:
     """Write a spec-v1 dataset folder, whole or not at all.
 
@@ -79,6 +80,10 @@ def write_dataset(
         ``name -> (columns, values)`` further streams (first column ``t``).
     overwrite : bool
         Replace an existing non-empty folder (as a whole); refused otherwise.
+    drives : list of dict, optional
+        Per cable, the drive fields of format 1.2 (``drum_radius``, ``gear_ratio``,
+        ``torque_constant``, ...) added to its ``[[cable]]`` table. With drives, ``tension``
+        may be None: no tensions.csv (a robot without load cells).
 
     Returns
     -------
@@ -107,16 +112,21 @@ def write_dataset(
         )
     with atomic_dir(root, force=True, owned=DATASET_FILES) as tmp:
         with open(tmp / "robot.toml", "wb") as fh:
-            fh.write(robot_toml(robot_to_dict(robot)).encode("utf-8"))
+            d = robot_to_dict(robot)
+            for c, extra_fields in zip(d["cable"], drives or [{}] * len(d["cable"]),
+                                       strict=True):
+                c.update(extra_fields)
+            fh.write(robot_toml(d).encode("utf-8"))
         pose_cols = ["t", "x", "y", "z"]
         pose_vals = [np.asarray(pose_t)[:, None], np.asarray(position)]
         if quaternion is not None:
             pose_cols += list(QUAT_COLS)
             pose_vals.append(np.asarray(quaternion))
         _write_csv(tmp / "pose.csv", pose_cols, np.hstack(pose_vals))
-        m = np.asarray(tension).shape[1]
-        _write_csv(tmp / "tensions.csv", ["t"] + [f"tau_{i}" for i in range(1, m + 1)],
-                   np.hstack([np.asarray(tension_t)[:, None], np.asarray(tension)]))
+        if tension is not None or not drives:
+            m = np.asarray(tension).shape[1]
+            _write_csv(tmp / "tensions.csv", ["t"] + [f"tau_{i}" for i in range(1, m + 1)],
+                       np.hstack([np.asarray(tension_t)[:, None], np.asarray(tension)]))
         if meta:
             with open(tmp / "meta.toml", "wb") as fh:
                 tomli_w.dump(_toml_clean(meta), fh)

@@ -233,7 +233,10 @@ _KNOWN_KEYS = {
     "the top level": ("name", "gravity", "limits", "cable", "platform"),
     "[limits]": ("tension_min", "tension_max", "cable_speed_max", "workspace_min",
                  "workspace_max", *_LIMITS_11),
-    "[[cable]]": ("exit", "anchor", "pulley_radius", "pulley_axis", "pulley_reference"),
+    "[[cable]]": ("exit", "anchor", "pulley_radius", "pulley_axis", "pulley_reference",
+                  # drive fields of format 1.2 (parsed by cdprid.io._drives)
+                  "drum_radius", "gear_ratio", "torque_constant", "torque_constant_tolerance",
+                  "drive_reference"),
     "[platform]": ("mass", "com", "inertia", "mass_uncertainty", "com_uncertainty",
                    "inertia_uncertainty", "body_min", "body_max"),
 }

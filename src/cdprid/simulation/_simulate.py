@@ -441,7 +441,8 @@ def _run_plant(robot_true, params, g_true, terms, ref, trajectory, pose_t, tensi
     return mt, motion, W, wp, tau_true, n_qp
 
 
-def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Path:
+def write_simulation(result: SimResult, out_dir, overwrite: bool = False, extra=None,
+                     drives=None, drive_truth=None, load_cells: bool = True) -> Path:
     """Write a :class:`SimResult` as a spec-v1 dataset folder.
 
     Files: robot.toml (nominal robot), pose.csv (quaternion columns when rotations or
@@ -459,6 +460,10 @@ def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Pat
     out_dir : str or Path
     overwrite : bool
         Existing dataset files are never replaced unless True.
+    extra, drives, drive_truth, load_cells
+        Used by :func:`cdprid.simulation.write_drive_simulation`: further streams, the
+        robot.toml drive fields per cable, ``[truth.drives]``, and whether tensions.csv is
+        written.
 
     Returns
     -------
@@ -492,7 +497,9 @@ def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Pat
     if r.has_rotation:
         cols += list(ROTATION_COLUMNS)
         vals += [np.asarray(m.q), np.asarray(m.omega), np.asarray(m.alpha)]
-    extra = {"truth_motion": (cols, np.hstack(vals))}
+    if drive_truth is not None:
+        truth["drives"] = drive_truth
+    extra = {"truth_motion": (cols, np.hstack(vals)), **(extra or {})}
     if r.lengths is not None:
         extra["lengths"] = (["t"] + [f"l_{i + 1}" for i in range(r.lengths.shape[1])],
                             np.column_stack([r.tension_t, r.lengths]))
@@ -502,9 +509,10 @@ def write_simulation(result: SimResult, out_dir, overwrite: bool = False) -> Pat
         r.pose_t,
         r.position,
         r.tension_t,
-        r.tension,
+        r.tension if load_cells else None,
         quaternion=r.quaternion,
         meta=meta,
         extra=extra,
         overwrite=overwrite,
+        drives=drives,
     )

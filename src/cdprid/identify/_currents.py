@@ -1,0 +1,442 @@
+"""Identification from motor currents (``identify --source currents``): the platform jointly
+with every winch drive, no load cell needed.
+
+With the drive model of :mod:`cdprid.core._drives` (``tau = k i + J l'' + f_v l' + f_c sign(l')
+- c``) the Newton-Euler equations ``W tau = Z x`` become, per pose sample,
+
+    Z_n x - D_n d = 0,        D_n = [F[W i], W l'', W l', F[W sign(l')], -F[W]]
+
+(``F`` the matched filter of the accelerations, ``l'`` and ``l''`` the encoder lengths
+differentiated like the poses): homogeneous in ``theta = (x, d)``. One parameter is taken as
+known (:mod:`cdprid.identify._scale`); the others follow from least squares with
+
+* the errors-in-variables weighting of the tension path (:func:`cdprid.core._eiv.whitening`
+  with the drive model's tension and noise: current noise times k, encoder noise through J
+  and f_v),
+* the currents' noise removed from the normal equations: the currents sit inside the
+  regressor, so ``E[N] = N_0 + Q`` with ``Q`` the per-sample noise covariance of the current
+  and encoder columns (``sigma_i^2 g_F W_j^T Omega W_j``, ``g_F`` the filter's variance gain
+  measured on the recording's own clocks and interpolation); the corrected estimate solves
+  ``(N - Q) theta = 0`` (corrected least squares),
+* HAC covariance (the residual is coloured by the filter), propagated through the correction
+  and scaled by the reference (its uncertainty reaches every std).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from cdprid.base import TRIM_S, InputError
+from cdprid.core import (
+    CHUNK,
+    DriveParameters,
+    LSResult,
+    drive_columns,
+    drive_names,
+    drive_tension,
+    estimate_motion,
+    estimate_noise,
+    least_squares_blocks,
+    wrench_matrices,
+)
+from cdprid.core import crb as crb_bound
+from cdprid.identify._batch import _choose_model, _regression, _trimmed, _wrench_filter
+from cdprid.identify._auto import cutoff_from_data, resolve_params
+from cdprid.core import noise_gains, noise_levels, whitening
+from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate
+from cdprid.io import align, read_drives, read_stream
+from cdprid.model import PARAMETER_NAMES, cable_lengths
+from cdprid.signal import differentiate
+
+__all__ = ["CurrentsReport", "identify_currents"]
+
+EIV_CURRENTS_NOTE = ("errors-in-variables: each sample whitened by its residual covariance "
+                     "(current noise x k, encoder noise through J and f_v, pose noise), and the "
+                     "current and encoder noise inside the regressor removed from the normal "
+                     "equations (corrected least squares)")
+
+
+@dataclasses.dataclass(frozen=True)
+class CurrentsReport:
+    """What :func:`identify_currents` produced.
+
+    Attributes
+    ----------
+    model : str
+        "translation" or "full".
+    names : tuple of str
+        Platform parameter names then the drives' (``k_1``, ..., ``c_m``).
+    theta : ndarray (p + 5m,)
+    cov : ndarray
+        HAC covariance with the reference's uncertainty.
+    cov_iid : ndarray
+        i.i.d. covariance with the reference's uncertainty.
+    reference : ScaleReference
+    nominal_k : ndarray (m,) or None
+        Datasheet current-to-force constants (N/A).
+    n_samples : int
+    sigma_rho : float
+        RMS residual wrench (N, N m), unwhitened.
+    crb_std : ndarray (p,) or None
+        Cramer-Rao bound of the platform parameters with the drives known (a lower bound).
+    notes, warnings : tuple of str
+    """
+
+    model: str
+    names: tuple
+    theta: np.ndarray
+    cov: np.ndarray
+    cov_iid: np.ndarray
+    reference: ScaleReference
+    nominal_k: np.ndarray | None
+    n_samples: int
+    sigma_rho: float
+    hac_bandwidth: float
+    crb_std: np.ndarray | None
+    differentiator: str
+    params: dict
+    notes: tuple = ()
+    warnings: tuple = ()
+
+    @property
+    def std(self) -> np.ndarray:
+        """HAC standard deviations (reference propagated)."""
+        return np.sqrt(np.clip(np.diag(self.cov), 0, None))
+
+    @property
+    def drives(self) -> DriveParameters:
+        """The drive parameter estimates."""
+        p = len(PARAMETER_NAMES[self.model])
+        return DriveParameters.from_vector(self.theta[p:])
+
+    def as_json(self) -> dict:
+        """JSON of ``identify --source currents`` (the keys of ``identify --json`` plus
+        ``drives`` and ``scale_reference``)."""
+        from cdprid.identify._currents_json import currents_json
+
+        return currents_json(self)
+
+
+def _streams(ds, m: int):
+    """``(currents (t, i), lengths (t, l) or None)`` of the dataset folder (one sentence when
+    currents.csv is missing or malformed)."""
+    if ds.path is None:
+        raise InputError("identify --source currents reads currents.csv from a dataset folder.")
+    cur = read_stream(ds.path, "currents", "i", m)
+    if cur is None:
+        raise InputError(f"{ds.path}: --source currents needs currents.csv (t,i_1..i_{m}, A).")
+    return cur, read_stream(ds.path, "lengths", "l", m)
+
+
+def _interp_checked(t_src, v_src, t, name: str, keep, notes: list):
+    """``v_src`` linearly interpolated at ``t`` (n, m); samples outside the stream or in its gaps
+    (a period above 2.5 medians) are dropped from ``keep`` (never bridged), with a note."""
+    dt = float(np.median(np.diff(t_src)))
+    j = np.clip(np.searchsorted(t_src, t), 1, len(t_src) - 1)
+    ok = (t >= t_src[0]) & (t <= t_src[-1]) & (t_src[j] - t_src[j - 1] <= 2.5 * dt)
+    out = np.column_stack([np.interp(t, t_src, v_src[:, c]) for c in range(v_src.shape[1])])
+    lost = int(np.sum(keep & ~ok))
+    if lost:
+        notes.append(f"{lost} pose samples outside {name}.csv or in its gaps dropped")
+    return out, keep & ok
+
+
+def _length_rates(lengths, segments, dt: float, differentiator: str, params: dict):
+    """``(l', l'')`` of the paid-out lengths on the pose clock, segment by segment, by the
+    pose's differentiator (so they pass the same filter as the accelerations)."""
+    v, a = np.zeros_like(lengths), np.zeros_like(lengths)
+    for i0, i1 in segments:
+        vi, ai = differentiate(lengths[i0:i1], dt, method=differentiator, **params)
+        v[i0:i1], a[i0:i1] = np.asarray(vi), np.asarray(ai)
+    return v, a
+
+
+def _filter_gain(t_src, t, wf, seed: int = 1) -> float:
+    """Variance of ``F[interp(x)]`` for unit white noise ``x`` on the stream's own clock,
+    interpolated onto the pose clock and filtered (10 % of each end dropped)."""
+    x = np.random.default_rng(seed).normal(size=(len(t_src), 3))
+    xi = np.column_stack([np.interp(t, t_src, x[:, c]) for c in range(3)])
+    f = np.asarray(wf(xi, np.ones(3)))
+    k = slice(len(t) // 10, len(t) - len(t) // 10)
+    return float(np.mean(np.var(f[k], axis=0)))
+
+
+def _friction_sign(l_dot, noise: dict, params: dict, dt: float):
+    """``sign(l')`` for the Coulomb column (a ramp ``l' / v_z`` inside the zone ``|l'| < v_z``)
+    and the samples to leave out: any winch inside the zone, dilated by the matched filter's
+    reach (half a period of its cutoff). ``v_z = max(0.5 mm/s, 5 x the velocity noise)``: at
+    rest the friction is anywhere within +-f_c (stiction), and where the estimated velocity is
+    within its noise of zero its sign is a guess."""
+    C = noise["C"]
+    v_z = max(5e-4, 5.0 * float(np.max(noise["length_m"])) * float(np.sqrt(C[1, 1])))
+    noise["v_zone"] = v_z
+    sign = np.clip(l_dot / v_z, -1.0, 1.0)
+    zone = np.any(np.abs(l_dot) < v_z, axis=1)
+    w = int(np.ceil(0.5 / (float(params.get("cutoff_hz", 4.0)) * dt)))
+    still = np.convolve(zone.astype(float), np.ones(2 * w + 1), mode="same") > 0
+    return sign, still
+
+
+class _SubRegression:
+    """A streamed regression restricted to some of its samples (``wrench_block`` on them)."""
+
+    def __init__(self, reg, rows):
+        self._reg, self._rows = reg, rows
+        self.t = np.asarray(reg.t)[rows]
+
+    def wrench_block(self, i0: int, i1: int):
+        r = self._rows[i0:i1]
+        Z, y = self._reg.wrench_block(int(r[0]), int(r[-1]) + 1)
+        return Z[r - r[0]], y[r - r[0]]
+
+
+def _drive_design(ds, motion, cur_i, l_dot, l_ddot, sign, wf) -> np.ndarray:
+    """``D`` (n, 6, 5m): the current, sign and offset columns through the matched filter, the
+    rate and acceleration columns from the differentiated lengths (already filtered)."""
+    W = np.asarray(wrench_matrices(ds.robot, motion.position, motion.B_R_P))
+    D = drive_columns(W, cur_i, l_dot, l_ddot, sign)
+    n, _, q = D.shape
+    m = q // 5
+    filt = np.r_[0:m, 3 * m:5 * m]
+    ch = D[:, :, filt].reshape(n, -1)
+    D[:, :, filt] = np.asarray(wf(ch, np.ones(ch.shape[1]))).reshape(n, 6, -1)
+    return D
+
+
+def identify_currents(ds, reference: str | None = None, model: str = "auto",
+                      differentiator: str = "euler-filtfilt", params: dict | None = None,
+                      t_start: float | None = None, t_end: float | None = None,
+                      trim: float = TRIM_S, chunk: int = CHUNK, bound: bool = True,
+                      drives=None) -> CurrentsReport:
+    """Identify the platform and every drive from poses, winch lengths and motor currents.
+
+    Parameters
+    ----------
+    ds : Dataset
+        Read with ``require_tensions=False``; its folder holds currents.csv and, optionally,
+        lengths.csv (without it the paid-out lengths are the nominal geometry's cable lengths
+        at the measured poses).
+    reference : str, optional
+        The scale reference (:func:`cdprid.identify._scale.choose_reference`).
+    model : {"auto", "translation", "full"}
+    differentiator : str
+        Only ``euler-filtfilt`` (the matched filter of the drive columns is its zero-phase
+        filter).
+    params : dict, optional
+        The differentiator's parameters (cutoff from the data when absent).
+    t_start, t_end : float, optional
+        Time window, s.
+    trim : float
+        Seconds dropped at each end after differentiation.
+    chunk : int
+        Samples per block of the least squares.
+    bound : bool
+        Compute the Cramer-Rao bound of the platform parameters with the drives known.
+    drives : DriveData, optional
+        Default: robot.toml's drive fields.
+
+    Returns
+    -------
+    CurrentsReport
+    """
+    if differentiator != "euler-filtfilt":
+        raise InputError("--source currents uses the differentiator euler-filtfilt (its "
+                         f"zero-phase filter is matched on every drive column), not "
+                         f"{differentiator}.")
+    m = ds.robot.n_cables
+    drives = read_drives(ds.path) if drives is None and ds.path is not None else drives
+    ref = choose_reference(reference, ds.robot, drives)
+    (ct, cur), lens = _streams(ds, m)
+    ds_i = dataclasses.replace(ds, tension_t=ct, tension=cur)
+    sig = align(ds_i, t_start, t_end)
+    notes = [n.replace("tension", "current") for n in sig.notes]
+    fix = cutoff_from_data(differentiator, params)
+    params, w0 = resolve_params(ds_i, sig, differentiator, params, notes)
+    model, _, warns = _choose_model(model, sig, ds.path, w0)
+    motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
+    wf, note, _ = _wrench_filter(ds.robot, differentiator, params, sig.dt, "matched")
+    notes.append(note.replace("W tau", "every drive column"))
+    keep = _trimmed(motion.t, trim, ds.path)
+    lengths, keep = _lengths_on_pose_clock(ds, motion, lens, keep, notes)
+    l_dot, l_ddot = _length_rates(lengths, sig.segments, sig.dt, differentiator, params)
+    sig0 = dataclasses.replace(sig, tension=np.zeros_like(sig.tension))
+    reg, wf, keep = _regression(ds, sig0, motion, model, differentiator, "matched", wf, keep,
+                                trim, int(chunk), notes, warns)
+    idx = np.flatnonzero(keep)
+    if not np.array_equal(np.asarray(reg.t), motion.t[idx]):
+        raise RuntimeError("the platform regression's samples differ from the kept samples")
+    noise = _noise(ds, sig, ct, cur, motion.t, lengths, wf, differentiator, params)
+    sign, still = _friction_sign(l_dot, noise, params, sig.dt)
+    D = _drive_design(ds, motion, np.asarray(sig.tension), l_dot, l_ddot, sign, wf)[idx]
+    rates = (np.asarray(sig.tension)[idx], l_dot[idx], l_ddot[idx], sign[idx])
+    use = ~still[idx]
+    notes.append(f"{100 * np.mean(~use):.1f} % of the samples dropped near a winch at rest "
+                 "(Coulomb friction undefined there: |l'| below "
+                 f"{1000 * noise['v_zone']:.2g} mm/s, and the matched filter's reach around)")
+    idx, D, rates = idx[use], D[use], tuple(x[use] for x in rates)
+    reg = _SubRegression(reg, np.flatnonzero(use))
+    fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes)
+    return _report(ds, model, ref, drives, fit, motion, idx, rates, noise, bound, fix,
+                   differentiator, params, notes, warns)
+
+
+def _lengths_on_pose_clock(ds, motion, lens, keep, notes: list):
+    """Paid-out lengths at the pose times: the encoders interpolated, else the nominal
+    geometry's cable lengths at the measured poses (a note)."""
+    if lens is not None:
+        return _interp_checked(lens[0], lens[1], motion.t, "lengths", keep, notes)
+    import jax
+
+    notes.append("no lengths.csv: the paid-out lengths are the nominal geometry's cable lengths "
+                 "at the measured poses")
+    L = jax.vmap(lambda p, R: cable_lengths(ds.robot, p, R))(motion.position, motion.B_R_P)
+    return np.asarray(L), keep
+
+
+def _noise(ds, sig, ct, cur, t, lengths, wf, differentiator, params) -> dict:
+    """Noise levels: currents per sample of their own stream (A), encoder lengths on the pose
+    clock (m), pose; the filter gains ``g_i`` (currents through interpolation and F) and ``C``
+    (:func:`cdprid.core._eiv.noise_gains`)."""
+    s_cur = estimate_noise(np.asarray(cur, float))
+    _, _, s_pos, s_rot = noise_levels(dataclasses.replace(ds, tension_t=ct, tension=cur), sig)
+    C = noise_gains(differentiator, params, sig.dt, wf)
+    return {"current_A": s_cur, "g_current": _filter_gain(ct, t, wf),
+            "length_m": estimate_noise(np.asarray(lengths, float)), "position_m": s_pos,
+            "rotation_rad": s_rot, "C": C}
+
+
+def _tension_noise(d: DriveParameters, noise: dict) -> np.ndarray:
+    """Per cable, the std ``s`` with ``C00 s^2`` = the filtered residual tension variance of
+    the drive model (current noise x k, encoder noise through J and f_v)."""
+    C = noise["C"]
+    var = (d.k ** 2 * noise["current_A"] ** 2 * noise["g_current"]
+           + (d.J ** 2 * C[2, 2] + d.fv ** 2 * C[1, 1] + 2 * d.J * d.fv * C[1, 2])
+           * noise["length_m"] ** 2)
+    return np.sqrt(np.maximum(var, 0.0) / C[0, 0])
+
+
+def _fit(ds, model, motion, idx, reg, D, ref, rates, noise, chunk, notes):
+    """OLS, EIV whitening, GLS with HAC and the corrected normal equations; the scaled
+    estimate. Returns a dict (theta, cov, cov_iid, the GLS result, residual, names, p)."""
+    p = len(PARAMETER_NAMES[model])
+    m = ds.robot.n_cables
+    names = PARAMETER_NAMES[model] + drive_names(m)
+    r = ref.index(p)
+    o = np.delete(np.arange(len(names)), r)
+    n = len(idx)
+
+    def full(i0, i1):
+        return np.concatenate([reg.wrench_block(i0, i1)[0], -D[i0:i1]], axis=2)
+
+    def rows(i0, i1, U=None):
+        M = full(i0, i1) if U is None else np.matmul(U[i0:i1], full(i0, i1))
+        return M[:, :, o], -M[:, :, r]
+
+    ols = least_squares_blocks(rows, n, tuple(names[k] for k in o), covariance="iid",
+                               chunk=chunk)
+    theta0, _ = scaled_estimate(ols.x, ols.cov, ref, r)
+    d0 = DriveParameters.from_vector(theta0[p:])
+    U = whitening(ds.robot, model, _sub_motion(motion, idx), drive_tension(d0, *rates),
+                  theta0[:p], _tension_noise(d0, noise), max(noise["position_m"], 1e-12),
+                  noise["rotation_rad"], noise["C"], chunk=chunk)
+    gls = least_squares_blocks(lambda a, b: rows(a, b, U), n, tuple(names[k] for k in o),
+                               covariance="hac", chunk=chunk)
+    N, Q = _normal_and_noise(full, U, n, m, p, noise, chunk)
+    Nc = N - Q
+    T = np.linalg.solve(Nc[np.ix_(o, o)], N[np.ix_(o, o)])
+    phi = np.linalg.solve(Nc[np.ix_(o, o)], -Nc[o, r])
+    notes.append(EIV_CURRENTS_NOTE)
+    theta, cov = scaled_estimate(phi, T @ gls.cov @ T.T, ref, r)
+    _, cov_iid = scaled_estimate(phi, T @ gls.cov_iid @ T.T, ref, r)
+    resid = np.concatenate([(full(i0, min(n, i0 + chunk)) @ theta).reshape(-1)
+                            for i0 in range(0, n, chunk)])
+    return {"theta": theta, "cov": cov, "cov_iid": cov_iid, "gls": gls, "resid": resid,
+            "names": names, "p": p}
+
+
+def _sub_motion(motion, idx):
+    """The kept samples' motion (a namespace for :func:`cdprid.core._eiv.whitening`)."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(**{k: np.asarray(getattr(motion, k))[idx] for k in (
+        "t", "position", "B_R_P", "velocity", "acceleration", "omega", "alpha")})
+
+
+def _normal_and_noise(full, U, n: int, m: int, p: int, noise: dict, chunk: int):
+    """The whitened normal matrix ``N`` of the full theta (reference included) and ``Q``, the
+    expected contribution of the current and encoder noise inside the regressor:
+    ``E[dM^T Omega dM]`` on the columns of k (``g_i sigma_i^2 W_j^T Omega W_j``), J and f_v
+    (``C22``, ``C11``, ``C12`` times the encoder variance) of each cable."""
+    q = p + 5 * m
+    N, G = np.zeros((q, q)), np.zeros(m)
+    C = noise["C"]
+    for i0 in range(0, n, chunk):
+        i1 = min(n, i0 + chunk)
+        M = np.matmul(U[i0:i1], full(i0, i1))
+        N += np.einsum("kap,kaq->pq", M, M)
+        Wu = -M[:, :, p + 4 * m:]  # U W_j: the offset columns are -F[W_j] (filtered W)
+        G += np.einsum("kaj,kaj->j", Wu, Wu)
+    Q = np.zeros((q, q))
+    sl2 = noise["length_m"] ** 2
+    kk, JJ, vv = (np.arange(m) + p + j * m for j in range(3))
+    Q[kk, kk] = noise["g_current"] * noise["current_A"] ** 2 * G
+    Q[JJ, JJ] = C[2, 2] * sl2 * G
+    Q[vv, vv] = C[1, 1] * sl2 * G
+    Q[JJ, vv] = Q[vv, JJ] = C[1, 2] * sl2 * G
+    return N, Q
+
+
+def _report(ds, model, ref, drives, fit, motion, idx, rates, noise, bound, fix,
+            differentiator, params, notes, warns) -> CurrentsReport:
+    """The report: datasheet checks, excitation guard and the bound."""
+    p, theta, cov = fit["p"], fit["theta"], fit["cov"]
+    gls = fit["gls"]
+    warns = list(warns)
+    d = DriveParameters.from_vector(theta[p:])
+    sd = DriveParameters.from_vector(np.sqrt(np.clip(np.diag(cov), 0, None))[p:])
+    nominal = None if drives is None else drives.k_nominal
+    if nominal is not None:
+        for j in range(len(d.k)):
+            tol = drives.tolerance[j]
+            dev = abs(d.k[j] / nominal[j] - 1.0)
+            lim = (0.0 if np.isnan(tol) else tol) * nominal[j] + 1.96 * sd.k[j]
+            if abs(d.k[j] - nominal[j]) > lim and not np.isnan(tol):
+                warns.append(f"drive {j + 1}: k = {d.k[j]:.4g} +- {sd.k[j]:.2g} N/A is "
+                             f"{100 * dev:.1f} % from its datasheet {nominal[j]:.4g} N/A, "
+                             f"beyond the stated tolerance {tol:g}: check the drive data.")
+    if gls.cond_scaled > 1e3:
+        warns.append(f"too little excitation: cond of the joint regressor (scaled) = "
+                     f"{gls.cond_scaled:.3g} > 1e3; check the std (cdprid excite).")
+    crb_std = None
+    if bound:
+        crb_std = _platform_bound(ds, model, theta, motion, idx, d, rates, noise, notes)
+    sig = float(np.sqrt(np.mean(fit["resid"] ** 2)))
+    if fix:
+        notes.append("cutoff chosen from the data")
+    return CurrentsReport(model, tuple(fit["names"]), theta, cov, fit["cov_iid"], ref, nominal,
+                          len(idx), sig, float(gls.hac_bandwidth), crb_std, differentiator,
+                          params, tuple(notes), tuple(warns))
+
+
+def _platform_bound(ds, model, theta, motion, idx, d, rates, noise, notes):
+    """The platform parameters' Cramer-Rao bound with the drives known (tension noise of the
+    drive model): a lower bound of the joint problem's."""
+    p = len(PARAMETER_NAMES[model])
+    sub = _sub_motion(motion, idx)
+    try:
+        with np.errstate(all="ignore"):
+            b = crb_bound(ds.robot, model, theta[:p], sub.t, sub.position, sub.B_R_P,
+                          sub.acceleration, sub.omega, sub.alpha, drive_tension(d, *rates),
+                          _tension_noise(d, noise),
+                          max(noise["position_m"], 1e-12), noise["rotation_rad"])
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError) as e:
+        notes.append(f"Cramer-Rao bound not computed ({e})")
+        return None
+    if not np.all(np.isfinite(b.std)) or not np.all(b.std > 0):
+        notes.append("Cramer-Rao bound not computed (the information matrix is singular)")
+        return None
+    notes.append("crb_std: the platform parameters' Cramer-Rao bound with the drive "
+                 "parameters known (a lower bound of this problem's)")
+    return np.asarray(b.std)

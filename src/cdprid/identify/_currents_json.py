@@ -1,0 +1,70 @@
+"""JSON of ``identify --source currents`` (the keys of ``identify --json`` plus ``drives`` and
+``scale_reference``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cdprid.core import DRIVE_PARAMETER_NAMES, DRIVE_UNITS
+from cdprid.model import PARAMETER_NAMES
+
+__all__ = ["currents_json", "parameter_entry"]
+
+
+def parameter_entry(value: float, std: float, std_iid: float | None = None,
+                    crb_std: float | None = None) -> dict:
+    """``{"value", "std", "rel_std_percent", "std_iid", "crb_std", "efficiency",
+    "interval95"}`` of one parameter."""
+    with np.errstate(divide="ignore"):
+        rel = float(100.0 * std / abs(value)) if value != 0 else float("inf")
+    return {"value": float(value), "std": float(std), "rel_std_percent": rel,
+            "std_iid": None if std_iid is None else float(std_iid),
+            "crb_std": None if crb_std is None else float(crb_std),
+            "efficiency": None if not crb_std else float(std / crb_std),
+            "interval95": [float(value - 1.96 * std), float(value + 1.96 * std)]}
+
+
+def currents_json(rep) -> dict:
+    """The JSON mapping of a :class:`cdprid.identify._currents.CurrentsReport`."""
+    p = len(PARAMETER_NAMES[rep.model])
+    s = rep.std
+    si = np.sqrt(np.clip(np.diag(rep.cov_iid), 0, None))
+    params = {}
+    for k, name in enumerate(rep.names[:p]):
+        cs = None if rep.crb_std is None else rep.crb_std[k]
+        params[name] = parameter_entry(rep.theta[k], s[k], si[k], cs)
+    m = (len(rep.names) - p) // 5
+    drives = []
+    for j in range(m):
+        entry = {"cable": j + 1}
+        for a, kind in enumerate(DRIVE_PARAMETER_NAMES):
+            i = p + a * m + j
+            entry[kind] = {**parameter_entry(rep.theta[i], s[i], si[i]),
+                           "unit": DRIVE_UNITS[kind]}
+        entry["k"]["nominal"] = (None if rep.nominal_k is None else float(rep.nominal_k[j]))
+        ik, ic = p + j, p + 4 * m + j
+        k, c = rep.theta[ik], rep.theta[ic]
+        g = np.zeros(len(rep.theta))
+        g[ic], g[ik] = 1.0 / k, -c / k ** 2  # i_0 = c / k, delta method
+        entry["current_offset_A"] = parameter_entry(c / k, float(np.sqrt(g @ rep.cov @ g)))
+        entry["reference"] = rep.reference.kind == "drive" and rep.reference.cable == j + 1
+        drives.append(entry)
+    return {
+        "source": "currents",
+        "model": rep.model,
+        "parameters": params,
+        "sigma_rho": rep.sigma_rho,
+        "n_samples": rep.n_samples,
+        "differentiator": rep.differentiator,
+        "differentiator_params": rep.params,
+        "weighting": "eiv",
+        "covariance": "hac",
+        "hac_bandwidth_samples": rep.hac_bandwidth,
+        "wrench_filter": "matched",
+        "crb_std": {k: v["crb_std"] for k, v in params.items()},
+        "efficiency": {k: v["efficiency"] for k, v in params.items()},
+        "drives": drives,
+        "scale_reference": rep.reference.as_json(),
+        "warnings": list(rep.warnings),
+        "notes": list(rep.notes),
+    }
