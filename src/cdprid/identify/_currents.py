@@ -48,10 +48,14 @@ from cdprid.core import noise_gains, noise_levels, whitening
 from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate
 from cdprid.io import align, read_drives, read_stream
 from cdprid.model import PARAMETER_NAMES, cable_lengths
-from cdprid.signal import differentiate
+from cdprid.signal import differentiate, zero_phase_filter
 
 __all__ = ["CurrentsReport", "identify_currents"]
 
+SIGN_CUTOFF_HZ = 10.0
+"""Low-pass (Hz) of the encoder velocity that gives the Coulomb friction's sign."""
+STILL_S = 0.05
+"""A winch in the zero-velocity zone longer than this (s) is at rest: friction undefined."""
 EIV_CURRENTS_NOTE = ("errors-in-variables: each sample whitened by its residual covariance "
                      "(current noise x k, encoder noise through J and f_v, pose noise), and the "
                      "current and encoder noise inside the regressor removed from the normal "
@@ -163,20 +167,44 @@ def _filter_gain(t_src, t, wf, seed: int = 1) -> float:
     return float(np.mean(np.var(f[k], axis=0)))
 
 
-def _friction_sign(l_dot, noise: dict, params: dict, dt: float):
-    """``sign(l')`` for the Coulomb column (a ramp ``l' / v_z`` inside the zone ``|l'| < v_z``)
-    and the samples to leave out: any winch inside the zone, dilated by the matched filter's
-    reach (half a period of its cutoff). ``v_z = max(0.5 mm/s, 5 x the velocity noise)``: at
-    rest the friction is anywhere within +-f_c (stiction), and where the estimated velocity is
-    within its noise of zero its sign is a guess."""
-    C = noise["C"]
-    v_z = max(5e-4, 5.0 * float(np.max(noise["length_m"])) * float(np.sqrt(C[1, 1])))
-    noise["v_zone"] = v_z
-    sign = np.clip(l_dot / v_z, -1.0, 1.0)
-    zone = np.any(np.abs(l_dot) < v_z, axis=1)
+def _fast_rate(t_src, l_src, t, seed: int = 2):
+    """The winches' velocity for the Coulomb sign (n, m): the lengths on their own clock
+    through a zero-phase low-pass at ``SIGN_CUTOFF_HZ`` (or 0.2 of their rate), central
+    differences, interpolated onto ``t``; and its noise std per cable (m/s), the encoder noise
+    passed through the same chain. The accelerations' filter is too narrow for this: it moves
+    the zero crossings, and the current jumps by ``f_c / k`` exactly there."""
+    dt = float(np.median(np.diff(t_src)))
+    fc = min(SIGN_CUTOFF_HZ, 0.2 / dt)
+    v = np.gradient(zero_phase_filter(l_src, dt, fc), dt, axis=0)
+    out = np.column_stack([np.interp(t, t_src, v[:, c]) for c in range(v.shape[1])])
+    x = np.random.default_rng(seed).normal(size=(4000, 1))
+    gain = float(np.std(np.gradient(zero_phase_filter(x, dt, fc), dt, axis=0)[400:-400]))
+    return out, estimate_noise(np.asarray(l_src, float)) * gain
+
+
+def _friction_sign(v_fast, s_v, params: dict, dt: float):
+    """``sign(l')`` for the Coulomb column and the samples to leave out.
+
+    The column takes the expected sign under the velocity's noise, ``erf(l' / (sqrt(2)
+    s_v))`` (the sign itself on exact data): where the velocity is within its noise of zero
+    the true sign is a guess, and a guess of zero mean spreads no bias through the filter.
+    Samples with ``|l'| < 3 s_v`` on some winch are left out. Where a winch stays below
+    ``v_z = max(0.5 mm/s, 3 s_v)`` longer than ``STILL_S`` (at rest, or turning slowly) its
+    friction is anywhere within +-f_c (stiction): the matched filter's reach around it (half
+    a period of its cutoff) is left out too."""
+    from scipy.special import erf
+
+    s_v = np.maximum(np.asarray(s_v, float), 1e-9)
+    sign = erf(v_fast / (np.sqrt(2.0) * s_v))
+    zone = np.abs(v_fast) < 3.0 * s_v
+    v_z = np.maximum(5e-4, 3.0 * s_v)
     w = int(np.ceil(0.5 / (float(params.get("cutoff_hz", 4.0)) * dt)))
-    still = np.convolve(zone.astype(float), np.ones(2 * w + 1), mode="same") > 0
-    return sign, still
+    n_still = max(1, int(round(STILL_S / dt)))
+    long = np.zeros(len(v_fast), bool)
+    for z in (np.abs(v_fast) < v_z).T:
+        long |= np.convolve(z.astype(float), np.ones(n_still), mode="same") >= n_still - 0.5
+    long = np.convolve(long.astype(float), np.ones(2 * w + 1), mode="same") > 0
+    return sign, np.any(zone, axis=1) | long, float(np.max(v_z))
 
 
 class _SubRegression:
@@ -192,16 +220,34 @@ class _SubRegression:
         return Z[r - r[0]], y[r - r[0]]
 
 
-def _drive_design(ds, motion, cur_i, l_dot, l_ddot, sign, wf) -> np.ndarray:
-    """``D`` (n, 6, 5m): the current, sign and offset columns through the matched filter, the
-    rate and acceleration columns from the differentiated lengths (already filtered)."""
+def _raw_rates(lengths, segments, dt: float):
+    """Central first and second differences of the lengths (n, m), segment by segment."""
+    d1, d2 = np.zeros_like(lengths), np.zeros_like(lengths)
+    for i0, i1 in segments:
+        x = lengths[i0:i1]
+        d1[i0:i1] = np.gradient(x, dt, axis=0, edge_order=2)
+        d2[i0 + 1:i1 - 1] = (x[2:] - 2.0 * x[1:-1] + x[:-2]) / dt ** 2
+        d2[i0], d2[i1 - 1] = d2[i0 + 1], d2[i1 - 2]
+    return d1, d2
+
+
+def _drive_design(ds, motion, cur_i, lengths, sign, wf, dt: float, params: dict) -> np.ndarray:
+    """``D`` (n, 6, 5m) through the matched filter: ``F[N[W i]]``, ``F[W D2 l]``,
+    ``F[N[W D1 l]]``, ``F[N[W sign]]``, ``-F[N[W]]`` (``N`` the second difference's response
+    that :func:`cdprid.signal.acceleration_filter` adds for the Euler recipe: the central
+    second difference ``D2`` already has it, so the acceleration column gets ``F`` alone, as
+    the platform's accelerations ``D2 F[p]``)."""
     W = np.asarray(wrench_matrices(ds.robot, motion.position, motion.B_R_P))
-    D = drive_columns(W, cur_i, l_dot, l_ddot, sign)
+    d1, d2 = _raw_rates(lengths, motion.segments, dt)
+    D = drive_columns(W, cur_i, d1, d2, sign)
     n, _, q = D.shape
     m = q // 5
-    filt = np.r_[0:m, 3 * m:5 * m]
+    filt = np.r_[0:m, 2 * m:5 * m]
     ch = D[:, :, filt].reshape(n, -1)
     D[:, :, filt] = np.asarray(wf(ch, np.ones(ch.shape[1]))).reshape(n, 6, -1)
+    acc = D[:, :, m:2 * m].reshape(n, -1)
+    D[:, :, m:2 * m] = zero_phase_filter(acc, dt, params["cutoff_hz"],
+                                         params.get("order", 2)).reshape(n, 6, m)
     return D
 
 
@@ -268,13 +314,17 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     if not np.array_equal(np.asarray(reg.t), motion.t[idx]):
         raise RuntimeError("the platform regression's samples differ from the kept samples")
     noise = _noise(ds, sig, ct, cur, motion.t, lengths, wf, differentiator, params)
-    sign, still = _friction_sign(l_dot, noise, params, sig.dt)
-    D = _drive_design(ds, motion, np.asarray(sig.tension), l_dot, l_ddot, sign, wf)[idx]
+    v_fast, s_v = (_fast_rate(lens[0], lens[1], motion.t) if lens is not None
+                   else (l_dot, noise["length_m"] * np.sqrt(noise["C"][1, 1])))
+    sign, still, noise["v_zone"] = _friction_sign(v_fast, s_v, params, sig.dt)
+    D = _drive_design(ds, motion, np.asarray(sig.tension), lengths, sign, wf, sig.dt,
+                      params)[idx]
     rates = (np.asarray(sig.tension)[idx], l_dot[idx], l_ddot[idx], sign[idx])
     use = ~still[idx]
-    notes.append(f"{100 * np.mean(~use):.1f} % of the samples dropped near a winch at rest "
-                 "(Coulomb friction undefined there: |l'| below "
-                 f"{1000 * noise['v_zone']:.2g} mm/s, and the matched filter's reach around)")
+    notes.append(f"{100 * np.mean(~use):.1f} % of the samples left out: a winch's velocity "
+                 "within 3 std of its noise from zero (the Coulomb friction's sign unknown), and "
+                 f"the matched filter's reach around a winch below {1000 * noise['v_zone']:.2g} "
+                 f"mm/s for more than {STILL_S:g} s (at rest: stiction)")
     idx, D, rates = idx[use], D[use], tuple(x[use] for x in rates)
     reg = _SubRegression(reg, np.flatnonzero(use))
     fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes)
