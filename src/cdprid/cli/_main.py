@@ -32,6 +32,7 @@ __all__ = ["main", "console_main", "UserError", "build_parser", "load_json_objec
 from cdprid.base import OutputError, UserError
 from cdprid.cli import _artifacts  # noqa: E402  (--mat, --report of identify)
 from cdprid.cli._signals import install_termination_handlers, restore_handlers  # noqa: E402
+from cdprid.cli._sources import add_source_options, run_source  # noqa: E402
 
 
 def _check_environment() -> None:
@@ -166,6 +167,8 @@ def _cmd_identify(args) -> int:
     from cdprid.identify import format_table, identify_dataset
     from cdprid.io import read_dataset
 
+    if getattr(args, "source", "tensions") != "tensions":  # issue 41: no load cells
+        return run_source(args)
     force = getattr(args, "force", False)
     from cdprid.io import dataset_inputs
 
@@ -320,6 +323,7 @@ def _add_identify(sub) -> None:
     _artifacts.add_identify_options(p)  # --mat, --report
     p.add_argument("--force", action="store_true",
                    help="overwrite existing --json / --mat / --report / --out-csv outputs")
+    add_source_options(p)
     p.set_defaults(func=_cmd_identify)
 
 

@@ -62,3 +62,6 @@ from cdprid.identify._currents import CurrentsReport as CurrentsReport
 from cdprid.identify._currents import identify_currents as identify_currents
 from cdprid.identify._scale import ScaleReference as ScaleReference
 from cdprid.identify._scale import choose_reference as choose_reference
+from cdprid.identify._cells import CellCalibration as CellCalibration
+from cdprid.identify._free_motion import FreeMotionReport as FreeMotionReport
+from cdprid.identify._free_motion import identify_free_motion as identify_free_motion

@@ -115,6 +115,15 @@ class CurrentsReport:
         p = len(PARAMETER_NAMES[self.model])
         return DriveParameters.from_vector(self.theta[p:])
 
+    def table(self) -> str:
+        """Plain-text table (platform then drive parameters)."""
+        from cdprid.identify._currents_json import result_table
+
+        return result_table(f"source: currents   model: {self.model}   samples: "
+                            f"{self.n_samples}   units: k N/A, J kg, fv N s/m, fc and c N",
+                            self.names, self.theta, self.std, self.reference, self.notes,
+                            self.warnings, self.crb_std)
+
     def as_json(self) -> dict:
         """JSON of ``identify --source currents`` (the keys of ``identify --json`` plus
         ``drives`` and ``scale_reference``)."""

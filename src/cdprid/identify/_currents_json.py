@@ -68,3 +68,33 @@ def currents_json(rep) -> dict:
         "warnings": list(rep.warnings),
         "notes": list(rep.notes),
     }
+
+
+def result_table(title: str, names, theta, std, reference, notes=(), warnings=(),
+                 crb_std=None) -> str:
+    """Plain-text table of a homogeneous identification (value, HAC std, %, 95 % interval).
+
+    Parameters
+    ----------
+    title : str
+        First line.
+    names : sequence of str
+    theta, std : (q,) arrays
+    reference : ScaleReference
+    notes, warnings : sequence of str
+    crb_std : (p,) array or None
+        The bound of the first p parameters.
+    """
+    lines = [title, f"scale reference: {reference.source}",
+             f"{'parameter':<10} {'estimate':>13} {'sigma':>11} {'%sigma':>8} "
+             f"{'95 % interval':>27} {'CRB':>10}   (sigma: HAC, the reference's uncertainty "
+             "included)"]
+    for k, (n, v, s) in enumerate(zip(names, theta, std, strict=True)):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = 100.0 * s / abs(v)
+        b = (f"{crb_std[k]:>10.4g}" if crb_std is not None and k < len(crb_std)
+             else f"{'-':>10}")
+        lines.append(f"{n:<10} {v:>13.6g} {s:>11.4g} {rel:>8.3g} "
+                     f"[{v - 1.96 * s:>12.5g}, {v + 1.96 * s:>12.5g}] {b}")
+    lines += [f"note: {x}" for x in notes] + [f"warning: {x}" for x in warnings]
+    return "\n".join(lines)

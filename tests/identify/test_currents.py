@@ -1,0 +1,78 @@
+"""identify --source currents (issue 41): the platform and every drive from poses, winch
+lengths and motor currents, against an independent simulator (tests/identify/winch_sim.py)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+import winch_sim  # noqa: E402
+
+from cdprid.base import InputError  # noqa: E402
+from cdprid.identify import identify_currents  # noqa: E402
+from cdprid.io import read_dataset  # noqa: E402
+from cdprid.model import SIX_SUSPENDED  # noqa: E402
+
+SIX = dict(SIX_SUSPENDED, home=[0.0, 0.0, 1.4])
+PLATFORM = (6.0, np.array([0.01, -0.005, -0.05]), np.diag([0.06, 0.07, 0.09]))
+
+
+def _truth(params, model_names):
+    m, s, IG = params
+    IP = IG + m * (s @ s * np.eye(3) - np.outer(s, s))
+    x = [m, *(m * s), IP[0, 0], IP[0, 1], IP[0, 2], IP[1, 1], IP[1, 2], IP[2, 2]]
+    return np.asarray(x[:len(model_names)])
+
+
+@pytest.fixture(scope="module")
+def exact(tmp_path_factory):
+    sim = winch_sim.simulate(SIX, PLATFORM, seed=5, duration=16.0, rate_drive=200.0,
+                             noise_pos=0, noise_rot=0, noise_A=0, noise_len=0)
+    path = winch_sim.write(tmp_path_factory.mktemp("cur") / "d", SIX, sim)
+    return read_dataset(path, require_tensions=False), sim
+
+
+def test_noise_free_recording_gives_the_truth(exact):
+    ds, sim = exact
+    rep = identify_currents(ds, reference="drive:1", bound=False, params={"cutoff_hz": 4.0})
+    p = len(rep.names) - 5 * 6
+    x = _truth(PLATFORM, rep.names[:p])
+    np.testing.assert_allclose(rep.theta[0], x[0], rtol=2e-4)
+    np.testing.assert_allclose(rep.theta[1:4], x[1:4], atol=2e-4 * x[0])
+    d = sim["truth"]  # (5, m): k, J, fv, fc, c
+    np.testing.assert_allclose(rep.theta[p:p + 6], d[0], rtol=1e-3)  # k
+    np.testing.assert_allclose(rep.theta[p + 6:p + 12], d[1], rtol=2e-2, atol=2e-2)  # J
+    np.testing.assert_allclose(rep.theta[p + 18:p + 24], d[3], rtol=1e-2, atol=2e-2)  # fc
+    assert rep.reference.kind == "drive" and rep.reference.std == 0.0
+    js = rep.as_json()
+    assert js["scale_reference"]["cable"] == 1 and len(js["drives"]) == 6
+    assert {"k", "J", "fv", "fc", "c", "current_offset_A"} <= set(js["drives"][0])
+
+
+def test_the_reference_uncertainty_reaches_every_std(exact):
+    ds, _ = exact
+    rep = identify_currents(ds, reference="mass:6.0:0.06", bound=False,
+                            params={"cutoff_hz": 4.0})
+    rel = rep.std / np.abs(rep.theta)
+    big = np.abs(rep.theta) > 1e-3 * np.max(np.abs(rep.theta))
+    # every parameter scales with the mass: at least its 1 % relative std
+    assert np.all(rel[big] >= 0.0099)
+    assert rep.std[0] == pytest.approx(0.06)
+
+
+def test_no_reference_is_refused(exact, tmp_path):
+    ds, sim = exact
+    sim2 = dict(sim, drive_fields=[{k: v for k, v in f.items()
+                                    if k != "torque_constant_tolerance"}
+                                   for f in sim["drive_fields"]])
+    ds2 = read_dataset(winch_sim.write(tmp_path / "n", SIX, sim2), require_tensions=False)
+    with pytest.raises(InputError, match="no scale reference"):
+        identify_currents(ds2)
+    with pytest.raises(InputError, match="drive:9"):
+        identify_currents(ds2, reference="drive:9")
+    with pytest.raises(InputError, match="euler-filtfilt"):
+        identify_currents(ds, reference="drive:1", differentiator="sihd2-cascade")
