@@ -166,10 +166,13 @@ def _length_rates(lengths, segments, dt: float, differentiator: str, params: dic
     return v, a
 
 
-def _filter_gain(t_src, t, wf, seed: int = 1) -> float:
-    """Variance of ``F[interp(x)]`` for unit white noise ``x`` on the stream's own clock,
-    interpolated onto the pose clock and filtered (10 % of each end dropped)."""
+def _filter_gain(t_src, t, wf, pre=None, seed: int = 1) -> float:
+    """Variance of ``F[interp(P[x])]`` for unit white noise ``x`` on the stream's own clock,
+    low-passed (``P``, cutoff ``pre`` or none), interpolated onto the pose clock and filtered
+    (10 % of each end dropped)."""
     x = np.random.default_rng(seed).normal(size=(len(t_src), 3))
+    if pre is not None:
+        x = zero_phase_filter(x, _period(t_src), pre)
     xi = np.column_stack([np.interp(t, t_src, x[:, c]) for c in range(3)])
     f = np.asarray(wf(xi, np.ones(3)))
     k = slice(len(t) // 10, len(t) - len(t) // 10)
@@ -201,10 +204,8 @@ def _friction_sign(v_fast, s_v, params: dict, dt: float):
     ``v_z = max(0.5 mm/s, 3 s_v)`` longer than ``STILL_S`` (at rest, or turning slowly) its
     friction is anywhere within +-f_c (stiction): the matched filter's reach around it (half
     a period of its cutoff) is left out too."""
-    from scipy.special import erf
-
     s_v = np.maximum(np.asarray(s_v, float), 1e-9)
-    sign = erf(v_fast / (np.sqrt(2.0) * s_v))
+    sign = _expected_sign(v_fast, s_v)
     zone = np.abs(v_fast) < 3.0 * s_v
     v_z = np.maximum(5e-4, 3.0 * s_v)
     w = int(np.ceil(0.5 / (float(params.get("cutoff_hz", 4.0)) * dt)))
@@ -303,10 +304,16 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     m = ds.robot.n_cables
     drives = read_drives(ds.path) if drives is None and ds.path is not None else drives
     ref = choose_reference(reference, ds.robot, drives)
-    (ct, cur), lens = _streams(ds, m)
+    (ct, cur_raw), lens = _streams(ds, m)
+    pre = _prefilter_cutoff(ct, ds.pose_t)
+    cur = cur_raw if pre is None else zero_phase_filter(cur_raw, _period(ct), pre)
     ds_i = dataclasses.replace(ds, tension_t=ct, tension=cur)
     sig = align(ds_i, t_start, t_end)
     notes = [n.replace("tension", "current") for n in sig.notes]
+    if pre is not None:
+        notes.append(f"currents low-passed at {pre:.3g} Hz on their own clock before the "
+                     "interpolation onto the pose clock (their noise averaged; the Coulomb "
+                     "column passes the same filter)")
     fix = cutoff_from_data(differentiator, params)
     params, w0 = resolve_params(ds_i, sig, differentiator, params, notes)
     model, _, warns = _choose_model(model, sig, ds.path, w0)
@@ -315,17 +322,47 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     notes.append(note.replace("W tau", "every drive column"))
     keep = _trimmed(motion.t, trim, ds.path)
     lengths, keep = _lengths_on_pose_clock(ds, motion, lens, keep, notes)
-    l_dot, l_ddot = _length_rates(lengths, sig.segments, sig.dt, differentiator, params)
     sig0 = dataclasses.replace(sig, tension=np.zeros_like(sig.tension))
     reg, wf, keep = _regression(ds, sig0, motion, model, differentiator, "matched", wf, keep,
                                 trim, int(chunk), notes, warns)
+    noise = _noise(ds, sig, ct, cur_raw, motion.t, lengths, wf, differentiator, params, pre)
+    idx, reg, D, rates = _design(ds, sig, motion, reg, keep, lengths, lens, ct, pre, wf,
+                                 noise, differentiator, params, notes)
+    fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes)
+    return _report(ds, model, ref, drives, fit, motion, idx, rates, noise, bound, fix,
+                   differentiator, params, notes, warns)
+
+
+def _period(t) -> float:
+    return float(np.median(np.diff(t)))
+
+
+def _prefilter_cutoff(t_src, pose_t) -> float | None:
+    """A stream sampled faster than the poses is low-passed at a quarter of the pose rate
+    before its interpolation (None: not faster)."""
+    dt, dtp = _period(t_src), _period(pose_t)
+    return 0.25 / dtp if dt < dtp / 1.5 else None
+
+
+def _design(ds, sig, motion, reg, keep, lengths, lens, ct, pre, wf, noise, differentiator,
+            params, notes):
+    """The kept samples, their regression, the drive design ``D`` and the rates
+    ``(i, l', l'', sign)``; samples whose friction sign is unknown left out (a note)."""
     idx = np.flatnonzero(keep)
     if not np.array_equal(np.asarray(reg.t), motion.t[idx]):
         raise RuntimeError("the platform regression's samples differ from the kept samples")
-    noise = _noise(ds, sig, ct, cur, motion.t, lengths, wf, differentiator, params)
-    v_fast, s_v = (_fast_rate(lens[0], lens[1], motion.t) if lens is not None
-                   else (l_dot, noise["length_m"] * np.sqrt(noise["C"][1, 1])))
+    l_dot, l_ddot = _length_rates(lengths, sig.segments, sig.dt, differentiator, params)
+    if lens is not None:
+        v_fast, s_v = _fast_rate(lens[0], lens[1], motion.t)
+        v_cur, _ = _fast_rate(lens[0], lens[1], ct)
+    else:
+        v_fast, s_v = l_dot, noise["length_m"] * np.sqrt(noise["C"][1, 1])
+        v_cur = np.column_stack([np.interp(ct, motion.t, v) for v in l_dot.T])
     sign, still, noise["v_zone"] = _friction_sign(v_fast, s_v, params, sig.dt)
+    sign_c = _expected_sign(v_cur, s_v)
+    if pre is not None:
+        sign_c = zero_phase_filter(sign_c, _period(ct), pre)
+    sign = np.column_stack([np.interp(motion.t, ct, v) for v in sign_c.T])
     D = _drive_design(ds, motion, np.asarray(sig.tension), lengths, sign, wf, sig.dt,
                       params)[idx]
     rates = (np.asarray(sig.tension)[idx], l_dot[idx], l_ddot[idx], sign[idx])
@@ -334,11 +371,16 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
                  "within 3 std of its noise from zero (the Coulomb friction's sign unknown), and "
                  f"the matched filter's reach around a winch below {1000 * noise['v_zone']:.2g} "
                  f"mm/s for more than {STILL_S:g} s (at rest: stiction)")
-    idx, D, rates = idx[use], D[use], tuple(x[use] for x in rates)
-    reg = _SubRegression(reg, np.flatnonzero(use))
-    fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes)
-    return _report(ds, model, ref, drives, fit, motion, idx, rates, noise, bound, fix,
-                   differentiator, params, notes, warns)
+    return (idx[use], _SubRegression(reg, np.flatnonzero(use)), D[use],
+            tuple(x[use] for x in rates))
+
+
+def _expected_sign(v, s_v):
+    """``E[sign(v_true)]`` for a velocity estimate ``v`` of noise std ``s_v``: ``erf(v /
+    (sqrt(2) s_v))`` (the sign itself when ``s_v`` is 0)."""
+    from scipy.special import erf
+
+    return erf(v / (np.sqrt(2.0) * np.maximum(np.asarray(s_v, float), 1e-9)))
 
 
 def _lengths_on_pose_clock(ds, motion, lens, keep, notes: list):
@@ -354,14 +396,14 @@ def _lengths_on_pose_clock(ds, motion, lens, keep, notes: list):
     return np.asarray(L), keep
 
 
-def _noise(ds, sig, ct, cur, t, lengths, wf, differentiator, params) -> dict:
+def _noise(ds, sig, ct, cur, t, lengths, wf, differentiator, params, pre=None) -> dict:
     """Noise levels: currents per sample of their own stream (A), encoder lengths on the pose
     clock (m), pose; the filter gains ``g_i`` (currents through interpolation and F) and ``C``
     (:func:`cdprid.core._eiv.noise_gains`)."""
     s_cur = estimate_noise(np.asarray(cur, float))
     _, _, s_pos, s_rot = noise_levels(dataclasses.replace(ds, tension_t=ct, tension=cur), sig)
     C = noise_gains(differentiator, params, sig.dt, wf)
-    return {"current_A": s_cur, "g_current": _filter_gain(ct, t, wf),
+    return {"current_A": s_cur, "g_current": _filter_gain(ct, t, wf, pre),
             "length_m": estimate_noise(np.asarray(lengths, float)), "position_m": s_pos,
             "rotation_rad": s_rot, "C": C}
 

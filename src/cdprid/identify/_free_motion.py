@@ -126,6 +126,20 @@ def free_directions(W, radius: float) -> np.ndarray:
     return U[:, :, W.shape[2]:]
 
 
+def projected_regressor(Z, W, radius: float) -> np.ndarray:
+    """``N^T S Z`` (n, 6 - m, p): the regressor on the free directions (:func:`free_directions`).
+
+    Parameters
+    ----------
+    Z : (n, 6, p) the Newton-Euler regressor (``W tau = Z x``)
+    W : (n, 6, m) wrench matrices
+    radius : float
+        Platform radius, m.
+    """
+    S = np.array([1.0] * 3 + [1.0 / radius] * 3)
+    return np.matmul(free_directions(W, radius).transpose(0, 2, 1), S[None, :, None] * Z)
+
+
 def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
                          params: dict | None = None, t_start: float | None = None,
                          t_end: float | None = None, trim: float = TRIM_S,
@@ -173,14 +187,12 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
     idx = np.flatnonzero(keep)
     rho = platform_radius(ds.robot)
     W = np.asarray(wrench_matrices(ds.robot, motion.position[idx], motion.B_R_P[idx]))
-    N = free_directions(W, rho)
-    S = np.array([1.0] * 3 + [1.0 / rho] * 3)
     ref_i = ref.index(len(PARAMETER_NAMES[model]))
     names = PARAMETER_NAMES[model]
     o = np.delete(np.arange(len(names)), ref_i)
 
     def rows(i0, i1):
-        Z = np.matmul(N[i0:i1].transpose(0, 2, 1), S[None, :, None] * reg.wrench_block(i0, i1)[0])
+        Z = projected_regressor(reg.wrench_block(i0, i1)[0], W[i0:i1], rho)
         return Z[:, :, o], -Z[:, :, ref_i]
 
     res = least_squares_blocks(rows, len(idx), tuple(names[k] for k in o), covariance="hac",

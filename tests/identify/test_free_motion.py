@@ -1,0 +1,112 @@
+"""identify --source free-motion (issue 41): the dynamics on the free directions of locked
+cables, homogeneous, the mass as reference."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+import winch_sim  # noqa: E402
+
+from cdprid.base import InputError  # noqa: E402
+from cdprid.identify._free_motion import free_directions, projected_regressor  # noqa: E402
+from cdprid.identify._scale import choose_reference, scaled_estimate  # noqa: E402
+from cdprid.model import FOUR_POINT, regressor_full, robot_from_dict  # noqa: E402
+
+A = np.array([[1.1, -1.2, 1.8], [1.1, 1.2, 1.8], [-1.1, 1.2, 1.8], [-1.1, -1.2, 1.8]])
+B = np.array([[0.08, -0.08, 0.27], [0.08, 0.08, 0.27], [-0.08, 0.08, 0.27],
+              [-0.08, -0.08, 0.27]])
+MASS, SG, IG = 12.0, np.array([0.004, -0.003, 0.17]), np.diag([0.18, 0.12, 0.19])
+
+
+def _consistent_samples(n=300, seed=0):
+    """Poses, rates and accelerations for which W tau = Z x with positive tensions: the
+    accelerations solved from random tensions through the independent Newton-Euler."""
+    rng = np.random.default_rng(seed)
+    p = rng.normal(0, 0.1, (n, 3)) + [0, 0, 0.6]
+    R = np.array([winch_sim._expm(v) for v in rng.normal(0, 0.1, (n, 3))])
+    om = rng.normal(0, 0.5, (n, 3))
+    W = winch_sim.wrench_matrix(A, B, p, R)
+    tau = rng.uniform(10, 60, (n, 4))
+    w = np.einsum("nam,nm->na", W, tau)
+    z = np.zeros((n, 3))
+    bias = winch_sim.wrench(MASS, SG, IG, p, z, R, om, z)
+    acc = np.empty((n, 6))
+    for k in range(n):  # the wrench is affine in (a, alpha): its 6 x 6 matrix column by column
+        M = np.empty((6, 6))
+        for j in range(6):
+            e = np.zeros(6)
+            e[j] = 1.0
+            M[:, j] = winch_sim.wrench(MASS, SG, IG, p[k:k + 1], e[None, :3], R[k:k + 1],
+                                       om[k:k + 1], e[None, 3:])[0] - bias[k]
+        acc[k] = np.linalg.solve(M, w[k] - bias[k])
+    return p, R, om, acc[:, :3], acc[:, 3:], W
+
+
+def test_free_directions_annihilate_the_cable_wrenches():
+    rng = np.random.default_rng(1)
+    W = rng.normal(size=(5, 6, 4))
+    N = free_directions(W, 0.3)
+    S = np.array([1.0] * 3 + [1 / 0.3] * 3)
+    np.testing.assert_allclose(np.einsum("nai,a,nam->nim", N, S, W), 0, atol=1e-12)
+    np.testing.assert_allclose(np.einsum("nai,naj->nij", N, N), np.broadcast_to(np.eye(2),
+                                                                               (5, 2, 2)),
+                               atol=1e-12)
+
+
+def test_projected_equations_give_the_truth_up_to_the_mass():
+    p, R, om, a, al, W = _consistent_samples()
+    import jax
+
+    Z = np.asarray(jax.vmap(regressor_full, in_axes=(0, 0, 0, 0, None))(
+        R, a, om, al, np.array([0.0, 0.0, -9.81])))
+    P = projected_regressor(Z, W, 0.3).reshape(-1, 10)
+    IP = IG + MASS * (SG @ SG * np.eye(3) - np.outer(SG, SG))
+    x = np.array([MASS, *(MASS * SG), IP[0, 0], IP[0, 1], IP[0, 2], IP[1, 1], IP[1, 2],
+                  IP[2, 2]])
+    assert np.max(np.abs(P @ x)) < 1e-9 * np.max(np.abs(P))  # independent Newton-Euler
+    phi = np.linalg.lstsq(P[:, 1:], -P[:, 0], rcond=None)[0]
+    robot = robot_from_dict(dict(FOUR_POINT, platform={"mass": MASS, "mass_uncertainty": 0.0}))
+    ref = choose_reference(None, robot, None, allow_drive=False)
+    theta, cov = scaled_estimate(phi, np.zeros((9, 9)), ref, 0)
+    np.testing.assert_allclose(theta, x, rtol=1e-7, atol=1e-9)
+
+
+def test_free_motion_needs_few_cables_and_a_mass():
+    from cdprid.identify import identify_free_motion
+    from cdprid.model import SIX_SUSPENDED
+
+    class Fake:
+        robot = robot_from_dict(SIX_SUSPENDED)
+
+    with pytest.raises(InputError, match="fewer than 6 cables"):
+        identify_free_motion(Fake())
+    Fake.robot = robot_from_dict({k: v for k, v in FOUR_POINT.items() if k != "platform"})
+    with pytest.raises(InputError, match="no scale reference"):
+        identify_free_motion(Fake())
+
+
+@pytest.mark.slow
+def test_uacdpr_free_motion_reports_zG_and_cells(tmp_path):
+    """The real UACDPR recording (../shared): z_G from the poses alone, the load cells'
+    gains and offsets with intervals. Measured, not asserted at the issue's 10 %: see
+    docs/drives.md (the estimate depends on the cutoff; 0.21-0.31 m against 0.173 m)."""
+    from conftest import shared_dataset
+
+    from cdprid.identify import identify_free_motion, import_calibrated_uacdpr
+    from cdprid.io import read_dataset
+
+    d = shared_dataset("uacdpr-freemotion02")
+    out = import_calibrated_uacdpr(d / "FreeMotion02.txt", d / "FreeMotion02_exp.mat",
+                                   d / "UACDPR_LAB3.mat", tmp_path / "u", nuisance=False)
+    rep = identify_free_motion(read_dataset(out), reference="mass:12.966:0.05",
+                               params={"cutoff_hz": 16.0})
+    zG = rep.theta[3] / rep.theta[0]
+    assert 0.1 < zG < 0.4 and rep.cells is not None
+    assert len(rep.as_json()["load_cells"]) == 4
+    print(os.linesep, f"z_G = {zG:.4f} m", rep.cells.table())
