@@ -76,3 +76,21 @@ def test_no_reference_is_refused(exact, tmp_path):
         identify_currents(ds2, reference="drive:9")
     with pytest.raises(InputError, match="euler-filtfilt"):
         identify_currents(ds, reference="drive:1", differentiator="sihd2-cascade")
+
+
+def test_load_cells_are_calibrated_against_the_drives(exact, tmp_path):
+    ds, sim = exact
+    rng = np.random.default_rng(7)
+    tau = sim["tension"].copy()
+    tau[:, 1] *= 1.1  # cell 2 reads 10 % high
+    tau[:, 3] += 3.0  # cell 4 has a 3 N offset
+    tau += 0.3 * rng.standard_normal(tau.shape)
+    path = winch_sim.write(tmp_path / "c", SIX, dict(sim, tension=tau), load_cells=True)
+    rep = identify_currents(read_dataset(path, require_tensions=False), reference="drive:1",
+                            bound=False, params={"cutoff_hz": 4.0})
+    c = rep.cells
+    np.testing.assert_allclose(c.gain, [1, 1.1, 1, 1, 1, 1], atol=5e-3)
+    np.testing.assert_allclose(c.offset, [0, 0, 0, 3, 0, 0], atol=0.3)
+    flagged = {w.split()[2] for w in c.warnings}
+    assert {"2", "4"} <= flagged and len(flagged) <= 3
+    assert rep.as_json()["load_cells"][1]["gain"]["disagrees"]

@@ -168,7 +168,7 @@ def _cmd_identify(args) -> int:
     from cdprid.io import read_dataset
 
     if getattr(args, "source", "tensions") != "tensions":  # issue 41: no load cells
-        return run_source(args)
+        return run_source(args, parse_params, write_json)
     force = getattr(args, "force", False)
     from cdprid.io import dataset_inputs
 

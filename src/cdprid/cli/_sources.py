@@ -22,12 +22,12 @@ def add_source_options(p) -> None:
                    "drive_reference = true, else the stated reference of least relative std")
 
 
-def run_source(args) -> int:
+def run_source(args, parse_params, write_json) -> int:
     """Run ``identify --source currents | free-motion``: output checks before any work, the
-    identification, the table on stdout, warnings on stderr, ``--json``."""
+    identification, the table on stdout, warnings on stderr, ``--json`` (written by
+    ``write_json``; ``parse_params`` reads ``--params``: both from :mod:`cdprid.cli._main`)."""
     from cdprid.base import UserError, check_output
     from cdprid.cli._echo import echo_warnings
-    from cdprid.cli._main import parse_params, write_json
     from cdprid.io import dataset_inputs, read_dataset
 
     force = getattr(args, "force", False)

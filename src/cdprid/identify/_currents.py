@@ -45,6 +45,8 @@ from cdprid.core import crb as crb_bound
 from cdprid.identify._batch import _choose_model, _regression, _trimmed, _wrench_filter
 from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.core import noise_gains, noise_levels, whitening
+from cdprid.identify._cells import CellCalibration
+from cdprid.identify._drive_cells import cells_against_drives
 from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate
 from cdprid.io import align, read_drives, read_stream
 from cdprid.model import PARAMETER_NAMES, cable_lengths
@@ -103,6 +105,8 @@ class CurrentsReport:
     params: dict
     notes: tuple = ()
     warnings: tuple = ()
+    #: the load cells against the drives (with tensions.csv), else None
+    cells: CellCalibration | None = None
 
     @property
     def std(self) -> np.ndarray:
@@ -122,7 +126,8 @@ class CurrentsReport:
         return result_table(f"source: currents   model: {self.model}   samples: "
                             f"{self.n_samples}   units: k N/A, J kg, fv N s/m, fc and c N",
                             self.names, self.theta, self.std, self.reference, self.notes,
-                            self.warnings, self.crb_std)
+                            self.warnings, self.crb_std) + (
+            "" if self.cells is None else "\n" + self.cells.table())
 
     def as_json(self) -> dict:
         """JSON of ``identify --source currents`` (the keys of ``identify --json`` plus
@@ -329,8 +334,14 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     idx, reg, D, rates = _design(ds, sig, motion, reg, keep, lengths, lens, ct, pre, wf,
                                  noise, differentiator, params, notes)
     fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes)
-    return _report(ds, model, ref, drives, fit, motion, idx, rates, noise, bound, fix,
-                   differentiator, params, notes, warns)
+    cells = cells_against_drives(ds, model, motion, idx, np.asarray(sig.tension), lengths,
+                                 noise.pop("sign"), wf, sig.dt, params, fit["theta"],
+                                 fit["cov"], int(chunk), notes)
+    rep = _report(ds, model, ref, drives, fit, motion, idx, rates, noise, bound, fix,
+                  differentiator, params, notes, warns)
+    if cells is None:
+        return rep
+    return dataclasses.replace(rep, cells=cells, warnings=rep.warnings + cells.warnings)
 
 
 def _period(t) -> float:
@@ -363,6 +374,7 @@ def _design(ds, sig, motion, reg, keep, lengths, lens, ct, pre, wf, noise, diffe
     if pre is not None:
         sign_c = zero_phase_filter(sign_c, _period(ct), pre)
     sign = np.column_stack([np.interp(motion.t, ct, v) for v in sign_c.T])
+    noise["sign"] = sign
     D = _drive_design(ds, motion, np.asarray(sig.tension), lengths, sign, wf, sig.dt,
                       params)[idx]
     rates = (np.asarray(sig.tension)[idx], l_dot[idx], l_ddot[idx], sign[idx])
@@ -439,9 +451,10 @@ def _fit(ds, model, motion, idx, reg, D, ref, rates, noise, chunk, notes):
                                chunk=chunk)
     theta0, _ = scaled_estimate(ols.x, ols.cov, ref, r)
     d0 = DriveParameters.from_vector(theta0[p:])
-    U = whitening(ds.robot, model, _sub_motion(motion, idx), drive_tension(d0, *rates),
-                  theta0[:p], _tension_noise(d0, noise), max(noise["position_m"], 1e-12),
-                  noise["rotation_rad"], noise["C"], chunk=chunk)
+    sub, tau0 = _padded(_sub_motion(motion, idx), drive_tension(d0, *rates))
+    U = whitening(ds.robot, model, sub, tau0, theta0[:p], _tension_noise(d0, noise),
+                  max(noise["position_m"], 1e-12), noise["rotation_rad"], noise["C"],
+                  chunk=chunk)[:n]
     gls = least_squares_blocks(lambda a, b: rows(a, b, U), n, tuple(names[k] for k in o),
                                covariance="hac", chunk=chunk)
     N, Q = _normal_and_noise(full, U, n, m, p, noise, chunk)
@@ -455,6 +468,19 @@ def _fit(ds, model, motion, idx, reg, D, ref, rates, noise, chunk, notes):
                             for i0 in range(0, n, chunk)])
     return {"theta": theta, "cov": cov, "cov_iid": cov_iid, "gls": gls, "resid": resid,
             "names": names, "p": p}
+
+
+def _padded(sub, tau, bucket: int = 2048):
+    """The samples repeated at the end up to a multiple of ``bucket`` (the whitening's
+    compiled shapes then repeat across recordings; its extra rows are dropped)."""
+    n = len(tau)
+    k = (-n) % bucket
+    if k == 0:
+        return sub, tau
+    pad = np.r_[np.arange(n), np.full(k, n - 1)]
+    from types import SimpleNamespace
+
+    return SimpleNamespace(**{a: v[pad] for a, v in vars(sub).items()}), tau[pad]
 
 
 def _sub_motion(motion, idx):

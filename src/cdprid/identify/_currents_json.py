@@ -65,6 +65,7 @@ def currents_json(rep) -> dict:
         "efficiency": {k: v["efficiency"] for k, v in params.items()},
         "drives": drives,
         "scale_reference": rep.reference.as_json(),
+        "load_cells": None if rep.cells is None else rep.cells.as_json(),
         "warnings": list(rep.warnings),
         "notes": list(rep.notes),
     }

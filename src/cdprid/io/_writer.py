@@ -99,7 +99,6 @@ def write_dataset(
     import tomli_w
 
     from cdprid.base import atomic_dir
-    from cdprid.model import robot_to_dict
 
     root = Path(path)
     if root.exists() and not root.is_dir():
@@ -112,11 +111,7 @@ def write_dataset(
         )
     with atomic_dir(root, force=True, owned=DATASET_FILES) as tmp:
         with open(tmp / "robot.toml", "wb") as fh:
-            d = robot_to_dict(robot)
-            for c, extra_fields in zip(d["cable"], drives or [{}] * len(d["cable"]),
-                                       strict=True):
-                c.update(extra_fields)
-            fh.write(robot_toml(d).encode("utf-8"))
+            fh.write(_robot_text(robot, drives).encode("utf-8"))
         pose_cols = ["t", "x", "y", "z"]
         pose_vals = [np.asarray(pose_t)[:, None], np.asarray(position)]
         if quaternion is not None:
@@ -134,6 +129,16 @@ def write_dataset(
             _write_csv(tmp / f"{name}.csv", list(cols), vals)
         tmp.chmod(0o777 & ~_umask())
     return root
+
+
+def _robot_text(robot, drives) -> str:
+    """robot.toml text, each cable's drive fields (format 1.2) added when given."""
+    from cdprid.model import robot_to_dict
+
+    d = robot_to_dict(robot)
+    for c, extra_fields in zip(d["cable"], drives or [{}] * len(d["cable"]), strict=True):
+        c.update(extra_fields)
+    return robot_toml(d)
 
 
 def _umask() -> int:
