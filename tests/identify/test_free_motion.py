@@ -96,10 +96,9 @@ def test_uacdpr_free_motion_reports_zG_and_cells(tmp_path):
     """The real UACDPR recording (../shared): z_G from the poses alone, the load cells'
     gains and offsets with intervals. Measured, not asserted at the issue's 10 %: see
     docs/drives.md (the estimate depends on the cutoff; 0.21-0.31 m against 0.173 m)."""
-    from conftest import shared_dataset
-
     from cdprid.identify import identify_free_motion, import_calibrated_uacdpr
     from cdprid.io import read_dataset
+    from conftest import shared_dataset
 
     d = shared_dataset("uacdpr-freemotion02")
     out = import_calibrated_uacdpr(d / "FreeMotion02.txt", d / "FreeMotion02_exp.mat",

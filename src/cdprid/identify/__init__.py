@@ -27,6 +27,11 @@ from cdprid.identify._calibration import calibration_data as calibration_data
 from cdprid.identify._calibration import import_calibrated_uacdpr as import_calibrated_uacdpr
 from cdprid.identify._calibration import platform_pose as platform_pose
 from cdprid.identify._calibration import write_calibrated_dataset as write_calibrated_dataset
+from cdprid.identify._cells import CellCalibration as CellCalibration
+from cdprid.identify._currents import CurrentsReport as CurrentsReport
+from cdprid.identify._currents import identify_currents as identify_currents
+from cdprid.identify._free_motion import FreeMotionReport as FreeMotionReport
+from cdprid.identify._free_motion import identify_free_motion as identify_free_motion
 from cdprid.identify._guards import check_geometry as check_geometry
 from cdprid.identify._guards import input_warnings as input_warnings
 from cdprid.identify._guards import refusals as refusals
@@ -58,10 +63,5 @@ from cdprid.identify._real import rest_windows as rest_windows
 from cdprid.identify._real import taut_mask as taut_mask
 from cdprid.identify._real import weight_at_rest as weight_at_rest
 from cdprid.identify._rls import recursive_least_squares as recursive_least_squares
-from cdprid.identify._currents import CurrentsReport as CurrentsReport
-from cdprid.identify._currents import identify_currents as identify_currents
 from cdprid.identify._scale import ScaleReference as ScaleReference
 from cdprid.identify._scale import choose_reference as choose_reference
-from cdprid.identify._cells import CellCalibration as CellCalibration
-from cdprid.identify._free_motion import FreeMotionReport as FreeMotionReport
-from cdprid.identify._free_motion import identify_free_motion as identify_free_motion

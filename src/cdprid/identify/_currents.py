@@ -32,19 +32,20 @@ from cdprid.base import TRIM_S, InputError
 from cdprid.core import (
     CHUNK,
     DriveParameters,
-    LSResult,
     drive_columns,
     drive_names,
     drive_tension,
     estimate_motion,
     estimate_noise,
     least_squares_blocks,
+    noise_gains,
+    noise_levels,
+    whitening,
     wrench_matrices,
 )
 from cdprid.core import crb as crb_bound
-from cdprid.identify._batch import _choose_model, _regression, _trimmed, _wrench_filter
 from cdprid.identify._auto import cutoff_from_data, resolve_params
-from cdprid.core import noise_gains, noise_levels, whitening
+from cdprid.identify._batch import _choose_model, _regression, _trimmed, _wrench_filter
 from cdprid.identify._cells import CellCalibration
 from cdprid.identify._drive_cells import cells_against_drives
 from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate

@@ -22,12 +22,17 @@ import dataclasses
 import numpy as np
 
 from cdprid.base import TRIM_S, InputError
-from cdprid.core import CHUNK, estimate_motion, least_squares_blocks, wrench_matrices
+from cdprid.core import (
+    CHUNK,
+    estimate_motion,
+    least_squares_blocks,
+    platform_radius,
+    wrench_matrices,
+)
 from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._batch import _choose_model, _regression, _trimmed, _wrench_filter
 from cdprid.identify._cells import CellCalibration, calibrate_cells
 from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate
-from cdprid.core import platform_radius
 from cdprid.io import align
 from cdprid.model import PARAMETER_NAMES
 
