@@ -148,7 +148,7 @@ def projected_regressor(Z, W, radius: float) -> np.ndarray:
 def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
                          params: dict | None = None, t_start: float | None = None,
                          t_end: float | None = None, trim: float = TRIM_S,
-                         chunk: int = CHUNK) -> FreeMotionReport:
+                         chunk: int = CHUNK, check_cutoff: bool = True) -> FreeMotionReport:
     """Identify the platform from its free motion with locked winches (poses alone).
 
     Parameters
@@ -166,6 +166,11 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
         Seconds dropped at each end after differentiation.
     chunk : int
         Samples per block.
+    check_cutoff : bool
+        Fit again at twice the cutoff and warn when an estimate moves by more than 3 combined
+        std: the projection is exact only for the unfiltered equations, and a real recording's
+        unmodelled forces (a push, a geometry error leaking the weight into the free
+        directions) depend on the filter.
 
     Returns
     -------
@@ -212,6 +217,25 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
     if ds.tension is not None:
         cells = calibrate_cells(reg, W, sig, wf, idx, theta, cov, int(chunk), rho)
         warns += list(cells.warnings)
-    return FreeMotionReport(model, tuple(names), theta, cov, cov_iid, ref, len(idx),
-                            float(ref.value * res.sigma_rho), float(res.hac_bandwidth), cells,
-                            diff, params, tuple(notes), tuple(warns))
+    rep = FreeMotionReport(model, tuple(names), theta, cov, cov_iid, ref, len(idx),
+                           float(ref.value * res.sigma_rho), float(res.hac_bandwidth), cells,
+                           diff, params, tuple(notes), tuple(warns))
+    if not check_cutoff:
+        return rep
+    c2 = min(2.0 * float(params["cutoff_hz"]), 0.4 / sig.dt)
+    other = identify_free_motion(ds, reference, model, dict(params, cutoff_hz=c2), t_start,
+                                 t_end, trim, chunk, check_cutoff=False)
+    return dataclasses.replace(rep, warnings=rep.warnings + tuple(_cutoff_warning(rep, other,
+                                                                                 c2)))
+
+
+def _cutoff_warning(rep: FreeMotionReport, other: FreeMotionReport, c2: float) -> list:
+    """One sentence when the estimates at twice the cutoff differ by more than 3 combined std."""
+    z = np.abs(other.theta - rep.theta) / np.sqrt(rep.std ** 2 + other.std ** 2 + 1e-300)
+    k = int(np.argmax(z))
+    if z[k] <= 3.0:
+        return []
+    return [f"the estimate depends on the filter: at a cutoff of {c2:.3g} Hz {rep.names[k]} is "
+            f"{other.theta[k]:.4g} instead of {rep.theta[k]:.4g} ({z[k]:.1f} combined std): "
+            "forces the free-motion model lacks (pushes, geometry errors leaking the weight into "
+            "the free directions) bias it; check the geometry and use a push-free release."]
