@@ -64,3 +64,11 @@ def test_malformed_currents_are_refused_with_the_column(tmp_path):
         f"{k * 0.01},1,1" for k in range(60)))
     with pytest.raises(DatasetError, match="lacks the column 'i_3'"):
         read_stream(path, "currents", "i", 6)
+
+
+def test_a_near_miss_drive_field_is_refused():
+    from cdprid.model import RobotFileError
+
+    bad = dict(SIX_SUSPENDED, cable=[dict(c, drum_radus=0.05) for c in SIX_SUSPENDED["cable"]])
+    with pytest.raises(RobotFileError, match="did you mean 'drum_radius'"):
+        robot_from_dict(bad)
