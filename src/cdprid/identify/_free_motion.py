@@ -167,10 +167,7 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
     chunk : int
         Samples per block.
     check_cutoff : bool
-        Fit again at twice the cutoff and warn when an estimate moves by more than 3 combined
-        std: the projection is exact only for the unfiltered equations, and a real recording's
-        unmodelled forces (a push, a geometry error leaking the weight into the free
-        directions) depend on the filter.
+        Fit again at twice the cutoff; warn when an estimate moves by > 3 combined std.
 
     Returns
     -------
