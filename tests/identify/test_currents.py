@@ -120,3 +120,25 @@ def test_monte_carlo_few_seeds(robot, tmp_path):
         assert abs(rep.theta[0] / x[0] - 1) < 0.04
     assert np.sqrt(np.mean(np.square(zs))) < 1.6
     assert np.mean(np.abs(dz) < 1.96) > 0.85
+
+
+def test_payload_pair_fixes_the_scale(exact, tmp_path):
+    """Same drives and path, 1.5 kg added: the mass difference is the reference."""
+    from cdprid.identify._payload import identify_currents_payload, parse_payload
+
+    ds, sim = exact
+    m, s, IG = PLATFORM
+    sim_b = winch_sim.simulate(SIX, (m + 1.5, s, IG), seed=5, duration=16.0, rate_drive=200.0,
+                               noise_pos=0, noise_rot=0, noise_A=0, noise_len=0)
+    ds_b = read_dataset(winch_sim.write(tmp_path / "b", SIX, sim_b), require_tensions=False)
+    rep = identify_currents_payload(ds, ds_b, 1.5, 0.015, bound=False,
+                                    params={"cutoff_hz": 4.0})
+    p = len(rep.names) - 30
+    np.testing.assert_allclose(rep.theta[0], m, rtol=1e-3)
+    np.testing.assert_allclose(rep.theta[p:p + 6], sim["truth"][0], rtol=2e-3)
+    # the payload's 1 % std reaches every parameter
+    assert rep.std[0] / rep.theta[0] == pytest.approx(0.015 / 1.5, rel=0.05)
+    assert rep.as_json()["scale_reference"]["kind"] == "payload"
+    assert parse_payload("payload:/x:2:0.1") == ("/x", 2.0, 0.1)
+    with pytest.raises(InputError, match="payload:DIR:KG"):
+        parse_payload("payload:/x")

@@ -18,7 +18,8 @@ def add_source_options(p) -> None:
     p.add_argument("--reference", default=None,
                    help="--source currents / free-motion: the scale reference, drive:K (drive "
                    "K's datasheet constant and its tolerance), mass (robot.toml [platform] mass "
-                   "and mass_uncertainty) or mass:KG[:STD_KG]; default: a drive marked "
+                   "and mass_uncertainty), mass:KG[:STD_KG] or (currents) payload:DIR:KG[:STD_KG] (a second "
+                   "recording DIR with KG added to the platform); default: a drive marked "
                    "drive_reference = true, else the stated reference of least relative std")
 
 
@@ -49,7 +50,14 @@ def run_source(args, parse_params, write_json) -> int:
     if args.differentiator not in (None, "euler-filtfilt"):
         raise UserError(f"--source {args.source} uses the differentiator euler-filtfilt, not "
                         f"{args.differentiator}.")
-    if args.source == "currents":
+    if args.source == "currents" and (args.reference or "").startswith("payload:"):
+        from cdprid.identify import identify_currents_payload, parse_payload
+
+        other, kg, std = parse_payload(args.reference)
+        kw.pop("reference")
+        rep = identify_currents_payload(ds, read_dataset(other, require_tensions=False), kg,
+                                        std, **kw)
+    elif args.source == "currents":
         from cdprid.identify import identify_currents
 
         rep = identify_currents(ds, **kw)

@@ -52,6 +52,8 @@ from cdprid.identify._online_types import OnlineResult as OnlineResult
 from cdprid.identify._online_types import OnlineSample as OnlineSample
 from cdprid.identify._online_types import OnlineState as OnlineState
 from cdprid.identify._online_types import RLSResult as RLSResult
+from cdprid.identify._payload import identify_currents_payload as identify_currents_payload
+from cdprid.identify._payload import parse_payload as parse_payload
 from cdprid.identify._real import RealData as RealData
 from cdprid.identify._real import RealResult as RealResult
 from cdprid.identify._real import compare_extensions as compare_extensions

@@ -31,7 +31,7 @@ class ScaleReference:
 
     Attributes
     ----------
-    kind : {"drive", "mass"}
+    kind : {"drive", "mass", "payload"}
     value : float
         The reference's value (N/A for a drive's current-to-force constant, kg for a mass).
     std : float
@@ -50,7 +50,7 @@ class ScaleReference:
 
     def index(self, p: int) -> int:
         """Position of the reference in ``theta = (x (p), k_1..k_m, ...)``."""
-        return p + self.cable - 1 if self.kind == "drive" else 0
+        return p + self.cable - 1 if self.kind == "drive" else 0  # payload: via the mass
 
     def as_json(self) -> dict:
         """JSON ``scale_reference``."""
