@@ -51,6 +51,7 @@ def test_noise_free_recording_gives_the_truth(exact):
     js = rep.as_json()
     assert js["scale_reference"]["cable"] == 1 and len(js["drives"]) == 6
     assert {"k", "J", "fv", "fc", "c", "current_offset_A"} <= set(js["drives"][0])
+    assert {"cond", "cond_scaled", "rotation_deg", "crb", "sigma_rho"} <= set(js)
 
 
 def test_the_reference_uncertainty_reaches_every_std(exact):

@@ -108,6 +108,11 @@ class CurrentsReport:
     warnings: tuple = ()
     #: the load cells against the drives (with tensions.csv), else None
     cells: CellCalibration | None = None
+    #: condition numbers of the whitened joint regressor (reference column excluded), raw and
+    #: with unit-norm columns
+    cond: float = float("nan")
+    cond_scaled: float = float("nan")
+    rotation_deg: float = 0.0
 
     @property
     def std(self) -> np.ndarray:
@@ -322,7 +327,7 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
                      "column passes the same filter)")
     fix = cutoff_from_data(differentiator, params)
     params, w0 = resolve_params(ds_i, sig, differentiator, params, notes)
-    model, _, warns = _choose_model(model, sig, ds.path, w0)
+    model, rot, warns = _choose_model(model, sig, ds.path, w0)
     motion = estimate_motion(sig, differentiator, params, angular=(model == "full"))
     wf, note, _ = _wrench_filter(ds.robot, differentiator, params, sig.dt, "matched")
     notes.append(note.replace("W tau", "every drive column"))
@@ -340,6 +345,8 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
                                  fit["cov"], int(chunk), notes)
     rep = _report(ds, model, ref, drives, fit, motion, idx, rates, noise, bound, fix,
                   differentiator, params, notes, warns)
+    rep = dataclasses.replace(rep, cond=float(fit["gls"].cond),
+                              cond_scaled=float(fit["gls"].cond_scaled), rotation_deg=float(rot))
     if cells is None:
         return rep
     return dataclasses.replace(rep, cells=cells, warnings=rep.warnings + cells.warnings)

@@ -54,6 +54,8 @@ def currents_json(rep) -> dict:
         "model": rep.model,
         "parameters": params,
         "sigma_rho": rep.sigma_rho,
+        "cond": rep.cond,
+        "cond_scaled": rep.cond_scaled,
         "n_samples": rep.n_samples,
         "differentiator": rep.differentiator,
         "differentiator_params": rep.params,
@@ -61,8 +63,12 @@ def currents_json(rep) -> dict:
         "covariance": "hac",
         "hac_bandwidth_samples": rep.hac_bandwidth,
         "wrench_filter": "matched",
+        "rotation_deg": rep.rotation_deg,
         "crb_std": {k: v["crb_std"] for k, v in params.items()},
         "efficiency": {k: v["efficiency"] for k, v in params.items()},
+        "crb": None if rep.crb_std is None else {
+            "note": "the platform parameters' bound with the drive parameters known (a lower "
+                    "bound of this problem's)"},
         "drives": drives,
         "scale_reference": rep.reference.as_json(),
         "load_cells": None if rep.cells is None else rep.cells.as_json(),
