@@ -1,6 +1,6 @@
 """Monte Carlo of ``identify --source currents`` on an independent simulator (issue 41).
 
-6- and 8-cable robots, currents and encoder lengths at 500 Hz (0.03 A, 0.05 mm), motion capture
+6- and 8-cable robots (the six-cable suspended one and the CRAFT-like eight), currents and encoder lengths at 500 Hz (0.03 A, 0.05 mm), motion capture
 at 100 Hz (0.2 mm, 0.3 mrad), no load cells; drive 1's torque constant exact
 (``--reference drive:1``), the others' datasheet values up to 10 % off; reflected friction
 2-10 N (viscous N s/m and Coulomb N), inertia 0.5-5 kg. The simulator is
@@ -26,14 +26,18 @@ jax.config.update("jax_enable_x64", True)
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "identify"))
+sys.path.insert(0, str(ROOT / "tests"))
 import winch_sim  # noqa: E402
+from conftest import ROBOT_CRAFT  # noqa: E402  (the 8-cable CRAFT-like geometry, no pulleys)
 
 from cdprid.identify import identify_currents  # noqa: E402
 from cdprid.io import read_dataset  # noqa: E402
-from cdprid.model import EIGHT_REDUNDANT, SIX_SUSPENDED  # noqa: E402
+from cdprid.model import SIX_SUSPENDED  # noqa: E402
 
+# EIGHT_REDUNDANT is singular at its centre (smallest singular value of W 1e-3): the
+# CRAFT-like suspended geometry instead (tensions 8-40 N on every seed)
 ROBOTS = {"six-suspended": (dict(SIX_SUSPENDED, home=[0.0, 0.0, 1.4]), 40.0),
-          "eight-redundant": (dict(EIGHT_REDUNDANT, home=[0.0, 0.0, 1.4]), 60.0)}
+          "eight-craft": (dict(ROBOT_CRAFT, home=[0.0, 0.0, 1.3]), 30.0)}
 PLATFORM = (6.0, np.array([0.01, -0.005, -0.05]), np.diag([0.06, 0.07, 0.09]))
 KINDS = ("k", "J", "fv", "fc", "c")
 
@@ -60,41 +64,79 @@ def one(robot, tau_ref, seed, duration, tmp):
     return z, est[0] / x[0] - 1, ms, dz.reshape(5, m), rep
 
 
-def run(seeds: int, duration: float) -> list:
-    """The table lines of every robot."""
-    lines = []
+def row(name, Z, M, S, D, names, seconds, failed) -> str:
+    """One table row from the seeds so far."""
+    Z, M, S, D = map(np.array, (Z, M, S, D))
+    rmsz = np.sqrt(np.mean(Z ** 2, axis=0))
+    cover = np.mean(np.abs(D) <= 1.96, axis=0)  # (5, m); the reference k_1 (std 0) counts
+    cover[0, 0] = 1.0
+    w = int(np.argmin(cover))
+    return (f"| {name} | {len(M)} (+{failed} infeasible) | {100 * np.max(np.abs(M)):.2f} | "
+            f"{100 * np.median(np.abs(M)):.2f} | {100 * np.max(S):.1f} | "
+            f"{100 * np.median(S):.1f} | {np.max(rmsz):.2f} ({names[int(np.argmax(rmsz))]}) | "
+            f"{' '.join(f'{n} {r:.2f}' for n, r in zip(names, rmsz, strict=True))} | "
+            f"{100 * cover.min():.0f} % ({KINDS[w // cover.shape[1]]}_{w % cover.shape[1] + 1});"
+            f" mean {100 * cover.mean():.0f} % | {seconds:.0f} s |")
+
+
+def run(name: str, seeds: int, duration: float, write) -> str:
+    """The table row of one robot; ``write(row)`` after every seed (partial results kept)."""
+    robot, tau_ref = ROBOTS[name]
+    t0 = time.perf_counter()
+    Z, M, S, D, failed = [], [], [], [], 0
+    line = ""
     with tempfile.TemporaryDirectory() as tmp:
-        for name, (robot, tau_ref) in ROBOTS.items():
-            t0 = time.perf_counter()
-            Z, M, S, D = [], [], [], []
-            for seed in range(seeds):
+        for seed in range(seeds):
+            try:
                 z, mr, ms, dz, rep = one(robot, tau_ref, seed, duration, Path(tmp))
-                Z.append(z), M.append(mr), S.append(ms), D.append(dz)
-                print(f"{name} seed {seed}: mass {100 * mr:+.2f} %, m s_G {100 * ms:.1f} %, "
-                      f"RMS z {np.sqrt(np.mean(z ** 2)):.2f}", flush=True)
-            Z, M, S, D = map(np.array, (Z, M, S, D))
-            rmsz = np.sqrt(np.mean(Z ** 2, axis=0))
-            cover = np.mean(np.abs(D) <= 1.96, axis=0)  # (5, m), the reference k_1 counts
-            cover[0, 0] = 1.0
-            names = rep.names[:len(rmsz)]
-            lines.append(
-                f"| {name} | {seeds} | {100 * np.max(np.abs(M)):.2f} | "
-                f"{100 * np.median(np.abs(M)):.2f} | {100 * np.max(S):.1f} | "
-                f"{100 * np.median(S):.1f} | {np.max(rmsz):.2f} ({names[int(np.argmax(rmsz))]}) |"
-                f" {' '.join(f'{n} {r:.2f}' for n, r in zip(names, rmsz, strict=True))} | "
-                f"{100 * cover.min():.0f} % ({KINDS[int(np.argmin(cover) // cover.shape[1])]}"
-                f"_{int(np.argmin(cover) % cover.shape[1]) + 1}) | "
-                f"{time.perf_counter() - t0:.0f} s |")
-    return lines
+            except ValueError as e:  # the independent simulator's slack-cable check
+                failed += 1
+                print(f"{name} seed {seed}: {e}", flush=True)
+                continue
+            Z.append(z), M.append(mr), S.append(ms), D.append(dz)
+            print(f"{name} seed {seed}: mass {100 * mr:+.2f} %, m s_G {100 * ms:.1f} %, "
+                  f"RMS z {np.sqrt(np.mean(z ** 2)):.2f}", flush=True)
+            line = row(name, Z, M, S, D, rep.names[:len(z)], time.perf_counter() - t0, failed)
+            write(line)
+    return line
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument("--duration", type=float, default=30.0)
-    ap.add_argument("--out", default=str(ROOT / "results" / "currents.md"))
+    ap.add_argument("--robot", choices=sorted(ROBOTS), action="append",
+                    help="robots to run (default: all)")
+    ap.add_argument("--out", default=None,
+                    help="default results/currents.md, results/currents-ROBOT.md with one --robot")
+    ap.add_argument("--merge", action="store_true",
+                    help="write results/currents.md from the results/currents-ROBOT.md tables")
     args = ap.parse_args(argv)
-    rows = run(args.seeds, args.duration)
+    if args.merge:
+        found = [line for name in ROBOTS
+                 for f in [ROOT / "results" / f"currents-{name}.md"] if f.exists()
+                 for line in f.read_text().splitlines() if line.startswith(f"| {name} ")]
+        (ROOT / "results" / "currents.md").write_text(_text(args, found))
+        print(_text(args, found))
+        return 0
+    if args.out is None:
+        one_robot = args.robot is not None and len(args.robot) == 1
+        args.out = str(ROOT / "results" / (f"currents-{args.robot[0]}.md" if one_robot
+                                           else "currents.md"))
+    rows = {}
+
+    def write(name, line):
+        rows[name] = line
+        Path(args.out).write_text(_text(args, list(rows.values())))
+
+    for name in args.robot or list(ROBOTS):
+        run(name, args.seeds, args.duration, lambda line, name=name: write(name, line))
+    print(_text(args, list(rows.values())))
+    return 0
+
+
+def _text(args, rows) -> str:
+    """results/currents.md."""
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                             capture_output=True, text=True).stdout.strip()
     text = "\n".join([
@@ -108,9 +150,7 @@ def main(argv=None) -> int:
         "median m s_G error % | worst HAC RMS z | RMS z per parameter | worst drive "
         "coverage | time |",
         "|---|---:|---:|---:|---:|---:|---:|---|---:|---:|", *rows, ""])
-    Path(args.out).write_text(text)
-    print(text)
-    return 0
+    return text
 
 
 if __name__ == "__main__":

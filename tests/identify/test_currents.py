@@ -103,10 +103,10 @@ def test_monte_carlo_few_seeds(robot, tmp_path):
     """A few noisy recordings of the independent simulator (500 Hz currents 0.03 A, 0.05 mm
     encoders, 100 Hz poses 0.2 mm / 0.3 mrad, drive 1 exact, the others' datasheets 10 % off):
     the HAC std covers the error (benchmarks/currents.py runs 20 seeds)."""
-    from cdprid.model import EIGHT_REDUNDANT
+    from conftest import ROBOT_CRAFT
 
-    rd, tau_ref = (SIX, 40.0) if robot == "six" else (dict(EIGHT_REDUNDANT, home=[0, 0, 1.4]),
-                                                      60.0)
+    rd, tau_ref = (SIX, 40.0) if robot == "six" else (dict(ROBOT_CRAFT, home=[0, 0, 1.3]),
+                                                      30.0)
     zs, dz = [], []
     for seed in range(3):
         sim = winch_sim.simulate(rd, PLATFORM, seed=100 + seed, duration=30.0, tau_ref=tau_ref)
