@@ -320,6 +320,9 @@ def read_dataset(path: str | Path, require_tensions: bool = True) -> Dataset:
     if not require_tensions and not (root / "tensions.csv").exists():
         _check_magnitude(root / "pose.csv", position, ("x", "y", "z"), MAX_ABS_POSITION_M, "m")
         return Dataset(root, robot, pose_t, position, quaternion, None, None, meta, extra)
+    if not (root / "tensions.csv").exists() and (root / "currents.csv").exists():
+        raise DatasetError(f"{root / 'tensions.csv'}: required file is missing (the dataset has "
+                           "currents.csv: identify it with --source currents).")
     tension_t, tension = _read_tensions(root, robot.n_cables)
     _check_magnitude(root / "pose.csv", position, ("x", "y", "z"), MAX_ABS_POSITION_M, "m")
     if pose_t[-1] < tension_t[0] or tension_t[-1] < pose_t[0]:
