@@ -1,6 +1,7 @@
 """Monte Carlo of ``identify --source currents`` on an independent simulator (issue 41).
 
-6- and 8-cable robots (the six-cable suspended one and the CRAFT-like eight), currents and encoder lengths at 500 Hz (0.03 A, 0.05 mm), motion capture
+6- and 8-cable robots (the six-cable suspended one and the CRAFT-like eight), currents and
+encoder lengths at 500 Hz (0.03 A, 0.05 mm), motion capture
 at 100 Hz (0.2 mm, 0.3 mrad), no load cells; drive 1's torque constant exact
 (``--reference drive:1``), the others' datasheet values up to 10 % off; reflected friction
 2-10 N (viscous N s/m and Coulomb N), inertia 0.5-5 kg. The simulator is
@@ -28,11 +29,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "identify"))
 sys.path.insert(0, str(ROOT / "tests"))
 import winch_sim  # noqa: E402
-from conftest import ROBOT_CRAFT  # noqa: E402  (the 8-cable CRAFT-like geometry, no pulleys)
 
 from cdprid.identify import identify_currents  # noqa: E402
 from cdprid.io import read_dataset  # noqa: E402
 from cdprid.model import SIX_SUSPENDED  # noqa: E402
+from conftest import ROBOT_CRAFT  # noqa: E402  (the 8-cable CRAFT-like geometry, no pulleys)
 
 # EIGHT_REDUNDANT is singular at its centre (smallest singular value of W 1e-3): the
 # CRAFT-like suspended geometry instead (tensions 8-40 N on every seed)
@@ -64,14 +65,15 @@ def one(robot, tau_ref, seed, duration, tmp):
     return z, est[0] / x[0] - 1, ms, dz.reshape(5, m), rep
 
 
-def row(name, Z, M, S, D, names, seconds, failed) -> str:
+def row(name, Z, M, S, D, names, seconds, failed, untold=0) -> str:
     """One table row from the seeds so far."""
     Z, M, S, D = map(np.array, (Z, M, S, D))
     rmsz = np.sqrt(np.mean(Z ** 2, axis=0))
     cover = np.mean(np.abs(D) <= 1.96, axis=0)  # (5, m); the reference k_1 (std 0) counts
     cover[0, 0] = 1.0
     w = int(np.argmin(cover))
-    return (f"| {name} | {len(M)} (+{failed} infeasible) | {100 * np.max(np.abs(M)):.2f} | "
+    return (f"| {name} | {len(M)} (+{untold} 'cannot tell', +{failed} infeasible) | "
+            f"{100 * np.max(np.abs(M)):.2f} | "
             f"{100 * np.median(np.abs(M)):.2f} | {100 * np.max(S):.1f} | "
             f"{100 * np.median(S):.1f} | {np.max(rmsz):.2f} ({names[int(np.argmax(rmsz))]}) | "
             f"{' '.join(f'{n} {r:.2f}' for n, r in zip(names, rmsz, strict=True))} | "
@@ -83,7 +85,7 @@ def run(name: str, seeds: int, duration: float, write) -> str:
     """The table row of one robot; ``write(row)`` after every seed (partial results kept)."""
     robot, tau_ref = ROBOTS[name]
     t0 = time.perf_counter()
-    Z, M, S, D, failed = [], [], [], [], 0
+    Z, M, S, D, failed, untold = [], [], [], [], 0, 0
     line = ""
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(seeds):
@@ -93,10 +95,18 @@ def run(name: str, seeds: int, duration: float, write) -> str:
                 failed += 1
                 print(f"{name} seed {seed}: {e}", flush=True)
                 continue
+            if not np.isfinite(rep.std[0]):  # the command said "cannot tell"
+                untold += 1
+                print(f"{name} seed {seed}: cannot tell (mass {100 * mr:+.1f} %)", flush=True)
+                line = row(name, Z or [z * 0], M or [0.0], S or [0.0], D or [dz * 0],
+                           rep.names[:len(z)], time.perf_counter() - t0, failed, untold)
+                write(line)
+                continue
             Z.append(z), M.append(mr), S.append(ms), D.append(dz)
             print(f"{name} seed {seed}: mass {100 * mr:+.2f} %, m s_G {100 * ms:.1f} %, "
                   f"RMS z {np.sqrt(np.mean(z ** 2)):.2f}", flush=True)
-            line = row(name, Z, M, S, D, rep.names[:len(z)], time.perf_counter() - t0, failed)
+            line = row(name, Z, M, S, D, rep.names[:len(z)], time.perf_counter() - t0, failed,
+                       untold)
             write(line)
     return line
 

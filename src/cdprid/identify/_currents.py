@@ -48,6 +48,7 @@ from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._batch import _choose_model, _regression, _trimmed, _wrench_filter
 from cdprid.identify._cells import CellCalibration
 from cdprid.identify._drive_cells import cells_against_drives
+from cdprid.identify._eiv_currents import corrected, normal_and_noise
 from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate
 from cdprid.io import align, read_drives, read_stream
 from cdprid.model import PARAMETER_NAMES, cable_lengths
@@ -55,6 +56,9 @@ from cdprid.signal import differentiate, zero_phase_filter
 
 __all__ = ["CurrentsReport", "identify_currents"]
 
+EIV_SHARE_WARN = 0.3
+"""Share of the regressor's energy that is current noise (in its worst direction) above
+which the identification is reported as weak."""
 SIGN_CUTOFF_HZ = 10.0
 """Low-pass (Hz) of the encoder velocity that gives the Coulomb friction's sign."""
 STILL_S = 0.05
@@ -465,13 +469,12 @@ def _fit(ds, model, motion, idx, reg, D, ref, rates, noise, chunk, notes):
                   chunk=chunk)[:n]
     gls = least_squares_blocks(lambda a, b: rows(a, b, U), n, tuple(names[k] for k in o),
                                covariance="hac", chunk=chunk)
-    N, Q = _normal_and_noise(full, U, n, m, p, noise, chunk)
-    Nc = N - Q
-    T = np.linalg.solve(Nc[np.ix_(o, o)], N[np.ix_(o, o)])
-    phi = np.linalg.solve(Nc[np.ix_(o, o)], -Nc[o, r])
+    N, Q = normal_and_noise(full, U, n, m, p, noise, chunk)
+    phi, T, extra, mu = corrected(N, Q, o, r, n / max(float(gls.hac_bandwidth), 1.0))
     notes.append(EIV_CURRENTS_NOTE)
-    theta, cov = scaled_estimate(phi, T @ gls.cov @ T.T, ref, r)
-    _, cov_iid = scaled_estimate(phi, T @ gls.cov_iid @ T.T, ref, r)
+    theta, cov = scaled_estimate(phi, T @ gls.cov @ T.T + np.outer(extra, extra), ref, r)
+    _, cov_iid = scaled_estimate(phi, T @ gls.cov_iid @ T.T + np.outer(extra, extra), ref, r)
+    noise["eiv_share"] = mu
     resid = np.concatenate([(full(i0, min(n, i0 + chunk)) @ theta).reshape(-1)
                             for i0 in range(0, n, chunk)])
     return {"theta": theta, "cov": cov, "cov_iid": cov_iid, "gls": gls, "resid": resid,
@@ -499,30 +502,6 @@ def _sub_motion(motion, idx):
         "t", "position", "B_R_P", "velocity", "acceleration", "omega", "alpha")})
 
 
-def _normal_and_noise(full, U, n: int, m: int, p: int, noise: dict, chunk: int):
-    """The whitened normal matrix ``N`` of the full theta (reference included) and ``Q``, the
-    expected contribution of the current and encoder noise inside the regressor:
-    ``E[dM^T Omega dM]`` on the columns of k (``g_i sigma_i^2 W_j^T Omega W_j``), J and f_v
-    (``C22``, ``C11``, ``C12`` times the encoder variance) of each cable."""
-    q = p + 5 * m
-    N, G = np.zeros((q, q)), np.zeros(m)
-    C = noise["C"]
-    for i0 in range(0, n, chunk):
-        i1 = min(n, i0 + chunk)
-        M = np.matmul(U[i0:i1], full(i0, i1))
-        N += np.einsum("kap,kaq->pq", M, M)
-        Wu = -M[:, :, p + 4 * m:]  # U W_j: the offset columns are -F[W_j] (filtered W)
-        G += np.einsum("kaj,kaj->j", Wu, Wu)
-    Q = np.zeros((q, q))
-    sl2 = noise["length_m"] ** 2
-    kk, JJ, vv = (np.arange(m) + p + j * m for j in range(3))
-    Q[kk, kk] = noise["g_current"] * noise["current_A"] ** 2 * G
-    Q[JJ, JJ] = C[2, 2] * sl2 * G
-    Q[vv, vv] = C[1, 1] * sl2 * G
-    Q[JJ, vv] = Q[vv, JJ] = C[1, 2] * sl2 * G
-    return N, Q
-
-
 def _report(ds, model, ref, drives, fit, motion, idx, rates, noise, bound, fix,
             differentiator, params, notes, warns) -> CurrentsReport:
     """The report: datasheet checks, excitation guard and the bound."""
@@ -541,6 +520,15 @@ def _report(ds, model, ref, drives, fit, motion, idx, rates, noise, bound, fix,
                 warns.append(f"drive {j + 1}: k = {d.k[j]:.4g} +- {sd.k[j]:.2g} N/A is "
                              f"{100 * dev:.1f} % from its datasheet {nominal[j]:.4g} N/A, "
                              f"beyond the stated tolerance {tol:g}: check the drive data.")
+    if not np.all(np.isfinite(cov)):
+        warns.append(f"cannot tell: along one combination of the parameters the currents' noise "
+                     f"makes {100 * noise['eiv_share']:.0f} % of the regressor's energy, so the "
+                     "errors-in-variables correction does not determine the estimate (every std "
+                     "is infinite): record longer, excite more, or lower the current noise.")
+    elif noise.get("eiv_share", 0.0) > EIV_SHARE_WARN:
+        warns.append(f"weak identification: along one combination of the parameters the "
+                     f"currents' noise makes {100 * noise['eiv_share']:.0f} % of the regressor's "
+                     "energy; the errors-in-variables correction's sensitivity is in the std.")
     if gls.cond_scaled > 1e3:
         warns.append(f"too little excitation: cond of the joint regressor (scaled) = "
                      f"{gls.cond_scaled:.3g} > 1e3; check the std (cdprid excite).")

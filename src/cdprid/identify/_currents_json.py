@@ -15,6 +15,10 @@ def parameter_entry(value: float, std: float, std_iid: float | None = None,
                     crb_std: float | None = None) -> dict:
     """``{"value", "std", "rel_std_percent", "std_iid", "crb_std", "efficiency",
     "interval95"}`` of one parameter."""
+    if not np.isfinite(std):  # not determined ("cannot tell"): null in the JSON
+        return {"value": float(value), "std": None, "rel_std_percent": None, "std_iid": None,
+                "crb_std": None if crb_std is None else float(crb_std), "efficiency": None,
+                "interval95": None}
     with np.errstate(divide="ignore"):
         rel = float(100.0 * std / abs(value)) if value != 0 else float("inf")
     return {"value": float(value), "std": float(std), "rel_std_percent": rel,
@@ -46,7 +50,9 @@ def currents_json(rep) -> dict:
         k, c = rep.theta[ik], rep.theta[ic]
         g = np.zeros(len(rep.theta))
         g[ic], g[ik] = 1.0 / k, -c / k ** 2  # i_0 = c / k, delta method
-        entry["current_offset_A"] = parameter_entry(c / k, float(np.sqrt(g @ rep.cov @ g)))
+        with np.errstate(invalid="ignore"):
+            s_i0 = float(np.sqrt(g @ rep.cov @ g))
+        entry["current_offset_A"] = parameter_entry(c / k, s_i0 if np.isfinite(s_i0) else np.inf)
         entry["reference"] = rep.reference.kind == "drive" and rep.reference.cable == j + 1
         drives.append(entry)
     return {
