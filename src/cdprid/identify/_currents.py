@@ -343,7 +343,8 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     noise = _noise(ds, sig, ct, cur_raw, motion.t, lengths, wf, differentiator, params, pre)
     idx, reg, D, rates = _design(ds, sig, motion, reg, keep, lengths, lens, ct, pre, wf,
                                  noise, differentiator, params, notes)
-    fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes)
+    fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes,
+               _datasheet_prior(drives, ref, len(PARAMETER_NAMES[model]), m, notes))
     cells = cells_against_drives(ds, model, motion, idx, np.asarray(sig.tension), lengths,
                                  noise.pop("sign"), wf, sig.dt, params, fit["theta"],
                                  fit["cov"], int(chunk), notes)
@@ -354,6 +355,28 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     if cells is None:
         return rep
     return dataclasses.replace(rep, cells=cells, warnings=rep.warnings + cells.warnings)
+
+
+def _datasheet_prior(drives, ref, p: int, m: int, notes: list):
+    """Gaussian priors (precision, mean) on the fit's scale ``theta / v`` from the datasheet
+    constants of the drives other than the reference that state a tolerance (std ``tol k /
+    sqrt(3)``, the tolerance read as a uniform half-width); None without any."""
+    if drives is None:
+        return None
+    q = p + 5 * m
+    P, mean = np.zeros(q), np.zeros(q)
+    for j in range(m):
+        tol = float(drives.tolerance[j])
+        if np.isnan(tol) or (ref.kind == "drive" and ref.cable == j + 1):
+            continue
+        k0 = float(drives.k_nominal[j])
+        s = max(tol, 1e-6) * k0 / np.sqrt(3.0) / ref.value
+        P[p + j], mean[p + j] = 1.0 / s ** 2, k0 / ref.value
+    if not P.any():
+        return None
+    notes.append("the datasheet constants of the other drives enter as priors (their stated "
+                 "tolerance read as a uniform half-width: std tol k / sqrt(3))")
+    return P, mean
 
 
 def _period(t) -> float:
@@ -442,7 +465,7 @@ def _tension_noise(d: DriveParameters, noise: dict) -> np.ndarray:
     return np.sqrt(np.maximum(var, 0.0) / C[0, 0])
 
 
-def _fit(ds, model, motion, idx, reg, D, ref, rates, noise, chunk, notes):
+def _fit(ds, model, motion, idx, reg, D, ref, rates, noise, chunk, notes, prior=None):
     """OLS, EIV whitening, GLS with HAC and the corrected normal equations; the scaled
     estimate. Returns a dict (theta, cov, cov_iid, the GLS result, residual, names, p)."""
     p = len(PARAMETER_NAMES[model])
@@ -470,10 +493,16 @@ def _fit(ds, model, motion, idx, reg, D, ref, rates, noise, chunk, notes):
     gls = least_squares_blocks(lambda a, b: rows(a, b, U), n, tuple(names[k] for k in o),
                                covariance="hac", chunk=chunk)
     N, Q = normal_and_noise(full, U, n, m, p, noise, chunk)
-    phi, T, extra, mu = corrected(N, Q, o, r, n / max(float(gls.hac_bandwidth), 1.0))
+    phi, Ai, Po, extra, mu = corrected(N, Q, o, r, n / max(float(gls.hac_bandwidth), 1.0),
+                                       prior)
     notes.append(EIV_CURRENTS_NOTE)
-    theta, cov = scaled_estimate(phi, T @ gls.cov @ T.T + np.outer(extra, extra), ref, r)
-    _, cov_iid = scaled_estimate(phi, T @ gls.cov_iid @ T.T + np.outer(extra, extra), ref, r)
+    No = N[np.ix_(o, o)]
+
+    def cov_of(C):
+        return Ai @ (No @ C @ No + np.diag(Po)) @ Ai + np.outer(extra, extra)
+
+    theta, cov = scaled_estimate(phi, cov_of(gls.cov), ref, r)
+    _, cov_iid = scaled_estimate(phi, cov_of(gls.cov_iid), ref, r)
     noise["eiv_share"] = mu
     resid = np.concatenate([(full(i0, min(n, i0 + chunk)) @ theta).reshape(-1)
                             for i0 in range(0, n, chunk)])

@@ -33,32 +33,48 @@ def normal_and_noise(full, U, n: int, m: int, p: int, noise: dict, chunk: int):
     return N, Q
 
 
-def corrected(N, Q, o, r, n_eff: float):
-    """The corrected least squares ``(N - Q) theta = 0`` (reference ``r`` fixed at 1), the
-    map ``T`` of the GLS covariance, and the std the correction's own randomness adds.
+def corrected(N, Q, o, r, n_eff: float, prior=None):
+    """The corrected least squares ``(N - Q) theta = 0`` (reference ``r`` fixed at 1), with
+    optional Gaussian priors, the map of the GLS covariance, and the std the correction's own
+    randomness adds.
 
     The noise part of ``N`` equals ``Q`` only on average: over ``n_eff`` independent samples
     (samples / HAC bandwidth) it fluctuates by about ``delta = sqrt(2 / n_eff)`` of itself.
     Where the estimate is sensitive to it (a direction in which the currents' noise is a large
     share of the regressor: weak identification), the estimates at ``N - (1 +- delta) Q``
     differ; half their difference is added as a std (negligible when the identification is
-    strong). When ``N - lam Q`` is singular for some ``lam`` within ``1 +- 3 delta`` the
+    strong). When ``N - lam Q + P`` is singular for some ``lam`` within ``1 +- 3 delta`` the
     estimate is not determined: every std is infinite (the report says it cannot tell).
-    Also returns ``mu``, the largest share of the regressor's energy that is noise
-    (generalised eigenvalue of ``Q`` against ``N``, reference column excluded)."""
+
+    Parameters
+    ----------
+    N, Q : (q, q) whitened normal matrix and the noise's expected part
+    o : (q - 1,) indices of the free parameters; r : the reference's index
+    n_eff : float
+    prior : (precision (q,), mean (q,)) or None
+        Independent Gaussian priors on the fit's scale (precision 0: none).
+
+    Returns
+    -------
+    phi (q - 1,), Ainv (q - 1, q - 1), Pdiag (q - 1,), extra (q - 1,), mu
+        ``Cov(phi) = Ainv (N_oo C N_oo + diag(Pdiag)) Ainv + extra extra^T`` for the GLS
+        covariance ``C``; ``mu`` the largest share of the regressor's energy that is noise.
+    """
     import scipy.linalg as sl
 
     oo = np.ix_(o, o)
+    P, pm = (np.zeros(N.shape[0]), np.zeros(N.shape[0])) if prior is None else prior
+    Po = P[o]
 
     def solve(lam):
         Nc = N - lam * Q
-        return np.linalg.solve(Nc[oo], -Nc[o, r])
+        return np.linalg.solve(Nc[oo] + np.diag(Po), -Nc[o, r] + Po * pm[o])
 
     phi = solve(1.0)
-    T = np.linalg.solve((N - Q)[oo], N[oo])
+    Ainv = np.linalg.inv((N - Q)[oo] + np.diag(Po))
     delta = float(np.sqrt(2.0 / max(n_eff, 2.0)))
-    mu = float(sl.eigh(Q[oo], N[oo], eigvals_only=True)[-1])
-    if mu * (1.0 + 3.0 * delta) >= 1.0:  # N - lam Q singular within the noise: cannot tell
-        return phi, T, np.full(len(phi), np.inf), mu
+    mu = float(sl.eigh(Q[oo], N[oo] + np.diag(Po), eigvals_only=True)[-1])
+    if mu * (1.0 + 3.0 * delta) >= 1.0:  # singular within the noise: cannot tell
+        return phi, Ainv, Po, np.full(len(phi), np.inf), mu
     extra = 0.5 * (solve(1.0 + delta) - solve(1.0 - delta))
-    return phi, T, extra, mu
+    return phi, Ainv, Po, extra, mu
