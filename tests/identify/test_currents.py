@@ -117,7 +117,7 @@ def test_monte_carlo_few_seeds(robot, tmp_path):
         x = _truth(PLATFORM, rep.names[:p])
         zs.append((rep.theta[:p] - x) / rep.std[:p])
         s = rep.std[p:]
-        dz.append(((rep.theta[p:] - sim["truth"].reshape(-1)) / np.where(s > 0, s, np.inf)))
+        dz.append((rep.theta[p:] - sim["truth"].reshape(-1)) / np.where(s > 0, s, np.inf))
         assert abs(rep.theta[0] / x[0] - 1) < 0.04
     assert np.sqrt(np.mean(np.square(zs))) < 1.6
     assert np.mean(np.abs(dz) < 1.96) > 0.85

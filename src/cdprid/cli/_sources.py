@@ -18,8 +18,9 @@ def add_source_options(p) -> None:
     p.add_argument("--reference", default=None,
                    help="--source currents / free-motion: the scale reference, drive:K (drive "
                    "K's datasheet constant and its tolerance), mass (robot.toml [platform] mass "
-                   "and mass_uncertainty), mass:KG[:STD_KG] or (currents) payload:DIR:KG[:STD_KG] (a second "
-                   "recording DIR with KG added to the platform); default: a drive marked "
+                   "and mass_uncertainty), mass:KG[:STD_KG] or (currents) "
+                   "payload:DIR:KG[:STD_KG] (a second recording DIR with KG added to the "
+                   "platform); default: a drive marked "
                    "drive_reference = true, else the stated reference of least relative std")
 
 
