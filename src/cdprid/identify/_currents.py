@@ -45,10 +45,11 @@ from cdprid.core import (
 )
 from cdprid.core import crb as crb_bound
 from cdprid.identify._auto import cutoff_from_data, resolve_params
-from cdprid.identify._batch import _choose_model, _regression, _trimmed, _wrench_filter
+from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
 from cdprid.identify._cells import CellCalibration
 from cdprid.identify._drive_cells import cells_against_drives
 from cdprid.identify._eiv_currents import corrected, normal_and_noise
+from cdprid.identify._episodes import _trimmed
 from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate
 from cdprid.io import align, read_drives, read_stream
 from cdprid.model import PARAMETER_NAMES, cable_lengths

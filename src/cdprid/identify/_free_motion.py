@@ -30,8 +30,9 @@ from cdprid.core import (
     wrench_matrices,
 )
 from cdprid.identify._auto import cutoff_from_data, resolve_params
-from cdprid.identify._batch import _choose_model, _regression, _trimmed, _wrench_filter
+from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
 from cdprid.identify._cells import CellCalibration, calibrate_cells
+from cdprid.identify._episodes import _trimmed
 from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate
 from cdprid.io import align
 from cdprid.model import PARAMETER_NAMES
