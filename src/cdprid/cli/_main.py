@@ -165,12 +165,11 @@ def write_json(path, data: dict, force: bool = True) -> Path:
 def _cmd_identify(args) -> int:
     from cdprid.base import check_distinct, check_output
     from cdprid.identify import format_table, identify_dataset
-    from cdprid.io import read_dataset
+    from cdprid.io import dataset_inputs, read_dataset
 
     if getattr(args, "source", "tensions") != "tensions":  # issue 41: no load cells
         return run_source(args, parse_params, write_json)
     force = getattr(args, "force", False)
-    from cdprid.io import dataset_inputs
 
     inputs = dataset_inputs(args.dataset)
     png = Path(args.out_csv).with_suffix(".png") if args.out_csv else None
