@@ -68,7 +68,8 @@ from 1). How each effect is modelled by :func:`cdprid.simulation.simulate`:
 Several effects may be combined (also the same effect on several cables). ``docs/effects.md``
 is generated from this docstring, the effects defined in their own modules
 (``tension_drift``: :mod:`cdprid.effects._tension_drift`; ``external_wrench``:
-:mod:`cdprid.effects._external_wrench`) and :data:`VOCABULARY`
+:mod:`cdprid.effects._external_wrench`; ``load_cell_hysteresis``:
+:mod:`cdprid.effects._load_cell_hysteresis`) and :data:`VOCABULARY`
 (:func:`vocabulary_markdown`). The load cells' sensor chain is declared once, in physical
 order, in :mod:`cdprid.effects._sensor`.
 """
@@ -81,7 +82,7 @@ import json
 import numpy as np
 
 from cdprid.base import InputError
-from cdprid.effects import _external_wrench, _tension_drift
+from cdprid.effects import _external_wrench, _load_cell_hysteresis, _tension_drift
 from cdprid.effects._form import DiagnosisForm
 
 __all__ = [
@@ -119,6 +120,7 @@ VOCABULARY: dict[str, dict[str, str]] = {
     "cable_elasticity": {"cable": "cable", "EA_N": "float"},
     _tension_drift.NAME: _tension_drift.PARAMETERS,
     _external_wrench.NAME: _external_wrench.PARAMETERS,
+    _load_cell_hysteresis.NAME: _load_cell_hysteresis.PARAMETERS,
 }
 
 #: effects located in time by the episodes stage (:mod:`cdprid.episodes`), not candidates of
@@ -236,6 +238,7 @@ class Effect:
             "amplitude_rad",
             "coulomb_N",
             "viscous_Ns_per_m",
+            "width_N",
         ):
             if key in clean and clean[key] < 0:
                 raise InputError(
@@ -416,7 +419,7 @@ def vocabulary_markdown() -> str:
     lines += ["", "## Models", ""]
     body = doc.split("\n\n", 2)[-1] if doc.count("\n\n") >= 2 else doc
     body = (body.split("\n\nSeveral effects")[0] + "\n" + _tension_drift.DOC + "\n"
-            + _external_wrench.DOC)
+            + _external_wrench.DOC + "\n" + _load_cell_hysteresis.DOC)
     for block in body.strip().split("\n``"):
         text = block if block.startswith("``") else "``" + block
         head, _, rest = text.partition("\n")
@@ -585,4 +588,5 @@ DIAGNOSIS: dict[str, DiagnosisForm] = {
         params=_pulley_params(True), vocabulary="pulley", alias="pulley:arriving_opposite",
         leave=_flipped_leave,
         bounds={"radius_m": 0.25}, nonneg=("radius_m",)),
+    _load_cell_hysteresis.NAME: _load_cell_hysteresis.FORM,
 }

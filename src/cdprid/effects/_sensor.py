@@ -1,7 +1,8 @@
 """The load-cell sensor chain, declared once in physical order.
 
 What a load cell reads, from the cable to the number in ``tension.csv``: the tension on the
-winch side of the pulley (``pulley_friction``), scaled by the cell's gain (``tension_gain``),
+winch side of the pulley (``pulley_friction``), through the play of a hysteretic cell
+(``load_cell_hysteresis``), scaled by the cell's gain (``tension_gain``),
 plus its zero offset (``tension_offset``) and its zero drift (``tension_drift``), then noise.
 The simulator applies :data:`SENSOR_CHAIN` in this order (:func:`load_cell_reading`); the
 diagnosis undoes it in the reverse order (the ``tension`` hooks of
@@ -12,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdprid.effects import _tension_drift
+from cdprid.effects import _load_cell_hysteresis, _tension_drift
 
 __all__ = ["SENSOR_CHAIN", "load_cell_reading"]
 
@@ -37,6 +38,7 @@ def _offset(x, p, ctx):
 #: (effect name, how it changes the reading) in physical order, cable to number
 SENSOR_CHAIN = (
     ("pulley_friction", _friction),
+    (_load_cell_hysteresis.NAME, _load_cell_hysteresis.read),
     ("tension_gain", _gain),
     ("tension_offset", _offset),
     (_tension_drift.NAME, _tension_drift.read),
