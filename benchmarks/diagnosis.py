@@ -4,7 +4,12 @@ Usage: python benchmarks/diagnosis.py [--quick] [--seeds 10] [--robots four,six,
        [--kinds clean,oov,pair,single] [--jsonl results/diagnosis_runs.jsonl]
        [--out results/diagnosis.md] [--from-jsonl]
 
-Robots with 4 (point mass), 6 (square W) and 8 cables (:mod:`cdprid.model._robots`); per seed:
+Robots with 4 (point mass), 6 (square W) and 8 cables (:mod:`cdprid.model._robots`), and
+``floor8`` (issue 37): a large suspended 8-cable robot with floor winches and swivel pulleys
+(cables wrapping 110-124 deg), 24.6 kg, rotating up to 5 deg, tensions at 500-1000 Hz on
+their own clock with white + AR(1) noise, simulated by the independent test simulator
+``tests/_testbench`` (run from the repository root as ``python -m benchmarks.diagnosis
+--robots floor8``); per seed:
 clean data at several noise levels (no finding expected), Coulomb friction at every load cell
 (outside the vocabulary: no finding, an ``unexplained`` entry), the issue's pairs of effects
 and a pulley reached from below (robot.toml without pulleys), and every effect of the
@@ -144,8 +149,20 @@ def in_interval(effect: str, truth: dict, finding: dict) -> bool:
     return ok
 
 
+def _testbench():
+    """The independent test simulator (``tests/_testbench``; needs the repository root on
+    the path: ``python -m benchmarks.diagnosis`` from there)."""
+    try:
+        import tests._testbench as tb
+    except ImportError as err:
+        raise SystemExit("the floor8 robot needs the test simulator: run from the repository "
+                         "root as python -m benchmarks.diagnosis") from err
+    return tb
+
+
 def make_robot(name: str):
-    """``four`` / ``six`` / ``craft8`` / ``eight``: the sample robots of :mod:`cdprid.model._robots`."""
+    """``four`` / ``six`` / ``craft8`` / ``eight``: the sample robots (cdprid.model's);
+    ``floor8``: the floor-winch robot of the test simulator (robot.toml's nominal geometry)."""
     from cdprid.model import (
         EIGHT_REDUNDANT,
         FOUR_SUSPENDED,
@@ -154,6 +171,8 @@ def make_robot(name: str):
         robot_from_dict,
     )
 
+    if name == "floor8":
+        return robot_from_dict(_testbench().robot("floor8").toml())
     if name == "craft8":
         return craft_like_robot()
     return robot_from_dict({"four": FOUR_SUSPENDED, "six": SIX_SUSPENDED,
@@ -188,6 +207,11 @@ def simulate_case(truth: list, seed: int, workdir: Path, robot_name: str = "craf
     from cdprid.model import InertialParameters, craft_like_truth, preset
     from cdprid.simulation import SensorNoise, simulate, write_simulation
 
+    if robot_name == "floor8":  # the independent simulator (its own noise, clock and plant)
+        tb = _testbench()
+        tag = "+".join(n for n, _ in truth) or "none"
+        rec = tb.floor8_with(truth, seed, noise_scale)
+        return tb.write(rec, workdir / f"{robot_name}-{tag}-{seed}", overwrite=True)
     robot = make_robot(robot_name)
     plant = robot
     if pulley_from_below:
@@ -281,10 +305,17 @@ SIZES = {
     "frame_tilt": [0.1, 0.25, 0.5, 1.0],  # degrees
     "rotational_dynamics": [0.02, 0.05, 0.1],
     "pulley_friction": [0.25, 0.5, 1.0, 2.0],
+    "load_cell_hysteresis": [0.5, 1.0, 2.0, 4.0],
 }
 
 #: effects that a robot can show (the 4-cable point-mass robot has no moments, no rotation)
-NOT_ON = {"four": {"anchor_point_error", "rotational_dynamics"}}
+NOT_ON = {"four": {"anchor_point_error", "rotational_dynamics"},
+          # the test simulator: its platform always rotates (the full model is the base)
+          "floor8": {"anchor_point_error", "rotational_dynamics", "pulley", "cable_mass",
+                     "frame_tilt"}}
+#: pairs a robot cannot show (effects its simulator does not have)
+PAIRS_NOT_ON = {"four": {"anchor+gain"},
+                "floor8": {"anchor+gain", "cable_mass+tilt", "pulley from below"}}
 
 
 def params_of(effect: str, size: float, rng: np.random.Generator, m: int) -> dict:
@@ -314,6 +345,8 @@ def params_of(effect: str, size: float, rng: np.random.Generator, m: int) -> dic
         return {"amplitude_rad": size}
     if effect == "pulley_friction":
         return {"cable": cable, "coulomb_N": size, "viscous_Ns_per_m": 0.0}
+    if effect == "load_cell_hysteresis":
+        return {"cable": cable, "width_N": size}
     raise KeyError(effect)
 
 
@@ -349,17 +382,19 @@ def plan(robots: list, seeds: int, quick: bool, largest_seeds: int | None = None
             for scale in ([1.0] if quick else [0.5, 1.0, 2.0]):
                 runs.append(("clean", f"noise x{scale:g}", rname, seed,
                              {"truth": [], "noise_scale": scale}))
-            if rname != "four":
+            if rname not in ("four", "floor8"):
                 # the sign opposite to pulley friction (which is pulley_friction "all")
                 runs.append(("oov", "load-cell Coulomb 1.5 N", rname, seed,
                              {"truth": [], "oov_coulomb_N": 1.5}))
             for name, make in PAIRS.items():
-                if rname == "four" and name == "anchor+gain":
+                if name in PAIRS_NOT_ON.get(rname, ()):
                     continue
                 rng = np.random.default_rng([seed, m, len(name)])
                 runs.append(("pair", name, rname, seed, {"truth": make(rng, m)}))
-            runs.append(("pair", "pulley from below", rname, seed,
-                         {"truth": [("pulley", {"radius_m": 0.04})], "pulley_from_below": True}))
+            if "pulley from below" not in PAIRS_NOT_ON.get(rname, ()):
+                runs.append(("pair", "pulley from below", rname, seed,
+                             {"truth": [("pulley", {"radius_m": 0.04})],
+                              "pulley_from_below": True}))
             for eff, sizes in SIZES.items():
                 if eff in NOT_ON.get(rname, ()):
                     continue

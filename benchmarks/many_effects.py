@@ -10,19 +10,28 @@ Cases (independent draws per seed, simulated by :mod:`cdprid.simulation`, noise 
 * ``six-upfed``: a 6-cable suspended robot whose swivel pulleys are fed from below, rotating
   ~5 deg: a 12 ms delay and 1.5 N Coulomb friction on all six pulleys;
 * ``clean``: the same 6-cable robot rotating, without noise and without effects (no finding
-  expected).
+  expected);
+* ``floor8`` (issue 37): a large suspended 8-cable robot with floor winches whose cables wrap
+  110-124 deg over two swivel pulleys per top corner (6 x 4 x 3 m frame, 24.6 kg platform,
+  robot.toml 23.8 kg, rotations up to 5 deg), simulated by the independent test simulator
+  ``tests/_testbench`` (not cdprid's simulator): tensions at 500-1000 Hz on their own clock
+  (12-28 ms offset on three seeds of four), white + AR(1) noise, Coulomb friction on every
+  pulley, an offset, a gain, a hysteretic cell on even seeds, drag, a 3 cm exit error (the
+  draw of ``tests/_testbench/_cases.py``). Also scored: the mass (goal 1 %) and m s_G (5 %).
 
 Scoring: an effect is *named* when a finding of that effect (and cable) has its size (the
 delay within 10 %, friction, offset and gain within 25 % of the truth or inside the 95 %
 interval; a displacement's norm within 35 %); every other finding is *wrong*.
 
-Run: ``python benchmarks/many_effects.py [--seeds 8] [--out results/many-effects.md]``
-(about 40 s per recording on this machine).
+Run from the repository root: ``python -m benchmarks.many_effects [--seeds 8] [--floor8-seeds
+8] [--only floor8] [--out results/many-effects.md]`` (``-m``: the floor-winch cases import the
+test simulator as ``tests._testbench``; about 40 s per recording on this machine).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import tempfile
 import time
@@ -83,7 +92,9 @@ def _size_ok(name: str, truth: dict, f: dict) -> bool:
         a, b = np.linalg.norm(est["displacement_m"]), np.linalg.norm(truth["displacement_m"])
         return abs(a - b) <= 0.35 * b
     key, tol = {"time_delay": ("delay_s", 0.10), "pulley_friction": ("coulomb_N", 0.25),
-                "tension_offset": ("offset_N", 0.25), "tension_gain": ("gain", 0.25)}[name]
+                "tension_offset": ("offset_N", 0.25), "tension_gain": ("gain", 0.25),
+                "load_cell_hysteresis": ("width_N", 0.25),
+                "viscous_drag": ("coefficient_Ns_per_m", 0.25)}[name]
     v, t = est[key], truth[key]
     lo, hi = lo_hi[key]
     ref = (t - 1.0) if key == "gain" else t
@@ -121,6 +132,34 @@ def run(label: str, robot, truth: list, seed: int, noise: bool, params, workdir:
     sim = simulate(robot, preset("rich", robot), params,
                    effects=[Effect(n, p) for n, p in truth], noise=sn, seed=seed)
     out = write_simulation(sim, workdir / f"{label}-{seed}", overwrite=True)
+    return run_dataset(label, out, truth, seed)
+
+
+def _inertial_errors(j: dict, mass: float, first_moment) -> dict:
+    """Relative errors of the extended model's mass and m s_G (norm) against the truth."""
+    x = j["extended"]["parameters"]
+    est = np.array([x.get(k, np.nan) for k in ("mxG", "myG", "mzG")], float)
+    ms = np.asarray(first_moment, float)
+    return {"mass_err": float(x.get("m", np.nan) / mass - 1.0),
+            "ms_err": float(np.linalg.norm(est - ms) / np.linalg.norm(ms))}
+
+
+def run_floor8(seed: int, workdir: Path) -> dict:
+    """One recording of the floor-winch robot (independent simulator), diagnosed."""
+    try:
+        from tests._testbench import floor8_case, write
+    except ImportError as err:  # run as a script, not from the repository root with -m
+        raise SystemExit("the floor8 cases need the test simulator: run from the repository "
+                         "root as python -m benchmarks.many_effects") from err
+    rec = floor8_case(seed)
+    out = write(rec, workdir / f"floor8-{seed}", overwrite=True)
+    rob = rec.robot
+    return run_dataset("floor8", out, rec.effects, seed,
+                       truth_inertial=(rob.mass, rob.mass * rob.com))
+
+
+def run_dataset(label: str, out: Path, truth: list, seed: int, truth_inertial=None) -> dict:
+    """Diagnose one written dataset and score it against ``truth``."""
     t0 = time.perf_counter()
     res = diagnose(read_dataset(out))
     wall = time.perf_counter() - t0
@@ -129,7 +168,13 @@ def run(label: str, robot, truth: list, seed: int, noise: bool, params, workdir:
     row = {"case": label, "seed": seed, "expected": exp, "named": named, "wrong": wrong,
            "notes": notes, "wall_s": wall, "unexplained": len(j["unexplained"]),
            "heldout_base": j["base"]["heldout_residual_rms"],
-           "heldout_ext": j["extended"]["heldout_residual_rms"]}
+           "heldout_ext": j["extended"]["heldout_residual_rms"],
+           "findings": [(f["effect"], f["parameters"]) for f in j["findings"]],
+           "unexplained_items": [(u.get("correlates_with"), u.get("where"), u.get("size"))
+                                 for u in j["unexplained"]],
+           "truth": truth}
+    if truth_inertial is not None:
+        row.update(_inertial_errors(j, *truth_inertial))
     print(f"{label} seed {seed}: {named}/{exp} named, {wrong} wrong, {wall:.0f} s "
           + ("; ".join(notes)), flush=True)
     return row
@@ -138,46 +183,76 @@ def run(label: str, robot, truth: list, seed: int, noise: bool, params, workdir:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=8)
-    ap.add_argument("--out", default=str(ROOT / "results" / "many-effects.md"))
+    ap.add_argument("--floor8-seeds", default="1-8",
+                    help="seeds of the floor-winch robot: a range 1-8 or a list 1,2,4")
+    ap.add_argument("--only", choices=("all", "floor8"), default="all",
+                    help="floor8: only the floor-winch robot (written to --out)")
+    ap.add_argument("--out", default=None,
+                    help="default results/many-effects.md (results/many-effects-floor8.md "
+                         "with --only floor8)")
     args = ap.parse_args()
+    name = "many-effects-floor8.md" if args.only == "floor8" else "many-effects.md"
+    out = Path(args.out or ROOT / "results" / name)
+    text = args.floor8_seeds
+    floor_seeds = (list(range(int(text.split("-")[0]), int(text.split("-")[1]) + 1))
+                   if "-" in text else [int(v) for v in text.split(",") if v])
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         w = Path(tmp)
-        craft, six = craft_like_robot(), six_upfed()
-        for seed in range(1, args.seeds + 1):
-            rows.append(run("craft8", craft, craft_case(seed), seed, True, craft_like_truth(),
-                            w))
-        for seed in (1, 2, 3):
-            rows.append(run("six-upfed", six, [
-                ("rotational_dynamics", {"amplitude_rad": 0.08}),
-                ("time_delay", {"delay_s": 0.012}),
-                ("pulley_friction", {"cable": "all", "coulomb_N": 1.5,
-                                     "viscous_Ns_per_m": 0.0})], seed, True, None, w))
-        rows.append(run("clean", six, [("rotational_dynamics", {"amplitude_rad": 0.08})], 1,
-                        False, None, w))
-    lines = ["# Many effects at once (issue 23)", "",
-             "Generated by `python benchmarks/many_effects.py "
-             f"--seeds {args.seeds}` ({time.strftime('%Y-%m-%d')}, 2-core machine). See the "
-             "module docstring for the cases and the scoring.", "",
+        if args.only == "all":
+            rows += _cdprid_cases(args.seeds, w)
+        for seed in floor_seeds:
+            rows.append(run_floor8(seed, w))
+    cmd = " ".join(["python -m benchmarks.many_effects"] + sys.argv[1:])
+    out.write_text(_table(rows, cmd))
+    out.with_suffix(".jsonl").write_text("".join(json.dumps(r, default=str) + "\n"
+                                                 for r in rows))
+    print(f"wrote {out} and {out.with_suffix('.jsonl')}")
+    return 0
+
+
+def _cdprid_cases(seeds: int, w: Path) -> list:
+    rows = []
+    craft, six = craft_like_robot(), six_upfed()
+    for seed in range(1, seeds + 1):
+        rows.append(run("craft8", craft, craft_case(seed), seed, True, craft_like_truth(), w))
+    for seed in (1, 2, 3):
+        rows.append(run("six-upfed", six, [
+            ("rotational_dynamics", {"amplitude_rad": 0.08}),
+            ("time_delay", {"delay_s": 0.012}),
+            ("pulley_friction", {"cable": "all", "coulomb_N": 1.5,
+                                 "viscous_Ns_per_m": 0.0})], seed, True, None, w))
+    rows.append(run("clean", six, [("rotational_dynamics", {"amplitude_rad": 0.08})], 1,
+                    False, None, w))
+    return rows
+
+
+def _table(rows: list, cmd: str) -> str:
+    lines = ["# Many effects at once (issues 23, 37)", "",
+             f"Generated by `{cmd}` ({time.strftime('%Y-%m-%d')}, 2-core machine). See the "
+             "module docstring for the cases and the scoring; the findings of every row are in "
+             "the `.jsonl` file beside this one.", "",
              "| case | seed | effects | named with size | wrong findings | unexplained items "
-             "| held-out force rms base -> extended (N) | wall (s) | notes |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| held-out force rms base -> extended (N) | mass / m s_G error | wall (s) | notes |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
+        inert = (f"{100 * r['mass_err']:+.2f} % / {100 * r['ms_err']:.1f} %"
+                 if "mass_err" in r else "-")
         lines.append(f"| {r['case']} | {r['seed']} | {r['expected']} | {r['named']} | "
                      f"{r['wrong']} | {r['unexplained']} | {r['heldout_base']:.2f} -> "
-                     f"{r['heldout_ext']:.2f} | {r['wall_s']:.0f} | "
+                     f"{r['heldout_ext']:.2f} | {inert} | {r['wall_s']:.0f} | "
                      f"{'; '.join(r['notes']) or '-'} |")
-    tot_e = sum(r["expected"] for r in rows)
-    tot_n = sum(r["named"] for r in rows)
-    tot_w = sum(r["wrong"] for r in rows)
-    lines += ["", f"**Total: {tot_n} of {tot_e} effects named with their size "
-              f"({100 * tot_n / max(tot_e, 1):.0f} %), {tot_w} wrong findings.** Rotations "
-              "above 1 deg are in the base model (the full model, as `identify --model auto`), "
-              "so `rotational_dynamics` is not counted there. Friction on every pulley counts "
-              "as one effect (`\"cable\": \"all\"`)."]
-    Path(args.out).write_text("\n".join(lines) + "\n")
-    print(f"wrote {args.out}")
-    return 0
+    lines += ["", "Rates per robot:", ""]
+    for case in dict.fromkeys(r["case"] for r in rows):
+        sel = [r for r in rows if r["case"] == case]
+        e, n, wr = (sum(r[k] for r in sel) for k in ("expected", "named", "wrong"))
+        lines.append(f"* **{case}**: {n} of {e} effects named with their size "
+                     f"({100 * n / max(e, 1):.0f} %), {wr} wrong findings in {len(sel)} "
+                     "recordings.")
+    lines += ["", "Rotations above 1 deg are in the base model (the full model, as `identify "
+              "--model auto`), so `rotational_dynamics` is not counted there. Friction on every "
+              "pulley counts as one effect (`\"cable\": \"all\"`)."]
+    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":
