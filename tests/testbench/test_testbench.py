@@ -60,3 +60,39 @@ def test_newton_euler_agrees_with_cdprids_regressor():
     Y = np.asarray(jax.vmap(lambda R, a, om, al: regressor_full(R, a, om, al, g))(
         jnp.asarray(mo.R), jnp.asarray(mo.a), jnp.asarray(mo.w), jnp.asarray(mo.al)))
     assert np.allclose(np.einsum("nij,j->ni", Y, x), w, atol=1e-9 * np.abs(w).max())
+
+
+def test_friction_sign_follows_where_the_cell_sits(rng):
+    """A cell on the winch side reads tau - F (F = coulomb sign(dl/dt) + viscous dl/dt, paying
+    out dl/dt > 0); at the platform it reads tau. cdprid's sensor chain agrees (its
+    pulley_friction is the winch-side cell)."""
+    import dataclasses
+
+    from cdprid.effects import Effect, load_cell_reading
+    from tests._testbench._sensors import cell_reading
+
+    k, m = 300, 4
+    tau = 30 + rng.normal(size=(k, m))
+    W = rng.normal(size=(k, 6, m))
+    v, om = rng.normal(size=(k, 3)), rng.normal(size=(k, 3))
+    ldot = -np.einsum("nim,ni->nm", W, np.concatenate([v, om], 1))
+    s = Sensors(500.0, 0.0, 0.0, 100.0, 0.0, 0.0, 0.0, (0.0,) * m, (1.0,) * m, (2.0,) * m,
+                (3.0,) * m, True, (0.0,) * m, 0.0, 0.0)
+    winch = cell_reading(s, tau, ldot, rng, noise=False)
+    assert np.all(winch[ldot > 0] < tau[ldot > 0]) and np.all(winch[ldot < 0] > tau[ldot < 0])
+    at_platform = cell_reading(dataclasses.replace(s, cell_at_winch=False), tau, ldot, rng,
+                               noise=False)
+    assert np.array_equal(at_platform, tau)
+    cd = load_cell_reading([Effect("pulley_friction", {"cable": "all", "coulomb_N": 2.0,
+                                                       "viscous_Ns_per_m": 3.0})],
+                           tau, W, v, om, np.arange(k) * 0.002)
+    assert np.allclose(cd, winch, atol=1e-12)
+
+
+def test_ar1_noise_has_its_stated_std_and_correlation():
+    from tests._testbench import ar1_noise
+
+    e = ar1_noise(np.random.default_rng(5), 200_000, 2, 0.4, 0.3, 0.95)
+    assert np.allclose(e.std(0), np.hypot(0.4, 0.3), rtol=0.03)
+    lag1 = np.mean(e[1:] * e[:-1], 0) / e.var(0)
+    assert np.allclose(lag1, 0.95 * 0.09 / 0.25, atol=0.02)
