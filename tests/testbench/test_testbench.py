@@ -68,8 +68,9 @@ def test_friction_sign_follows_where_the_cell_sits(rng):
     pulley_friction is the winch-side cell)."""
     import dataclasses
 
-    from cdprid.effects import Effect, load_cell_reading
     from tests._testbench._sensors import cell_reading
+
+    from cdprid.effects import Effect, load_cell_reading
 
     k, m = 300, 4
     tau = 30 + rng.normal(size=(k, m))
