@@ -132,12 +132,12 @@ def reversal_regressor(z, dt: float, smooth_s: float = SMOOTH_S,
     """The hysteresis regressor h of load-cell readings (JAX): the tension is ``z + w h``.
 
     Each sample is *moving* (up or down) when the reading's smoothed rate exceeds
-    ``threshold_sigma`` times its noise std (from the readings' white-noise level, third
-    differences, by their mean absolute deviation), else *still*. Moving samples get ``h = +-1/2``; a still run between a rise
-    and a fall (a reversal, the flat stretch of the play) gets ``d (1/2 - tau^2)``, tau in
-    [0, 1] across the run and d the direction before it; a still run between two moves the
-    same way, or at an end of the recording, keeps that direction's ``+-1/2``; no move at
-    all gives 0.
+    ``threshold_sigma`` times its noise std (from the readings' white-noise level: third
+    differences, by their mean absolute deviation), else *still*. Moving samples get
+    ``h = +-1/2``; a still run between a rise and a fall (a reversal, the flat stretch of the
+    play) gets ``d (1/2 - tau^2)``, tau in [0, 1] across the run and d the direction before
+    it; a still run between two moves the same way, or at an end of the recording, keeps
+    that direction's ``+-1/2``; no move at all gives 0.
 
     Parameters
     ----------
