@@ -137,7 +137,8 @@ def run(label: str, robot, truth: list, seed: int, noise: bool, params, workdir:
 
 def _inertial_errors(j: dict, mass: float, first_moment) -> dict:
     """Relative errors of the extended model's mass and m s_G (norm) against the truth."""
-    x = j["extended"]["parameters"]
+    x = {k: v["value"] if isinstance(v, dict) else v
+         for k, v in j["extended"]["parameters"].items()}
     est = np.array([x.get(k, np.nan) for k in ("mxG", "myG", "mzG")], float)
     ms = np.asarray(first_moment, float)
     return {"mass_err": float(x.get("m", np.nan) / mass - 1.0),
@@ -175,6 +176,8 @@ def run_dataset(label: str, out: Path, truth: list, seed: int, truth_inertial=No
            "truth": truth}
     if truth_inertial is not None:
         row.update(_inertial_errors(j, *truth_inertial))
+    print(f"  truth: {truth}\n  named: {row['findings']}\n  unexplained: "
+          f"{row['unexplained_items']}", flush=True)
     print(f"{label} seed {seed}: {named}/{exp} named, {wrong} wrong, {wall:.0f} s "
           + ("; ".join(notes)), flush=True)
     return row
