@@ -262,6 +262,11 @@ def _read_toml(path: Path) -> dict:
         raise DatasetError(f"{path}: not valid TOML ({exc}).") from None
     except UnicodeDecodeError:
         raise DatasetError(f"{path}: not valid UTF-8 text.") from None
+    except RecursionError:
+        raise DatasetError(f"{path}: arrays or tables nested too deeply.") from None
+    except ValueError as exc:  # a 5000-digit integer (int conversion limit)
+        raise DatasetError(f"{path}: a value beyond the TOML parser's limits "
+                           f"({str(exc).split(';')[0]}).") from None
 
 
 def read_dataset(path: str | Path, require_tensions: bool = True) -> Dataset:

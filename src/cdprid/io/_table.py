@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import io
 from pathlib import Path
 
 import numpy as np
@@ -134,6 +133,26 @@ def _to_float(field: str, decimal_comma: bool = False) -> float:
         return float("nan")
 
 
+def _split_rows(lines: list, delim: str, path: Path, option: str, numbered: list) -> list:
+    """The fields of every non-empty line; a field beyond the csv module's size limit is one
+    sentence naming its line (a 131,072-character header cell gave an internal error)."""
+    if delim == "whitespace":
+        return [ln.split() for ln in lines]
+    reader = csv.reader(iter(lines), delimiter=delim)
+    rows = []
+    try:
+        for row in reader:
+            rows.append(row)
+    except csv.Error as exc:
+        k = min(max(reader.line_num, 1), len(numbered)) - 1
+        raise UserError(f"{option} {path}: line {numbered[k][0]} cannot be read as a table row "
+                        f"({exc}).") from None
+    if len(rows) != len(lines):  # a quoted field spanning lines: no row numbers to trust
+        raise UserError(f"{option} {path}: a quoted field spans several lines; a table has "
+                        "one row per line.")
+    return rows
+
+
 def read_table(path: str | Path, option: str = "--pose") -> Table:
     """Read a delimited text table (see the module docstring for the detection rules).
 
@@ -150,20 +169,24 @@ def read_table(path: str | Path, option: str = "--pose") -> Table:
     except UnicodeDecodeError:
         raise UserError(f"{option} {path}: not UTF-8 text (a CSV/TSV table was expected).") \
             from None
-    lines = [ln for ln in text.splitlines() if ln.strip()]
+    numbered = [(k + 1, ln) for k, ln in enumerate(text.splitlines()) if ln.strip()]
+    lines = [ln for _, ln in numbered]
     if len(lines) < 2:
         raise UserError(f"{option} {path}: needs a header line and at least one data row.")
     delim = _detect_delimiter(lines[0])
-    if delim == "whitespace":
-        rows = [ln.split() for ln in lines]
-        header = [h.strip().strip('"').strip("'") for h in rows[0]]
-    else:
-        rows = list(csv.reader(io.StringIO("\n".join(lines)), delimiter=delim))
-        header = [h.strip() for h in rows[0]]
+    rows = _split_rows(lines, delim, path, option, numbered)
+    header = [h.strip().strip('"').strip("'") if delim == "whitespace" else h.strip()
+              for h in rows[0]]
     if len(set(header)) != len(header):
         dup = next(h for h in header if header.count(h) > 1)
         raise UserError(f"{option} {path}: the header names the column {dup!r} twice.")
     ncol = len(header)
+    wide = next((i for i, row in enumerate(rows[1:], 1) if len(row) > ncol), None)
+    if wide is not None:  # a decimal comma in a comma-separated file shifts the row
+        name = {",": "commas", ";": "semicolons", "\t": "tabs"}.get(delim, "spaces")
+        raise UserError(f"{option} {path}: line {numbered[wide][0]} has {len(rows[wide])} "
+                        f"fields separated by {name}, the header {ncol}: a decimal comma in a "
+                        "comma-separated file, or a missing header name?")
     values = np.full((len(rows) - 1, ncol), np.nan)
     for i, row in enumerate(rows[1:]):
         for j, f in enumerate(row[:ncol]):

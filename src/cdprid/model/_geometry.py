@@ -391,7 +391,18 @@ def load_robot(path: str | Path) -> CableRobot:
         raise RobotFileError(f"{path}: not valid TOML ({exc}).") from None
     except UnicodeDecodeError:
         raise RobotFileError(f"{path}: not valid UTF-8 text.") from None
+    except (ValueError, RecursionError) as exc:  # a 5000-digit integer, arrays nested 3000 deep
+        raise RobotFileError(f"{path}: cannot be read as a robot description ("
+                             f"{_hostile_toml(exc)}).") from None
     return robot_from_dict(data, source=str(path))
+
+
+def _hostile_toml(exc: BaseException) -> str:
+    """What a TOML file beyond the parser's limits holds (a huge integer, deep nesting)."""
+    if isinstance(exc, RecursionError):
+        return "arrays or tables nested too deeply"
+    return f"a value beyond the parser's limits: {str(exc).split(';')[0]}"
+
 
 
 def robot_to_dict(robot: CableRobot) -> dict:

@@ -169,6 +169,10 @@ def _check_params(method, params):
         )
     p = {**info.params, **params}
     for k, v in p.items():
+        if isinstance(v, bool):  # JSON true/false: float(True) is 1.0, not a number given
+            raise InputError(
+                f"Parameter {k!r} of method {method!r} must be a number, got {v!r}."
+            )
         try:
             fv = float(v)
         except (TypeError, ValueError):
