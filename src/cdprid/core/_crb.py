@@ -161,25 +161,71 @@ def block_banded_solve(A: np.ndarray, B: np.ndarray, d: int, nb: int) -> np.ndar
     return x.reshape(np.shape(B))
 
 
-def _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc: int, ndof: int):
-    """The Schur complement ``I_tt - I_tc I_cc^-1 I_ct`` of the nuisance coefficients,
-    the per-sample blocks scatter-added into ``I_tc`` and the block-banded ``I_cc`` (blocks
-    of ``ndof``, 3 off the diagonal: a sample touches 4 consecutive knots), solved by
-    :func:`block_banded_solve`."""
-    p = Itt.shape[0]
-    # scatter-add of the local blocks (bincount: one pass over the samples)
+def _scatter(Itc_loc, Icc_loc, cols, nc: int):
+    """Scatter-add per-sample blocks into ``I_tc`` (p, nc) and ``I_cc`` (nc, nc) (bincount:
+    one pass over the samples)."""
     Itc = np.stack([np.bincount(cols.ravel(), weights=Itc_loc[:, j, :].ravel(), minlength=nc)
-                    for j in range(p)])
+                    for j in range(Itc_loc.shape[1])])
     flat = (cols[:, :, None] * nc + cols[:, None, :]).ravel()
     Icc = np.bincount(flat, weights=Icc_loc.ravel(), minlength=nc * nc).reshape(nc, nc)
-    ridge = 1e-12 * float(np.max(np.diag(Icc)))
-    Icc[np.diag_indices(nc)] += ridge
+    return Itc, Icc
+
+
+def _schur(Itt, Itc, Icc, ndof: int):
+    """``I_tt - I_tc I_cc^-1 I_ct`` with the block-banded ``I_cc`` (blocks of ``ndof``, 3 off
+    the diagonal: a sample touches 4 consecutive knots) solved by :func:`block_banded_solve`."""
+    Icc = Icc.copy()
+    Icc[np.diag_indices(len(Icc))] += 1e-12 * float(np.max(np.diag(Icc)))
     return Itt - Itc @ block_banded_solve(Icc, Itc.T, ndof, 3)
+
+
+def _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc: int, ndof: int):
+    """The Schur complement of the nuisance coefficients from the per-sample blocks."""
+    return _schur(Itt, *_scatter(Itc_loc, Icc_loc, cols, nc), ndof)
+
+
+def _information_block(robot, model, theta, u_t, h: float, K: int, ndof: int, s2, sd,
+                       tension, position, R, acceleration, omega, alpha):
+    """One block's share of the information: ``I_tt`` (p, p), ``I_tc`` (p, K ndof) and
+    ``I_cc`` (K ndof, K ndof), the last two scatter-added from each sample's 4 knots."""
+    n = len(u_t)
+    rot = ndof == 6
+    G, Y, W = (np.asarray(z) for z in sample_jacobians(
+        robot, model, jnp.asarray(theta, float), jnp.asarray(tension, float),
+        jnp.asarray(position, float), jnp.asarray(R, float), jnp.asarray(acceleration, float),
+        jnp.asarray(omega, float), jnp.asarray(alpha, float)))
+    Sig = np.matmul(W * s2, W.transpose(0, 2, 1))
+    P = _pinv_sym(Sig)
+    i0, b, d1, d2 = bspline_basis(u_t / h)
+    i0 = np.clip(i0, 0, K - 4)
+    # local Jacobian (n, 6, 4 knots, ndof) of the residual w.r.t. the spline coefficients
+    Gp, Ga, Gr, Gw, Gal = (G[:, :, 3 * k:3 * k + 3] for k in range(5))
+    Lp = Gp[:, :, None, :] * b[:, None, :, None] + Ga[:, :, None, :] * (d2 / h**2)[:, None, :,
+                                                                                 None]
+    blocks = [Lp]
+    if rot:
+        Lr = (Gr[:, :, None, :] * b[:, None, :, None]
+              + Gw[:, :, None, :] * (d1 / h)[:, None, :, None]
+              + Gal[:, :, None, :] * (d2 / h**2)[:, None, :, None])
+        blocks.append(Lr)
+    L = np.concatenate(blocks, axis=3).reshape(n, 6, 4 * ndof)  # knot-major, dof inside
+    cols = ((i0[:, None] + np.arange(4)[None, :])[:, :, None] * ndof
+            + np.arange(ndof)[None, None, :]).reshape(n, 4 * ndof)
+    PL = np.matmul(P, L)  # matmul: BLAS (einsum is not)
+    Itt = np.einsum("nip,niq->pq", Y, np.matmul(P, Y), optimize=True)
+    Itc_loc = -np.matmul(Y.transpose(0, 2, 1), PL)  # (n, p, 24)
+    Icc_loc = np.matmul(L.transpose(0, 2, 1), PL)  # (n, 24, 24)
+    # pose observations: the spline values seen with noise
+    inv_var = 1.0 / np.maximum(sd, 1e-9) ** 2
+    for d in range(ndof):
+        idx = np.arange(4) * ndof + d
+        Icc_loc[:, idx[:, None], idx[None, :]] += inv_var[d] * b[:, :, None] * b[:, None, :]
+    return (Itt, *_scatter(Itc_loc, Icc_loc, cols, K * ndof))
 
 
 def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, tension,
         tension_std, position_std: float, rotation_std: float | None,
-        knot_spacing_s: float = 0.1) -> CRBResult:
+        knot_spacing_s: float = 0.1, chunk: int = 4096) -> CRBResult:
     """The errors-in-variables Cramer-Rao bound on ``theta`` for one recording.
 
     Parameters
@@ -199,6 +245,9 @@ def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, te
     knot_spacing_s : float
         Spline knot spacing, s (widened so that no coordinate has more than
         :data:`MAX_KNOTS` knots).
+    chunk : int
+        Samples evaluated at a time: the per-sample Jacobians and information blocks (about
+        18 KB a sample) are summed block by block, so memory does not grow with the recording.
 
     Returns
     -------
@@ -211,43 +260,18 @@ def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, te
     K = int(np.floor(span / h)) + 4  # coefficients per coordinate
     rot = rotation_std is not None
     ndof = 6 if rot else 3
-    G, Y, W = (np.asarray(z) for z in sample_jacobians(
-        robot, model, jnp.asarray(theta, float), jnp.asarray(tension, float),
-        jnp.asarray(position, float), jnp.asarray(R, float), jnp.asarray(acceleration, float),
-        jnp.asarray(omega, float), jnp.asarray(alpha, float)))
-    s2 = np.square(np.broadcast_to(np.asarray(tension_std, float), (W.shape[2],)))
-    Sig = np.matmul(W * s2, W.transpose(0, 2, 1))
-    P = _pinv_sym(Sig)
-    i0, b, d1, d2 = bspline_basis((t - t[0]) / h)
-    i0 = np.clip(i0, 0, K - 4)
-    # local Jacobian (n, 6, 4 knots, ndof) of the residual w.r.t. the spline coefficients
-    Gp, Ga, Gr, Gw, Gal = (G[:, :, 3 * k:3 * k + 3] for k in range(5))
-    Lp = Gp[:, :, None, :] * b[:, None, :, None] + Ga[:, :, None, :] * (d2 / h**2)[:, None, :,
-                                                                                 None]
-    blocks = [Lp]
-    if rot:
-        Lr = (Gr[:, :, None, :] * b[:, None, :, None]
-              + Gw[:, :, None, :] * (d1 / h)[:, None, :, None]
-              + Gal[:, :, None, :] * (d2 / h**2)[:, None, :, None])
-        blocks.append(Lr)
-    L = np.concatenate(blocks, axis=3).reshape(n, 6, 4 * ndof)  # knot-major, dof inside
-    cols = ((i0[:, None] + np.arange(4)[None, :])[:, :, None] * ndof
-            + np.arange(ndof)[None, None, :]).reshape(n, 4 * ndof)
     nc = K * ndof
-    PL = np.matmul(P, L)  # matmul: BLAS (einsum is not)
-    Yt = Y.transpose(0, 2, 1)
-    Itt = np.einsum("nip,niq->pq", Y, np.matmul(P, Y), optimize=True)
-    Itc_loc = -np.matmul(Yt, PL)  # (n, p, 24)
-    Icc_loc = np.matmul(L.transpose(0, 2, 1), PL)  # (n, 24, 24)
-    # pose observations: the spline values seen with noise
-    obs = np.zeros((n, 4 * ndof, 4 * ndof))
     sd = np.array([position_std] * 3 + ([rotation_std] * 3 if rot else []), float)
-    inv_var = 1.0 / np.maximum(sd, 1e-9) ** 2
-    for d in range(ndof):
-        idx = np.arange(4) * ndof + d
-        obs[:, idx[:, None], idx[None, :]] += inv_var[d] * b[:, :, None] * b[:, None, :]
-    Icc_loc = Icc_loc + obs
-    S = _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc, ndof)
+    s2 = np.square(np.broadcast_to(np.asarray(tension_std, float), (robot.n_cables,)))
+    Itt, Itc, Icc = 0.0, 0.0, np.zeros((nc, nc))
+    for a in range(0, n, chunk):  # (chunk, 24, 24) temporaries, never (n, ...) ones
+        sl = slice(a, min(n, a + chunk))
+        parts = _information_block(robot, model, theta, t[sl] - t[0], h, K, ndof, s2, sd,
+                                   *(np.asarray(z)[sl] for z in (tension, position, R,
+                                                                 acceleration, omega, alpha)))
+        Itt, Itc = Itt + parts[0], Itc + parts[1]
+        Icc += parts[2]
+    S = _schur(Itt, Itc, Icc, ndof)
     cov = np.linalg.pinv(0.5 * (S + S.T))
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     noise = {"tension_N": [float(v) for v in np.sqrt(s2)], "position_m": float(position_std),
