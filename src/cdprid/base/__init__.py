@@ -12,6 +12,11 @@ from cdprid.base._errors import InputError as InputError
 from cdprid.base._errors import OutputError as OutputError
 from cdprid.base._errors import OutputExistsError as OutputExistsError
 from cdprid.base._errors import UserError as UserError
+from cdprid.base._interrupts import Terminated as Terminated
+from cdprid.base._interrupts import check_pending as check_pending
+from cdprid.base._interrupts import clear_pending as clear_pending
+from cdprid.base._interrupts import deliver as deliver
+from cdprid.base._interrupts import pending as pending
 from cdprid.base._outputs import atomic_dir as atomic_dir
 from cdprid.base._outputs import atomic_file as atomic_file
 from cdprid.base._outputs import check_distinct as check_distinct

@@ -20,12 +20,13 @@ import errno
 import json
 import os
 import shutil
-import signal
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 from cdprid.base._errors import OutputError, OutputExistsError
+from cdprid.base._interrupts import check_pending, held
+from cdprid.base._replace import recover_leftovers, replace_dir
 
 __all__ = [
     "atomic_dir",
@@ -128,20 +129,19 @@ def atomic_file(path: str | os.PathLike, mode: str = "w", force: bool = True) ->
     if p.is_dir():
         raise OutputError(f"{p}: is a folder, expected a file name.")
     tmp = None
-    held = _hold_signals()
     try:
-        try:
-            fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part",
-                                       dir=p.resolve().parent)
-        except OSError as exc:
-            raise OutputError(f"{p}: cannot write in its folder ({exc.strerror}).") from None
-        finally:
-            _release_signals(held)  # a signal held meanwhile is raised here, its name known
+        with held():  # a signal held meanwhile is raised at its end, the name known
+            try:
+                fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part",
+                                           dir=p.resolve().parent)
+            except OSError as exc:
+                raise OutputError(f"{p}: cannot write in its folder ({exc.strerror}).") from None
         with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as fh:
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual permissions
+        check_pending()  # never commit an output after a signal (one swallowed elsewhere)
         if force:
             os.replace(tmp, p)
         else:  # refuse a file that appeared meanwhile (a link fails if the name exists)
@@ -159,24 +159,6 @@ def atomic_file(path: str | os.PathLike, mode: str = "w", force: bool = True) ->
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
         raise
-
-
-_HELD = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
-
-
-def _hold_signals():
-    """Block Ctrl-C, SIGTERM and SIGHUP while a temporary output is created (a signal between
-    its creation and the moment its name is known left a ``.part`` behind); returns the previous
-    mask (None where signal masks do not exist)."""
-    if not hasattr(signal, "pthread_sigmask"):
-        return None
-    return signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
-
-
-def _release_signals(mask) -> None:
-    """Restore the mask :func:`_hold_signals` returned; a signal held meanwhile is delivered."""
-    if mask is not None:
-        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
 def _umask() -> int:
@@ -218,15 +200,19 @@ def atomic_dir(path: str | os.PathLike, force: bool = False, owned=()) -> Iterat
     * ``path`` is a non-empty folder (allowed only with ``force``): each entry this command
       wrote replaces the entry of the same name, and the entries named in ``owned`` (files
       this kind of command writes, e.g. a dataset's ``lengths.csv``) that this run did not
-      write are removed. **Nothing else in the folder is touched**: ``--force`` replaces this
-      command's own files, never a folder's other contents.
+      write are removed. **Nothing else in the folder is touched** (it is hard-linked into the
+      new folder): ``--force`` replaces this command's own files, never a folder's other
+      contents. The replacement is atomic (:func:`cdprid.base._replace.replace_dir`): the
+      folder is the old one or the complete new one, never a mix, even under SIGTERM.
+    * ``path`` is a symbolic link to a folder: the folder it points to is written.
 
     When the block fails or is interrupted, the temporary folder is removed and ``path`` is
     left as it was.
     """
     p = Path(path)
-    if p.name in ("", ".", ".."):  # "." or "..": name the folder itself
+    if p.name in ("", ".", "..") or p.is_symlink():  # ".", "..", a link: the folder itself
         p = p.resolve()
+    recover_leftovers(p)  # a crash inside an earlier replacement of p (see _replace.py)
     if p.exists() and not p.is_dir():
         raise OutputError(f"{p}: is a file, expected a folder name.")
     existed = p.exists() and any(p.iterdir())
@@ -234,19 +220,18 @@ def atomic_dir(path: str | os.PathLike, force: bool = False, owned=()) -> Iterat
         raise OutputExistsError(f"{p}: already exists; refusing to overwrite it (use --force).")
     parent = p.resolve().parent
     tmp = None
-    held = _hold_signals()
     try:
-        try:
-            parent.mkdir(parents=True, exist_ok=True)
-            tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".part", dir=parent))
-        except OSError as exc:
-            raise OutputError(f"{p}: cannot write in its folder {parent} ({exc.strerror})."
-                              ) from None
-        finally:
-            _release_signals(held)
+        with held():
+            try:
+                parent.mkdir(parents=True, exist_ok=True)
+                tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".part", dir=parent))
+            except OSError as exc:
+                raise OutputError(f"{p}: cannot write in its folder {parent} ({exc.strerror})."
+                                  ) from None
         yield tmp
+        check_pending()  # never commit an output after a signal
         if existed:
-            _merge_into(tmp, p, owned)
+            replace_dir(tmp, p, owned)
         else:
             _rename_new(tmp, p)
     except BaseException:
@@ -264,28 +249,3 @@ def _rename_new(tmp: Path, p: Path) -> None:
             raise OutputExistsError(f"{p}: was created by another run meanwhile; refusing to "
                                     "overwrite it (use --force).") from None
         raise
-
-
-def _merge_into(tmp: Path, p: Path, owned) -> None:
-    """Move each entry of ``tmp`` into ``p`` (replacing the same names) and retire ``owned``
-    entries this run did not write; on failure the replaced entries are put back."""
-    trash = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".old", dir=p.resolve().parent))
-    moved: list[str] = []
-    try:
-        names = sorted(e.name for e in tmp.iterdir())
-        retire = [n for n in owned if n not in names and (p / n).exists()]
-        for name in names + retire:
-            if (p / name).exists() or (p / name).is_symlink():
-                os.replace(p / name, trash / name)
-                moved.append(name)
-            if name in names:
-                os.replace(tmp / name, p / name)
-    except BaseException:
-        for name in moved:
-            with contextlib.suppress(OSError):
-                if not (p / name).exists():
-                    os.replace(trash / name, p / name)
-        raise
-    finally:
-        shutil.rmtree(trash, ignore_errors=True)
-    shutil.rmtree(tmp, ignore_errors=True)

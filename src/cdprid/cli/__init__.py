@@ -6,6 +6,8 @@ from cdprid.cli._main import build_parser as build_parser
 from cdprid.cli._main import console_main as console_main
 from cdprid.cli._main import main as main
 from cdprid.cli._main import parse_params as parse_params
+from cdprid.cli._signals import install_termination_handlers as install_termination_handlers
+from cdprid.cli._signals import restore_handlers as restore_handlers
 
 # The command modules load JAX: their names load on first use (PEP 562), so that ``import
 # cdprid.cli`` and ``cdprid --help`` stay fast.

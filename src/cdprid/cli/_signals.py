@@ -1,39 +1,57 @@
-"""SIGTERM and SIGHUP unwind a command like Ctrl-C (its outputs' ``.part`` files removed)."""
+"""SIGINT, SIGTERM and SIGHUP unwind a command at a safe point (its outputs' temporary files
+removed, no output committed after the signal); see :mod:`cdprid.base._interrupts`."""
 
 from __future__ import annotations
 
 import signal
+import sys
+
+from cdprid.base import Terminated, clear_pending, deliver
 
 __all__ = ["Terminated", "install_termination_handlers", "restore_handlers"]
 
 
-class Terminated(KeyboardInterrupt):
-    """SIGTERM or SIGHUP during a command: unwinds like Ctrl-C, so every output transaction
-    removes its temporary ``.part`` files; the exit code is 128 + the signal number."""
-
-    def __init__(self, signum: int):
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
+def _on_signal(signum, frame):
+    deliver(signum, frame)
 
 
-def _raise_terminated(signum, frame):
-    raise Terminated(signum)
+def _quiet_terminated(hook):
+    """An unraisable-exception hook that prints nothing for :class:`Terminated` (raised where
+    the interpreter cannot propagate it, e.g. a ``__del__``): the signal stays pending and ends
+    the command at the next safe point."""
+
+    def unraisable(info):
+        if isinstance(info.exc_value, Terminated):
+            return
+        hook(info)
+
+    unraisable.previous = hook
+    return unraisable
 
 
 def install_termination_handlers() -> dict:
-    """SIGTERM and SIGHUP raise :class:`Terminated` (main thread only); returns the old handlers."""
+    """SIGINT, SIGTERM and SIGHUP handled by :func:`cdprid.base._interrupts.deliver` (main
+    thread only); returns what :func:`restore_handlers` needs."""
     import threading
 
     if threading.current_thread() is not threading.main_thread():
         return {}
+    clear_pending()
     previous = {}
-    for name in ("SIGTERM", "SIGHUP"):
+    for name in ("SIGINT", "SIGTERM", "SIGHUP"):
         sig = getattr(signal, name, None)
         if sig is not None:
-            previous[sig] = signal.signal(sig, _raise_terminated)
+            previous[sig] = signal.signal(sig, _on_signal)
+    previous["unraisablehook"] = sys.unraisablehook
+    sys.unraisablehook = _quiet_terminated(sys.unraisablehook)
     return previous
 
 
 def restore_handlers(previous: dict) -> None:
+    """Put back the handlers :func:`install_termination_handlers` replaced."""
     for sig, handler in previous.items():
-        signal.signal(sig, handler)
+        if sig == "unraisablehook":
+            sys.unraisablehook = handler
+        else:
+            signal.signal(sig, handler)
+    clear_pending()
