@@ -7,20 +7,6 @@ import sys
 __all__ = ["add_parser"]
 
 
-def _refuse_implausible(ds) -> None:
-    """No effect is named on data whose base fit cannot be trusted (units, axes, clocks,
-    excitation): one sentence, exit 2 (issue 25)."""
-    from cdprid.base import UserError
-    from cdprid.identify import check_geometry, input_warnings, refusals
-    from cdprid.io import align
-
-    check_geometry(ds.robot, ds.pose_t, ds.position, ds.quaternion)
-    bad = refusals(input_warnings(ds, align(ds), "euler-filtfilt", {}))
-    if bad:
-        raise UserError(f"{ds.path}: the base model cannot be trusted on these data, so no "
-                        f"effect is named: {bad[0]}")
-
-
 def _run(args) -> int:
     from cdprid.base import atomic_dir, check_distinct, check_output, write_json
     from cdprid.cli._artifacts import check_outputs, made_by, write_diagnosis_outputs
@@ -39,7 +25,6 @@ def _run(args) -> int:
         if not args.quiet:
             print(msg, file=sys.stderr, flush=True)
 
-    _refuse_implausible(ds)
     res = diagnose(ds, train_until=args.train_until, alpha=args.alpha, n_null=args.n_null,
                    max_effects=args.max_effects, seed=args.seed, progress=progress,
                    keep_episodes=args.keep_episodes)

@@ -25,7 +25,8 @@ import signal
 import sys
 from pathlib import Path
 
-__all__ = ["main", "console_main", "UserError", "build_parser", "load_json_object", "parse_params", "write_json"]
+__all__ = ["main", "console_main", "UserError", "build_parser", "load_json_object", "parse_params",
+           "write_json"]
 
 
 from cdprid.base import OutputError, UserError, check_pending, pending
@@ -198,7 +199,7 @@ def _cmd_identify(args) -> int:
     elif args.wrench_filter == "delay":
         raise UserError("--wrench-filter delay exists only with --online (a fixed delay of W tau "
                         "in the stream); batch identify offers matched or none.")
-    from cdprid.identify import check_geometry
+    from cdprid.core import check_geometry
 
     ds = read_dataset(args.dataset)
     check_geometry(ds.robot, ds.pose_t, ds.position, ds.quaternion)
@@ -245,7 +246,8 @@ def _with_guards(ds, rep):
 
     import numpy as np
 
-    from cdprid.identify import input_warnings, result_warnings, swapped_columns_warning
+    from cdprid.core import input_warnings, result_warnings
+    from cdprid.identify import swapped_columns_warning
 
     names, x, _, _ = rep.estimates()
     if not np.all(np.isfinite(np.asarray(x, float))):

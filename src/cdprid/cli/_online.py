@@ -154,7 +154,7 @@ def run_online_cli(ds, args, params) -> int:
             warns += excitation_warnings(res.names, np.linalg.norm(
                 A_used.reshape(-1, A_used.shape[-1]), axis=0), res.cond_scaled)
         from cdprid.cli._echo import echo_warnings
-        from cdprid.identify import input_warnings, result_warnings
+        from cdprid.core import input_warnings, result_warnings
 
         warns += input_warnings(ds, sig, _SIHD, dict(params or {}), res.acceleration)
         warns += result_warnings(ds.robot, res.names, res.x_final, float("nan"), ds.tension)

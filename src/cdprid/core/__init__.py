@@ -1,6 +1,6 @@
 """The core data path: motion from poses, regression (W_ID, Y_ID), least squares, covariance,
-sensor nuisances, physical consistency, the matched-filter regressions (zero-phase and linear
-match) and the errors-in-variables weighting.
+sensor nuisances, physical consistency, plausibility guards, the matched-filter regressions
+(zero-phase and linear match) and the errors-in-variables weighting.
 """
 
 # ruff: noqa: F401  (explicit re-exports)
@@ -31,6 +31,15 @@ from cdprid.core._eiv import input_covariance as input_covariance
 from cdprid.core._eiv import noise_gains as noise_gains
 from cdprid.core._eiv import noise_levels as noise_levels
 from cdprid.core._eiv import whitening as whitening
+from cdprid.core._guards import REFUSAL_KEYS as REFUSAL_KEYS
+from cdprid.core._guards import SWAP_CHECK_MAX_SAMPLES as SWAP_CHECK_MAX_SAMPLES
+from cdprid.core._guards import check_geometry as check_geometry
+from cdprid.core._guards import input_warnings as input_warnings
+from cdprid.core._guards import plausibility_warnings as plausibility_warnings
+from cdprid.core._guards import refusals as refusals
+from cdprid.core._guards import refuse_implausible as refuse_implausible
+from cdprid.core._guards import result_warnings as result_warnings
+from cdprid.core._guards import swapped_columns_warning as swapped_columns_warning
 from cdprid.core._identification import LSResult as LSResult
 from cdprid.core._identification import condition_number as condition_number
 from cdprid.core._identification import group_weights as group_weights

@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from cdprid.base import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
-from cdprid.core import rest_mask
+from cdprid.core import refuse_implausible, rest_mask
 from cdprid.diagnosis._base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from cdprid.diagnosis._budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis._candidates import alias_label, candidate_list
@@ -124,6 +124,7 @@ def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say
     """The problem on the whole recording or on its budgeted subset (on the recording's own
     clock) without its episodes (:mod:`cdprid.episodes`, unless kept), its lengths stream, the
     notes (the alignment's included), the episodes and the problem with them kept."""
+    refuse_implausible(ds, taut_N)  # every plausibility guard of identify refuses here
     lengths, notes = lengths_stream(ds)
     t_first = float(ds.tension_t[0])  # the recording's clock starts there (Subset.clock)
     sub = subset(ds, max_samples, margin_s=max(trim, 0.1))

@@ -4,9 +4,13 @@ calibration.
 
 # ruff: noqa: F401  (explicit re-exports)
 
+from cdprid.core import check_geometry as check_geometry  # moved to core (issue 40)
 from cdprid.core import fit_linear_match as fit_linear_match
+from cdprid.core import input_warnings as input_warnings
 from cdprid.core import matched_regression as matched_regression
 from cdprid.core import reference_rates as reference_rates
+from cdprid.core import refusals as refusals
+from cdprid.core import result_warnings as result_warnings
 from cdprid.core import settled as settled
 from cdprid.identify._batch import COND_WARN as COND_WARN
 from cdprid.identify._batch import DEFAULT_TRIM_S as DEFAULT_TRIM_S
@@ -32,10 +36,6 @@ from cdprid.identify._currents import CurrentsReport as CurrentsReport
 from cdprid.identify._currents import identify_currents as identify_currents
 from cdprid.identify._free_motion import FreeMotionReport as FreeMotionReport
 from cdprid.identify._free_motion import identify_free_motion as identify_free_motion
-from cdprid.identify._guards import check_geometry as check_geometry
-from cdprid.identify._guards import input_warnings as input_warnings
-from cdprid.identify._guards import refusals as refusals
-from cdprid.identify._guards import result_warnings as result_warnings
 from cdprid.identify._guards import swapped_columns_warning as swapped_columns_warning
 from cdprid.identify._online import online_identify as online_identify
 from cdprid.identify._online_step import OnlineStepper as OnlineStepper
