@@ -30,6 +30,18 @@ from pathlib import Path
 
 import numpy as np
 
+
+def positive_int(text: str) -> int:
+    """``--workers``: a positive integer (a local cluster of -2 workers waited forever)."""
+    try:
+        v = int(text)
+    except ValueError:
+        v = 0
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive integer")
+    return v
+
+
 EFFECTS = ["none", "time_delay", "tension_offset", "tension_gain", "exit_point_error",
            "anchor_point_error", "viscous_drag", "pulley", "cable_mass", "frame_tilt",
            "rotational_dynamics", "pulley_friction", "oov_load_cell_coulomb"]
@@ -600,7 +612,7 @@ def main() -> int:
                     help="every run's record is appended here; runs already there are skipped")
     ap.add_argument("--from-jsonl", action="store_true",
                     help="only write the tables from the records of --jsonl")
-    ap.add_argument("--workers", type=int, default=None,
+    ap.add_argument("--workers", type=positive_int, default=None,
                     help="run on a local Dask cluster of N process workers (cdprid[cluster])")
     ap.add_argument("--scheduler", default=None,
                     help="run on an existing Dask cluster (scheduler address)")
@@ -614,7 +626,7 @@ def main() -> int:
                          "serial sweeps otherwise exhaust LLVM's section memory after ~130 "
                          "runs)")
     args = ap.parse_args()
-    from cdprid.base import run_sweep
+    from cdprid.base import UserError, run_sweep
 
     runs = [r for r in plan(args.robots.split(","), args.seeds, args.quick, args.largest_seeds)
             if r[0] in args.kinds.split(",")]
@@ -631,8 +643,11 @@ def main() -> int:
 
             logged = load_log(args.jsonl)
             specs = [s for s in specs if s["key"] not in logged][:args.max_runs]
-        run_sweep(specs, run_spec, args.jsonl, workers=args.workers,
-                  scheduler=args.scheduler, progress=None if args.quiet else _say)
+        try:
+            run_sweep(specs, run_spec, args.jsonl, workers=args.workers,
+                      scheduler=args.scheduler, progress=None if args.quiet else _say)
+        except UserError as exc:  # an unreachable --scheduler: one sentence, exit 2
+            ap.error(str(exc))
     done = {r["key"]: r for r in _records(args.jsonl)}
     keys = {run_key(k, lab, rb, sd) for k, lab, rb, sd, _ in runs}
     rows = [r for k, r in done.items() if k in keys and "outcome" in r]

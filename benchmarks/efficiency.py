@@ -33,6 +33,18 @@ from pathlib import Path
 
 import numpy as np
 
+
+def positive_int(text: str) -> int:
+    """``--workers``: a positive integer (a local cluster of -2 workers waited forever)."""
+    try:
+        v = int(text)
+    except ValueError:
+        v = 0
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive integer")
+    return v
+
+
 ROOT = Path(__file__).resolve().parents[1]
 METHODS = {
     "euler-filtfilt, cutoff from the data, eiv weighting (default)": ("euler-filtfilt", {}, "eiv"),
@@ -220,10 +232,10 @@ def main(argv=None) -> int:
     ap.add_argument("--antithetic", action="store_true",
                     help="each seed also as its antithetic twin (noise negated); adds the "
                          "bias from the pair means with its standard error")
-    ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--workers", type=positive_int, default=None)
     ap.add_argument("--scheduler", default=None)
     args = ap.parse_args(argv)
-    from cdprid.base import run_sweep
+    from cdprid.base import UserError, run_sweep
     from cdprid.model import PARAMETER_NAMES
 
     robots = args.robots.split(",")
@@ -243,7 +255,10 @@ def main(argv=None) -> int:
     if args.antithetic:
         specs += [{**s, "key": s["key"] + "|mirror", "mirror": True} for s in specs]
     t0 = time.time()
-    recs = run_sweep(specs, run, args.jsonl, workers=args.workers, scheduler=args.scheduler)
+    try:
+        recs = run_sweep(specs, run, args.jsonl, workers=args.workers, scheduler=args.scheduler)
+    except UserError as exc:  # an unreachable --scheduler: one sentence, exit 2
+        ap.error(str(exc))
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                             capture_output=True, text=True).stdout.strip()
     lines = ["# Efficiency of identify against the Cramer-Rao bound", "",

@@ -82,7 +82,14 @@ def _client(workers: int | None, scheduler: str | None):
         raise InputError("running on a Dask cluster needs dask and distributed: "
                          "pip install 'cdprid[cluster]'.") from None
     if scheduler:
-        return Client(scheduler), None
+        try:
+            return Client(scheduler, timeout=SCHEDULER_TIMEOUT_S), None
+        except (OSError, TimeoutError, ValueError) as exc:  # unreachable, refused, bad address
+            raise InputError(f"scheduler {scheduler!r}: cannot connect to a Dask scheduler there "
+                             f"within {SCHEDULER_TIMEOUT_S:g} s ({type(exc).__name__}: "
+                             f"{str(exc).splitlines()[0] if str(exc) else 'no detail'}); check "
+                             "the address (tcp://host:8786) and that `dask scheduler` runs."
+                             ) from None
     cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                            dashboard_address=None)
     return Client(cluster), cluster
@@ -91,6 +98,22 @@ def _client(workers: int | None, scheduler: str | None):
 def _tagged(run: Callable, spec: dict) -> dict:
     """Run one spec and tag the record with its key (what the log is indexed by)."""
     return {**run(spec), "key": spec["key"]}
+
+
+#: Seconds to wait for an existing Dask scheduler before giving up with one sentence.
+SCHEDULER_TIMEOUT_S = 10.0
+
+
+def _check_where(workers, scheduler) -> None:
+    """Refuse, before anything starts, a worker count that is not a positive integer (a
+    LocalCluster of -2 workers waited forever) and a scheduler address that is not text."""
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise InputError(f"workers={workers!r}: give a positive number of local workers (or "
+                         "None to run here).")
+    if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
+        raise InputError(f"scheduler={scheduler!r}: give the scheduler's address, e.g. "
+                         "'tcp://host:8786'.")
 
 
 def run_sweep(specs: list, run: Callable, log, workers: int | None = None,
@@ -106,12 +129,19 @@ def run_sweep(specs: list, run: Callable, log, workers: int | None = None,
     log : path
         The JSONL log (appended to; read first to skip what is done).
     workers : int, optional
-        Start a local cluster of that many process workers.
+        Start a local cluster of that many process workers (a positive integer).
     scheduler : str, optional
-        Address of an existing Dask scheduler (overrides ``workers``).
+        Address of an existing Dask scheduler (overrides ``workers``); one that cannot be
+        reached within :data:`SCHEDULER_TIMEOUT_S` is an :class:`~cdprid.base.InputError`.
+
+    Raises
+    ------
+    InputError
+        Repeated spec keys, a worker count below 1, or an unreachable scheduler.
     progress : callable, optional
         Called with one line per completed run.
     """
+    _check_where(workers, scheduler)
     log = Path(log)
     keys = [s["key"] for s in specs]
     if len(set(keys)) != len(keys):

@@ -106,6 +106,7 @@ def run(args) -> int:
                 )
     else:
         traj = preset(args.preset or "paper-orbits", robot, duration=args.duration)
+    _check_samples(traj.t_end - traj.t_start, args.rate_pose, args.rate_tension)
     noise = SensorNoise(
         position_m=args.noise_pos, orientation_rad=args.noise_rot, tension_N=args.noise_tension,
         length_m=args.noise_length,
@@ -136,6 +137,21 @@ def run(args) -> int:
         + f", effects: {names} [{time.perf_counter() - start:.1f} s]"
     )
     return 0
+
+
+def _check_samples(span_s: float, rate_pose: float, rate_tension: float) -> None:
+    """Refuse, before any work, a recording with more samples per stream than memory holds
+    (the bound is on samples: 4 h at 100 kHz passed a duration bound and ran out of memory)."""
+    from cdprid.base import InputError
+    from cdprid.cli._types import SIMULATE_MAX_SAMPLES
+
+    for flag, rate in (("--rate-pose", rate_pose), ("--rate-tension", rate_tension)):
+        n = span_s * rate
+        if n > SIMULATE_MAX_SAMPLES:
+            raise InputError(f"{flag} {rate:g} Hz over {span_s:g} s is {n:.3g} samples, more "
+                             f"than the {SIMULATE_MAX_SAMPLES:,} a simulated stream may have "
+                             "(every sample and its tension distribution are held in memory): "
+                             "lower the rate or --duration.")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

@@ -79,6 +79,8 @@ EXCITE_MAX_S = 600.0
 TUNE_MAX_S = 3600.0
 #: Longest simulated recording (4 h at 100 Hz is about 1.5 million samples per stream).
 SIMULATE_MAX_S = 14400.0
+#: Most samples of one simulated stream (4 h at 100 Hz), whatever the rate.
+SIMULATE_MAX_SAMPLES = 1_440_000
 
 
 def nonneg_float(text: str) -> float:
