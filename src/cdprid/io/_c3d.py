@@ -54,6 +54,10 @@ def _load(path: str | Path):
     path = Path(path)
     if not path.is_file():
         raise UserError(f"{path}: C3D file is missing.")
+    cut = _truncated_header(path)
+    if cut:
+        raise UserError(f"{path}: the file is truncated: {cut} (copy it again from the capture "
+                        "system).")
     try:
         return ezc3d.c3d(str(path))
     except Exception as exc:  # noqa: BLE001 - ezc3d raises plain RuntimeError/IOError
@@ -70,6 +74,33 @@ def _select(names: list[str], wanted: list[str] | None, path, option: str, what:
                             f"{', '.join(names) or 'none'}.")
         idx.append(names.index(w))
     return idx
+
+
+def _truncated_header(path) -> str | None:
+    """Where a file ends before its own header says its sections end, or None: the parameter
+    section (block ``head[0]``, ``param[2]`` blocks long) and the start of the data (header
+    word 9); a file cut inside its parameters was blamed on the markers."""
+    try:
+        size = Path(path).stat().st_size
+        with open(path, "rb") as fh:
+            head = fh.read(512)
+            fh.seek(max(head[0] - 1, 0) * 512 if head else 0)
+            param = fh.read(4)
+    except OSError:
+        return None
+    if len(head) < 512 or head[1] != 0x50:  # not a C3D header: ezc3d says what it is
+        return None if len(head) >= 512 else "it ends inside its 512-byte header"
+    start = (head[0] - 1) * 512
+    if len(param) < 4:
+        return f"it ends at byte {size}, before its parameter section (byte {start})"
+    end = start + param[2] * 512
+    if size < end:
+        return f"it ends at byte {size}, inside its parameter section (bytes {start}-{end})"
+    if param[3] == 84:  # Intel: the data start is readable as a little-endian word
+        data = (int.from_bytes(head[16:18], "little") - 1) * 512
+        if size < data:
+            return f"it ends at byte {size}, before its data (byte {data})"
+    return None
 
 
 def _declared_frames(path) -> int | None:

@@ -339,7 +339,8 @@ def read_dataset(path: str | Path, require_tensions: bool = True) -> Dataset:
 
 
 def _extra_streams(root: Path) -> dict:
-    """Further ``*.csv`` streams (malformed ones ignored: spec, anything else ignored)."""
+    """Further ``*.csv`` streams: a malformed stream cdprid reads (:data:`DATASET_FILES`) is
+    refused, any other malformed file ignored (spec: anything else ignored)."""
     extra = {}
     for f in sorted(root.glob("*.csv")):
         if f.name in ("pose.csv", "tensions.csv"):
@@ -347,7 +348,9 @@ def _extra_streams(root: Path) -> dict:
         try:
             extra[f.stem] = read_csv_stream(f, required=("t",))
         except DatasetError:
-            continue
+            if f.name in DATASET_FILES:  # lengths.csv: a stream cdprid reads, refused like the
+                raise  # others (a `nan` dropped it silently and cable_elasticity went untested)
+            continue  # other files are ignored when malformed (spec: anything else ignored)
     return extra
 
 
