@@ -83,12 +83,21 @@ class SafetyLimits:
 
 
 def _default_box(robot: CableRobot):
-    """Without a workspace box: the exit points' bounding box shrunk by 25 %, 0.3 m below."""
+    """Without a workspace box: the exit points' bounding box shrunk by 25 %, its top 0.3 m
+    below the highest exit. When the exits lie near one horizontal plane (a suspended robot:
+    their height spread under half the horizontal half extent) the platform hangs below that
+    plane: the box then spans from 0.3 m below the lowest exit down by 75 % of the larger
+    horizontal half extent (the box on the exit plane itself left no gentle run)."""
     A = np.asarray(robot.B_A)
     lo, hi = A.min(axis=0), A.max(axis=0)
     c, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
     lo2, hi2 = c - 0.75 * h, c + 0.75 * h
-    hi2[2] = max(hi2[2] - 0.3, lo2[2] + 0.1)
+    reach = float(max(h[0], h[1]))
+    if hi[2] - lo[2] < 0.5 * reach:
+        hi2[2] = lo[2] - 0.3
+        lo2[2] = hi2[2] - 0.75 * reach
+    else:
+        hi2[2] = max(hi2[2] - 0.3, lo2[2] + 0.1)
     return tuple(float(v) for v in lo2), tuple(float(v) for v in hi2)
 
 
