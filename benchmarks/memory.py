@@ -28,10 +28,24 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _build(base: Path, minutes: int, work: Path) -> Path:
+def _rotating_trajectory(work: Path) -> Path:
+    """A 10 min paper-orbits trajectory of the built-in robot with a 0.1 rad rotation (the
+    full model's recording: a time-reversed rotating record is valid too, since omega x I omega
+    and the angular acceleration keep their sign)."""
+    from cdprid.io import save_trajectory_csv
+    from cdprid.model import craft_like_robot, preset
+
+    out = work / "rotating-10min.csv"
+    if not out.exists():
+        save_trajectory_csv(preset("paper-orbits", craft_like_robot(), duration=600.0,
+                                   rotation_amplitude=0.1), out)
+    return out
+
+
+def _build(base: Path, minutes: int, work: Path, tag: str = "") -> Path:
     from cdprid.io import read_dataset, write_dataset
 
-    out = work / f"rec-{minutes}min"
+    out = work / f"rec{tag}-{minutes}min"
     if out.exists():
         return out
     ds = read_dataset(base)
@@ -86,23 +100,33 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lengths", default="10,30,120", help="minutes, comma-separated")
     ap.add_argument("--commands", default="identify,online,diagnose")
+    ap.add_argument("--models", default="translation",
+                    help="recordings: translation (paper-orbits), full (the same orbits with a "
+                    "0.1 rad rotation: identify picks the 10-parameter model), comma-separated")
     ap.add_argument("--mem-cap", type=float, default=6.0, help="GB; a run above is killed")
     ap.add_argument("--timeout", type=float, default=900.0, help="s; a run longer is killed")
     ap.add_argument("--work", default=None, help="folder for the recordings (default: a temp)")
     ap.add_argument("--out", default=str(ROOT / "results" / "benchmarks.md"))
+    ap.add_argument("--heading", default="Memory and time on long recordings (issue 17)",
+                    help="the '## ' section of --out this run replaces")
     args = ap.parse_args()
     import jax
 
     jax.config.update("jax_enable_x64", True)
     work = Path(args.work or tempfile.mkdtemp(prefix="cdprid-mem-"))
     work.mkdir(parents=True, exist_ok=True)
-    base = work / "base-10min"
-    if not base.exists():
-        r = _run(["simulate", "--out", str(base), "--duration", "600", "--preset", "paper-orbits"],
-                 args.mem_cap, args.timeout)
-        if r["rc"] != 0:
-            print(f"simulate failed: {r['note']}")
-            return 1
+    bases = {}
+    for model in args.models.split(","):
+        base = work / ("base-10min" if model == "translation" else f"base-{model}-10min")
+        src = (["--preset", "paper-orbits"] if model == "translation" else
+               ["--trajectory", str(_rotating_trajectory(work))])
+        if not base.exists():
+            r = _run(["simulate", "--out", str(base), "--duration", "600", *src],
+                     args.mem_cap, args.timeout)
+            if r["rc"] != 0:
+                print(f"simulate failed: {r['note']}")
+                return 1
+        bases[model] = base
     cmds = {
         "identify": lambda p: ["identify", str(p)],
         "online": lambda p: ["identify", str(p), "--online", "--out-csv",
@@ -110,21 +134,23 @@ def main() -> int:
         "diagnose": lambda p: ["diagnose", str(p), "--quiet"],
     }
     rows = []
-    for minutes in (int(x) for x in args.lengths.split(",")):
-        rec = _build(base, minutes, work)
-        for name in args.commands.split(","):
-            for f in work.glob(f"{rec.name}-online*"):
-                f.unlink()
-            r = _run(cmds[name](rec), args.mem_cap, args.timeout)
-            rows.append((minutes, name, r))
-            print(f"{minutes:>5} min  {name:<9} rc={r['rc']:<4} {r['s']:8.1f} s "
-                  f"{r['peak_gb']:6.2f} GB  {r['note']}", flush=True)
+    for model, base in bases.items():
+        for minutes in (int(x) for x in args.lengths.split(",")):
+            rec = _build(base, minutes, work, "" if model == "translation" else f"-{model}")
+            for name in args.commands.split(","):
+                for f in work.glob(f"{rec.name}-online*"):
+                    f.unlink()
+                r = _run(cmds[name](rec), args.mem_cap, args.timeout)
+                label = f"{name} ({model})" if args.models != "translation" else name
+                rows.append((minutes, label, r))
+                print(f"{minutes:>5} min  {label:<22} rc={r['rc']:<4} {r['s']:8.1f} s "
+                      f"{r['peak_gb']:6.2f} GB  {r['note']}", flush=True)
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                             capture_output=True, text=True).stdout.strip()
-    lines = ["## Memory and time on long recordings (issue 17)", "",
+    lines = [f"## {args.heading}", "",
              f"Command: `PYTHONPATH=src python benchmarks/memory.py --lengths {args.lengths} "
-             f"--commands {args.commands}` at commit {commit}, {time.strftime('%Y-%m-%d')}, on a "
-             "2-core machine shared with other jobs (times are upper bounds). 100 Hz pose and "
+             f"--commands {args.commands} --models {args.models} --heading '{args.heading}'` at "
+             f"commit {commit}, {time.strftime('%Y-%m-%d')}, `nice -n 10`, on a 2-core machine shared with other jobs (times are upper bounds). 100 Hz pose and "
              "tensions; peak = maximum resident set size of the command's process.", "",
              "| recording | command | exit | time (s) | peak memory (GB) | note |",
              "|---|---|---|---|---|---|"]
@@ -132,7 +158,7 @@ def main() -> int:
         lines.append(f"| {minutes} min | {name} | {r['rc']} | {r['s']:.1f} | "
                      f"{r['peak_gb']:.2f} | {r['note']} |")
     lines += ["", "Goals (issue 17): identify on 2 h within 1 GB; diagnose on 2 h within 4 GB.", ""]
-    _merge(Path(args.out), "## Memory and time on long recordings", "\n".join(lines))
+    _merge(Path(args.out), f"## {args.heading}", "\n".join(lines))
     print(f"wrote {args.out}")
     return 0
 
