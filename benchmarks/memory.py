@@ -150,7 +150,8 @@ def main() -> int:
     lines = [f"## {args.heading}", "",
              f"Command: `PYTHONPATH=src python benchmarks/memory.py --lengths {args.lengths} "
              f"--commands {args.commands} --models {args.models} --heading '{args.heading}'` at "
-             f"commit {commit}, {time.strftime('%Y-%m-%d')}, `nice -n 10`, on a 2-core machine shared with other jobs (times are upper bounds). 100 Hz pose and "
+             f"commit {commit}, {time.strftime('%Y-%m-%d')}, `nice -n 10`, on a 2-core machine "
+             "shared with other jobs (times are upper bounds). 100 Hz pose and "
              "tensions; peak = maximum resident set size of the command's process.", "",
              "| recording | command | exit | time (s) | peak memory (GB) | note |",
              "|---|---|---|---|---|---|"]
