@@ -385,7 +385,19 @@ def plausibility_warnings(ds, sig) -> list[str]:
     """Every guard's sentence on ``ds``: :func:`input_warnings` and :func:`result_warnings`
     of a base fit of the paper's model (euler-filtfilt at 4 Hz, matched filter, ordinary least
     squares; the full model when the platform rotates) with the swapped-columns check, on
-    the middle :data:`GUARD_FIT_MAX_SAMPLES` samples of a longer recording."""
+    the middle :data:`GUARD_FIT_MAX_SAMPLES` samples of a longer recording.
+
+    Parameters
+    ----------
+    ds : Dataset
+    sig : AlignedSignals
+        ``ds`` aligned (:func:`cdprid.io.align`).
+
+    Returns
+    -------
+    list of str
+        One sentence per guard that fires (:func:`refusals` selects the refusing ones).
+    """
     from cdprid.core._motion import (
         ROTATION_WARN_DEG,
         estimate_motion,
