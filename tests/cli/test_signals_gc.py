@@ -74,3 +74,19 @@ def test_cli_ends_with_128_plus_signal_when_it_arrives_in_gc(tmp_path, capsys, m
     assert fired and rc == 128 + sig, err
     assert "Exception ignored" not in err and "Traceback" not in err
     assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_progress_line_is_a_safe_point(capsys):
+    from cdprid.base import Progress
+
+    prev = _signals.install_termination_handlers()
+    cb, fired = _arm()
+    try:
+        gc.collect()
+        assert fired and pending() == signal.SIGTERM
+        with pytest.raises(_signals.Terminated):
+            Progress("test").say("next stage")
+    finally:
+        gc.callbacks.remove(cb)
+        _signals.restore_handlers(prev)
+    assert "next stage" not in capsys.readouterr().err

@@ -10,6 +10,8 @@ import os
 import sys
 import time
 
+from cdprid.base._interrupts import check_pending
+
 __all__ = ["Progress"]
 
 
@@ -35,7 +37,9 @@ class Progress:
         return time.perf_counter() - self.t0
 
     def say(self, message: str) -> None:
-        """Print one progress line with the elapsed time."""
+        """Print one progress line with the elapsed time (a safe point: a signal recorded
+        where it could not be raised ends the command here)."""
+        check_pending()
         if self.quiet:
             return
         stream = self.stream if self.stream is not None else sys.stderr

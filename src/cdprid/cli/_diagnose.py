@@ -8,7 +8,7 @@ __all__ = ["add_parser"]
 
 
 def _run(args) -> int:
-    from cdprid.base import atomic_dir, check_distinct, check_output, write_json
+    from cdprid.base import atomic_dir, check_distinct, check_output, check_pending, write_json
     from cdprid.cli._artifacts import check_outputs, made_by, write_diagnosis_outputs
     from cdprid.diagnosis import diagnose
     from cdprid.io import dataset_inputs, read_dataset
@@ -22,6 +22,7 @@ def _run(args) -> int:
     ds = read_dataset(args.dataset)
 
     def progress(msg):
+        check_pending()  # a safe point for a signal recorded where it could not be raised
         if not args.quiet:
             print(msg, file=sys.stderr, flush=True)
 
