@@ -89,9 +89,13 @@ def zero_phase_matched_regression(robot, motion: Motion, quaternion, tension, wf
     y = np.asarray(wf(cable_wrench(robot, motion.position, motion.B_R_P, tension, chunk)))
     rem, linear_part = rotation_remainder(robot, motion, quaternion, "full", keep, chunk)
     scale = regressor_scale(robot, y, rem.shape[-1]).reshape(-1)
-    A = np.asarray(wf(rem.reshape(n, -1), scale)).reshape(rem.shape)
-    del rem
+    flat = rem.reshape(n, -1)
+    A = np.empty_like(flat)
+    for j in range(0, flat.shape[1], 6):  # 6 channels at a time: the filter's temporaries
+        A[:, j:j + 6] = np.asarray(wf(flat[:, j:j + 6], scale[j:j + 6]))  # stay (n, 6)
+    del rem, flat
+    A = A.reshape(n, 6, -1)
     A += linear_part(motion.acceleration)
     idx = np.flatnonzero(keep)
-    A, y, t = A[idx], y[idx], motion.t[idx]
-    return StreamedRegression(t, y, "full", lambda i0, i1: A[i0:i1])
+    y, t = y[idx], motion.t[idx]
+    return StreamedRegression(t, y, "full", lambda i0, i1: A[idx[i0:i1]])
