@@ -119,6 +119,19 @@ def summarize(prob: Problem, base: BaseFit, s: Selection, noise: NoiseLevels, se
         info, resid
 
 
+def _split_at_joins(sig, joins):
+    """``sig`` with its gap-free segments cut where two blocks of a budgeted subset meet: the
+    blocks are put end to end on one time axis, but the pose jumps there (not a glitch)."""
+    if not joins:
+        return sig
+    cuts = [int(c) for c in np.searchsorted(sig.t, np.asarray(joins))]
+    segments = []
+    for a, b in sig.segments:
+        edges = [a] + [c for c in cuts if a < c < b] + [b]
+        segments += list(zip(edges[:-1], edges[1:]))
+    return dataclasses.replace(sig, segments=tuple(segments))
+
+
 def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say,
              keep_episodes=False):
     """The problem on the whole recording or on its budgeted subset (on the recording's own
@@ -137,7 +150,7 @@ def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say
     prob = prepare(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
                    joins=sub.joins if sub is not None else (),
                    clock=sub.clock if sub is not None else None)
-    sig = align(ds)
+    sig = _split_at_joins(align(ds), sub.joins if sub is not None else ())
     notes.extend(n for n in sig.notes if n not in notes)
     eps = find_episodes(ds.robot, sig, cutoff_hz, trim=trim, use=prob.use)
     if sub is not None:  # report the recording's own times, not the joined axis
