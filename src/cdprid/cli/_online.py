@@ -39,6 +39,27 @@ def format_online_table(res: OnlineResult) -> str:
     return "\n".join(lines)
 
 
+def describe_online_episode(e) -> str:
+    """One line for an episode flagged online: when, what, how large."""
+    what = f"{e.size_N:.3g} N, {e.size_Nm:.3g} N m (mean over the episode)"
+    if e.kind == "payload_step" and "mass_change_kg" in e.detail:
+        what = (f"mass {e.detail['mass_before_kg']:.4g} -> {e.detail['mass_after_kg']:.4g} kg "
+                f"({e.detail['mass_change_kg']:+.3g} kg); the estimate restarted")
+    tail = " (still open at the end)" if e.detail.get("open") else ""
+    return f"{e.kind} {e.start_s:.2f}-{e.end_s:.2f} s: {what}{tail}"
+
+
+def episode_notes(episodes, kept: bool) -> list[str]:
+    """The note saying what the online detector did with its episodes (empty when none)."""
+    if not episodes:
+        return []
+    n = sum(e.kind == "external_wrench" for e in episodes)
+    k = len(episodes) - n
+    how = ("reported, the update kept running (--keep-episodes)" if kept else
+           "the update frozen during each (its rows left out), restarted at each payload step")
+    return [f"{n} external-wrench episode(s) and {k} payload step(s) flagged online: {how}"]
+
+
 def write_online_csv(res: OnlineResult, path) -> Path:
     """CSV ``t, <names>, sigma_<names>, sigma_rho, excitation, excitation_ok`` (one row/sample)."""
     path = Path(path)
@@ -115,8 +136,11 @@ def run_online_cli(ds, args, params) -> int:
 
     prog = Progress("identify --online")
     prog.say(f"recursive identification of {len(sig.t)} samples ({args.model} model) ...")
+    keep = bool(getattr(args, "keep_episodes", False))
     res = online_identify(sig, ds.robot, model=args.model, forgetting=forgetting,
-                          gains=dict(params or {}), wrench_filter=wfilt)
+                          gains=dict(params or {}), wrench_filter=wfilt,
+                          episodes={"freeze": not keep})
+    notes += episode_notes(res.episodes, keep)
     prog.say("done; writing the outputs")
 
     out_csv = getattr(args, "out_csv", None)
@@ -159,6 +183,8 @@ def run_online_cli(ds, args, params) -> int:
         warns += input_warnings(ds, sig, _SIHD, dict(params or {}), res.acceleration)
         warns += result_warnings(ds.robot, res.names, res.x_final, float("nan"), ds.tension)
         print(format_online_table(res))
+        for e in res.episodes:
+            print(f"episode: {describe_online_episode(e)}")
         for n in (*sig.notes, *notes):
             print(f"note: {n}")
         for w in warns:
@@ -182,6 +208,7 @@ def run_online_cli(ds, args, params) -> int:
                 "excitation_ok_fraction": float(res.excitation_ok[res.used].mean())
                 if res.used.any() else 0.0,
             }
+            data["episodes"] = [e.as_json() for e in res.episodes]
             write_json(json_path, data)
             print(f"wrote {json_path}")
     except BaseException:

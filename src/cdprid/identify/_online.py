@@ -70,6 +70,12 @@ import numpy as np
 
 from cdprid.base import InputError
 from cdprid.core import condition_number
+from cdprid.identify._online_episodes import (
+    detector_settings,
+    episode_rows,
+    online_episodes,
+    run_detect_scan,
+)
 from cdprid.identify._online_step import _online_scan, _x64_scope, online_init, online_step
 from cdprid.identify._online_types import OnlineOutput, OnlineResult, OnlineSample
 from cdprid.model import PARAMETER_NAMES, CableRobot
@@ -125,7 +131,8 @@ def _as_arrays(signals):
 
 
 def online_identify(signals, robot: CableRobot, model: str = "translation",
-                    forgetting: float = 1.0, gains: dict | None = None, **options) -> OnlineResult:
+                    forgetting: float = 1.0, gains: dict | None = None,
+                    episodes: bool | dict = False, **options) -> OnlineResult:
     """Run the online identification over recorded signals (one ``lax.scan``).
 
     Parameters
@@ -139,6 +146,10 @@ def online_identify(signals, robot: CableRobot, model: str = "translation",
         lambda in (0, 1].
     gains : dict, optional
         SIHD-2 cascade gains (default: the paper's, eq. 35).
+    episodes : bool or dict
+        Flag episodes as they happen (:mod:`cdprid.identify._online_episodes`): the update is
+        frozen during them and restarted at a payload step. A dict gives keywords of
+        :func:`detector_settings` (``freeze=False`` only reports them).
     **options
         Further keywords of :func:`online_init` (``wrench_filter``, ``wrench_delay``, ``x0``,
         ``prior_weight``, ``warmup``, ``excitation_window``, ``excitation_threshold``).
@@ -154,9 +165,19 @@ def online_identify(signals, robot: CableRobot, model: str = "translation",
     dt = float(np.median(np.diff(t)))
     with _x64_scope():
         st0 = online_init(robot, dt, model, forgetting, gains, **options)
-        st, out = _online_scan(st0, OnlineSample(jnp.asarray(pos), jnp.asarray(q),
-                                                 jnp.asarray(tau)))
-        o = OnlineOutput(*(np.asarray(v) for v in out))
+        smp = OnlineSample(jnp.asarray(pos), jnp.asarray(q), jnp.asarray(tau))
+        found = ()
+        if episodes is False:
+            st, out = _online_scan(st0, smp)
+            o = OnlineOutput(*(np.asarray(v) for v in out))
+        else:
+            kw = dict(episodes) if isinstance(episodes, dict) else {}
+            kw.setdefault("prior_weight", float(st0.config.prior_weight))
+            lag = int(round(kw.get("short_s", 0.1) / dt))
+            st, o, dout = run_detect_scan(st0, smp, detector_settings(dt, **kw))
+            found = tuple(online_episodes(t, o.x, PARAMETER_NAMES[model], dout, lag))
+            if kw.get("freeze", True):  # rows rolled back at an alarm were not used
+                o = o._replace(used=o.used & ~episode_rows(dout))
         S = np.asarray(st.S)
     p = st0.config.n_params
     R = S[:p, :p]
@@ -169,5 +190,5 @@ def online_identify(signals, robot: CableRobot, model: str = "translation",
         omega=o.omega, alpha=o.alpha, A=o.A, y=o.y, cov=cov,
         cond=condition_number(R), cond_scaled=condition_number(R, scaled=True),
         n_samples=int(o.used.sum()), forgetting=float(forgetting),
-        wrench_filter=st0.config.wrench_filter,
+        wrench_filter=st0.config.wrench_filter, episodes=found,
     )

@@ -297,6 +297,8 @@ class OnlineResult:
         Samples used by the least squares.
     forgetting : float
     wrench_filter : str
+    episodes : tuple of Episode
+        Episodes flagged as they happened (``online_identify(..., episodes=True)``).
     """
 
     t: np.ndarray
@@ -320,6 +322,7 @@ class OnlineResult:
     n_samples: int
     forgetting: float
     wrench_filter: str
+    episodes: tuple = ()
 
     @property
     def x_final(self) -> np.ndarray:
