@@ -5,13 +5,16 @@ and from two simulations of different payloads joined end to end."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
+from cdprid.cli import main
 from cdprid.effects import Effect
 from cdprid.identify import online_identify
 from cdprid.model import InertialParameters, craft_like_robot, craft_like_truth, preset
-from cdprid.simulation import simulate
+from cdprid.simulation import simulate, write_simulation
 
 PUSH = (7.0, 8.0, [12.0, 0.0, 16.0])  # 20 N for 1 s, partly vertical: it pulls the mass
 
@@ -38,11 +41,16 @@ def clean(robot, traj):
 
 
 @pytest.fixture(scope="module")
-def pushed(robot, traj):
+def pushed_sim(robot, traj):
     a, b, f = PUSH
     eff = [Effect("external_wrench", {"start_s": a, "end_s": b, "force_N": f,
                                       "moment_Nm": [0.0, 0.0, 0.0]})]
-    return _signals(simulate(robot, traj, seed=3, effects=eff))
+    return simulate(robot, traj, seed=3, effects=eff)
+
+
+@pytest.fixture(scope="module")
+def pushed(pushed_sim):
+    return _signals(pushed_sim)
 
 
 def test_clean_data_give_no_episode(robot, clean):
@@ -102,3 +110,24 @@ def test_payload_step_reported_and_tracked(robot, traj, clean):
     stuck = online_identify(sig, robot, episodes={"freeze": False})
     assert stuck.episodes[0].kind == "payload_step"
     assert abs(stuck.x[-1, 0] - m_new) > 0.05 * m_new
+
+
+def test_cli_online_json_has_the_episodes(pushed_sim, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    ds = write_simulation(pushed_sim, tmp_path / "ds")
+    out = tmp_path / "res.json"
+    assert main(["identify", str(ds), "--online", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "episode: external_wrench" in text and "update frozen" in text
+    data = json.loads(out.read_text())
+    (ep,) = data["episodes"]
+    assert set(ep) >= {"start_s", "end_s", "kind", "p_value", "force_N", "moment_Nm", "size_N",
+                       "size_Nm", "impulse_Ns"}
+    assert ep["kind"] == "external_wrench" and ep["p_value"] is None
+    assert abs(ep["start_s"] - PUSH[0]) <= 0.2
+    m_frozen = data["parameters"]["m"]["value"]
+    out2 = tmp_path / "kept.json"
+    assert main(["identify", str(ds), "--online", "--keep-episodes", "--json", str(out2)]) == 0
+    kept = json.loads(out2.read_text())
+    assert len(kept["episodes"]) == 1 and any("--keep-episodes" in n for n in kept["notes"])
+    assert abs(kept["parameters"]["m"]["value"] - 9.88) > abs(m_frozen - 9.88)
