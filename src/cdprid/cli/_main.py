@@ -319,7 +319,7 @@ def _add_identify(sub) -> None:
                    "the differentiator's own low-pass, batch and online), none, or delay "
                    "(--online only)")
     p.add_argument("--keep-episodes", action="store_true", help="keep the located episodes "
-                   "(pushes, load-cell steps, pose glitches) in the fit; reported either way")
+                   "(pushes, load-cell steps, glitches; --online: pushes, payload steps) in fits")
     p.add_argument("--json", help="write the result as JSON to this file")
     _artifacts.add_identify_options(p)  # --mat, --report
     p.add_argument("--force", action="store_true",
