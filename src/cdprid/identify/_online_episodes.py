@@ -274,8 +274,17 @@ def online_episodes(t, x, names, dout: DetectOutput, lag: int = 0) -> list[Episo
 
 
 def episode_rows(dout: DetectOutput) -> np.ndarray:
-    """(n,) bool: the samples of the episodes (from each alarm's start, rolled back, to its
-    end or step), i.e. the rows a frozen update left out."""
+    """The samples of the episodes: the rows a frozen update left out.
+
+    Parameters
+    ----------
+    dout : DetectOutput of numpy arrays
+
+    Returns
+    -------
+    ndarray (n,) of bool
+        From each alarm's (rolled-back) start to its end or step.
+    """
     n = len(dout.event)
     diff = np.zeros(n + 1, int)
     ev = np.asarray(dout.event)
@@ -289,8 +298,24 @@ def episode_rows(dout: DetectOutput) -> np.ndarray:
 
 
 def run_detect_scan(st0, samples, settings: DetectorSettings):
-    """Jitted :func:`_detect_scan`; outputs as numpy (``OnlineOutput``, ``DetectOutput``) and
-    the final state."""
+    """The online scan with the detector (jitted :func:`_detect_scan`).
+
+    Parameters
+    ----------
+    st0 : OnlineState
+    samples : OnlineSample
+        Stacked samples (n, ...).
+    settings : DetectorSettings
+
+    Returns
+    -------
+    state : OnlineState
+        Final state.
+    out : OnlineOutput
+        Per-sample outputs (numpy), ``x``/``sigma`` those of the factor kept.
+    dout : DetectOutput
+        Per-sample detector outputs (numpy).
+    """
     (st, _), (out, dout) = _detect_scan_jit(st0, samples, settings)
     o = OnlineOutput(*(np.asarray(v) for v in out))
     d = DetectOutput(*(np.asarray(v) for v in dout))
