@@ -1,6 +1,6 @@
 """CASPR's single-link spatial robots through `cdprid import caspr` and `cdprid excite --gentle`.
 
-Usage: python benchmarks/caspr.py [--library PATH]  -> prints a table, writes results/caspr.md.
+Usage: python -m benchmarks.caspr [--library PATH]  -> prints a table, writes results/caspr.md.
 
 Each model folder (default: the snapshot of CASPR's library in tests/io/data/caspr, or the
 ``data/model_config/models`` folder of a CASPR checkout given by ``--library``) is imported with
@@ -95,7 +95,7 @@ def main(argv=None) -> int:
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
                             capture_output=True, text=True).stdout.strip()
     lib = args.library.relative_to(ROOT) if args.library.is_relative_to(ROOT) else args.library
-    cmd = "python benchmarks/caspr.py" + ("" if args.library == SNAPSHOT else f" --library {lib}")
+    cmd = "python -m benchmarks.caspr" + ("" if args.library == SNAPSHOT else f" --library {lib}")
     lines = ["# CASPR's single-link spatial robots", "",
              f"Command: `{cmd}` at commit {commit}; models from `{lib}` (CASPR commit "
              "a6971eeb, BSD 3-Clause; see its README.md).", "",

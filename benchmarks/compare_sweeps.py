@@ -1,5 +1,5 @@
 """Compare two JSONL logs of benchmarks/diagnosis.py run by run: the same keys, outcomes,
-findings and finding parameters (usage: python benchmarks/compare_sweeps.py A.jsonl B.jsonl)."""
+findings and finding parameters (usage: python -m benchmarks.compare_sweeps A.jsonl B.jsonl)."""
 
 import json
 import sys

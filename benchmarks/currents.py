@@ -8,14 +8,13 @@ at 100 Hz (0.2 mm, 0.3 mrad), no load cells; drive 1's torque constant exact
 ``tests/identify/winch_sim.py`` (numpy, its own Newton-Euler, geometry and winch torque
 balance). Writes ``results/currents.md``.
 
-Run: ``nice -n 10 .venv/bin/python benchmarks/currents.py [--seeds 20] [--duration 30]``.
+Run: ``nice -n 10 .venv/bin/python -m benchmarks.currents [--seeds 20] [--duration 30]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -26,14 +25,13 @@ import numpy as np
 jax.config.update("jax_enable_x64", True)
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests" / "identify"))
-sys.path.insert(0, str(ROOT / "tests"))
-import winch_sim  # noqa: E402
+
+from tests.conftest import ROBOT_CRAFT  # noqa: E402  (the 8-cable CRAFT-like geometry, no pulleys)
+from tests.identify import winch_sim  # noqa: E402
 
 from cdprid.identify import identify_currents  # noqa: E402
 from cdprid.io import read_dataset  # noqa: E402
 from cdprid.model import SIX_SUSPENDED  # noqa: E402
-from conftest import ROBOT_CRAFT  # noqa: E402  (the 8-cable CRAFT-like geometry, no pulleys)
 
 # EIGHT_REDUNDANT is singular at its centre (smallest singular value of W 1e-3): the
 # CRAFT-like suspended geometry instead (tensions 8-40 N on every seed)

@@ -2,7 +2,7 @@
 
 Usage::
 
-    .venv/bin/python benchmarks/differentiators.py [--quick] [--no-pynumdiff]
+    .venv/bin/python -m benchmarks.differentiators [--quick] [--no-pynumdiff]
 
 Accuracy: 3-D acceleration RMSE over t >= 2 s of a circle (R = 0.3 m,
 0.25 Hz, sampled at 100 Hz for 52 s) with white Gaussian position noise of

@@ -12,7 +12,7 @@ trajectory, sensor noise 0.2 mm / 0.5 N:
 
 Run::
 
-    python benchmarks/episodes.py [--seeds 10] [--out results/episodes.md]
+    python -m benchmarks.episodes [--seeds 10] [--out results/episodes.md]
 """
 
 from __future__ import annotations
@@ -26,7 +26,6 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests" / "episodes"))
 
 
 def _signals(sim):
@@ -56,7 +55,7 @@ def run(seeds: int, on_robot=None, robots=(4, 6, 8)) -> dict:
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    import test_episodes as T
+    from tests.episodes import test_episodes as T
 
     from cdprid.episodes import find_episodes
     from cdprid.model import InfeasibleTensionsError

@@ -4,7 +4,7 @@ best hand-made orbit, on 4-, 6- and 8-cable robots with tight spec-1.1 limits.
 Writes ``results/excitation.md`` and ``results/excitation_<robot>_<family>.png`` (the safety
 time series of each optimised design). Run from the repository root::
 
-    .venv/bin/python benchmarks/excitation.py [--mc 3] [--starts 3] [--cases robot:family,...]
+    .venv/bin/python -m benchmarks.excitation [--mc 3] [--starts 3] [--cases robot:family,...]
 
 Robots (:mod:`cdprid.model._robots`, no ../shared needed): ``four-point`` (4 cables, point mass),
 ``six-tight`` (6 cables, the issue's 0.8 x 0.7 x 0.45 m workspace, 1 m/s), ``small-8`` (8 cables,
@@ -221,7 +221,7 @@ def main(argv=None) -> int:
                                 capture_output=True, text=True, check=True).stdout.strip()
     except Exception:  # noqa: BLE001
         commit = "unknown"
-    cmd = "python benchmarks/excitation.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    cmd = "python -m benchmarks.excitation " + " ".join(argv if argv is not None else sys.argv[1:])
     if args.speed:
         return speed_only(robots, args, out, cmd, commit)
     L = ["# Safe excitation design\n"]

@@ -1,6 +1,6 @@
 """Import speed of long recordings: a 1-hour bag (goal < 60 s), and the C3D and table importers.
 
-Usage: python benchmarks/importers.py [--minutes 60]  -> prints a table, writes
+Usage: python -m benchmarks.importers [--minutes 60]  -> prints a table, writes
 results/importers.md.
 
 The recording is the package sample dataset (cdprid.data, a simulated 8-cable robot with
@@ -125,7 +125,7 @@ def main() -> int:
     lines = [
         "# Importer speed",
         "",
-        f"Command: `python benchmarks/importers.py{' --quick' if args.quick else ''}` at commit "
+        f"Command: `python -m benchmarks.importers{' --quick' if args.quick else ''}` at commit "
         f"{commit}; machine: {platform.platform()}, {os.cpu_count()} cores, load average "
         f"{os.getloadavg()[0]:.1f} at the end of the run. Recording: {minutes:g} min, pose and "
         f"tensions at 100 Hz ({n} + {n} messages; the package sample dataset tiled in time). "

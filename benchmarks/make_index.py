@@ -20,7 +20,8 @@ DESCRIPTIONS = {
     "diagnosis.md": "Hidden-effect detection benchmark of `cdprid diagnose` (4/6/8 cables, pairs, clean, out-of-vocabulary)",
     "excitation.md": "Excitation: gentle first run, hand-made orbit and optimised design per robot",
     "online.md": "Online identification: latency, convergence, payload tracking",
-    "real-uacdpr.md": "Real UACDPR data: import, calibration, identification, diagnosis",
+    "real-uacdpr.md":
+        "Real UACDPR data: import, calibration, identification, diagnosis (studies/real_uacdpr*)",
     "benchmarks.md": "Speed and memory figures",
     "diagnosis_runs.jsonl": "Per-draw records behind diagnosis.md (truth, findings, times)",
     "caspr.md": "CASPR single-link spatial robots: import, gentle cond, certified or why not",

@@ -9,7 +9,7 @@ each command in a subprocess and reads its peak resident memory (``os.wait4`` ru
 
 Usage::
 
-    PYTHONPATH=src python benchmarks/memory.py [--lengths 10,30,120] [--commands ...]
+    PYTHONPATH=src python -m benchmarks.memory [--lengths 10,30,120] [--commands ...]
 """
 
 from __future__ import annotations
@@ -148,7 +148,7 @@ def main() -> int:
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                             capture_output=True, text=True).stdout.strip()
     lines = [f"## {args.heading}", "",
-             f"Command: `PYTHONPATH=src python benchmarks/memory.py --lengths {args.lengths} "
+             f"Command: `PYTHONPATH=src python -m benchmarks.memory --lengths {args.lengths} "
              f"--commands {args.commands} --models {args.models} --heading '{args.heading}'` at "
              f"commit {commit}, {time.strftime('%Y-%m-%d')}, `nice -n 10`, on a 2-core machine "
              "shared with other jobs (times are upper bounds). 100 Hz pose and "

@@ -11,7 +11,7 @@ Writes (in ``results/``):
 
 Run from the repository root (reads ``../shared/datasets/craft-sim-orbits``; never copies it)::
 
-    .venv/bin/python benchmarks/paper_replication.py [--dataset PATH] [--hac-lags 100]
+    .venv/bin/python -m benchmarks.paper_replication [--dataset PATH] [--hac-lags 100]
 
 All the numbers come from ``replication/`` (beside ``src/``) (the same functions as
 ``notebooks/02_paper_replication.ipynb``).
@@ -33,7 +33,6 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # replication/ lives beside src/ and benchmarks/
 
 import replication as rp  # noqa: E402
 
@@ -69,7 +68,7 @@ def main(argv=None) -> int:
         print(f"error: dataset {args.dataset} not found (../shared is provided beside the repo).",
               file=sys.stderr)
         return 2
-    cmd = "python benchmarks/paper_replication.py" + (
+    cmd = "python -m benchmarks.paper_replication" + (
         "" if argv is None and len(sys.argv) == 1 else " " + " ".join(sys.argv[1:]))
     prov = _provenance(cmd)
     out = args.out

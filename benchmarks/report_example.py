@@ -1,6 +1,6 @@
 """One look at report.html: the example dataset's diagnosis rendered by headless Chromium.
 
-Usage: python benchmarks/report_example.py  -> results/report_example.png (the top of the page)
+Usage: python -m benchmarks.report_example  -> results/report_example.png (the top of the page)
 and results/report_example.md (the command and commit that made it).
 
 Runs ``cdprid example`` and ``cdprid diagnose --report`` in a temporary folder, then
@@ -39,7 +39,7 @@ def main() -> int:
                             capture_output=True, text=True).stdout.strip()
     (ROOT / "results" / "report_example.md").write_text(
         "# report.html of the example dataset\n\n"
-        f"`results/report_example.png`: made by `python benchmarks/report_example.py` at commit "
+        f"`results/report_example.png`: made by `python -m benchmarks.report_example` at commit "
         f"{commit}: `cdprid example --out example`, `cdprid diagnose example --report report`, "
         "then `chromium --headless --screenshot --window-size=1100,1500` of "
         "`report/report.html` (the top of the page).\n")

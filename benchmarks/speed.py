@@ -1,6 +1,6 @@
 """Wall-clock figures of the main commands (cold start included), side by side in one run.
 
-Usage: python benchmarks/speed.py [--only commands|startup|diagnose] [--baseline REV] [--load K]
+Usage: python -m benchmarks.speed [--only commands|startup|diagnose] [--baseline REV] [--load K]
 prints tables and updates results/benchmarks.md (each section replaced, the others kept).
 ``--only diagnose`` times `cdprid diagnose` on two CRAFT-like recordings (the second start of
 the search runs), with ``--baseline REV`` at this tree and at REV alternated in one run, with
@@ -101,11 +101,10 @@ def _diagnose(d: Path, rev: str | None, n: int = 3, load: int = 0) -> list[str]:
     start runs, at this tree and at ``rev`` alternated (see :func:`_alternate`); least and
     median wall and CPU of ``n`` each after a first round that fills the caches. ``load``:
     that many busy Python processes run beside it (a machine shared with other jobs)."""
-    sys.path.insert(0, str(ROOT / "benchmarks"))
     import numpy as np
-    from many_effects import craft_case
 
-    from diagnosis import PAIRS, simulate_case
+    from benchmarks.diagnosis import PAIRS, simulate_case
+    from benchmarks.many_effects import craft_case
 
     pair = PAIRS["anchor+gain"](np.random.default_rng([3, 8, len("anchor+gain")]), 8)
     recs = {"many effects, case 1": simulate_case(craft_case(1), 1, d),
@@ -123,7 +122,7 @@ def _diagnose(d: Path, rev: str | None, n: int = 3, load: int = 0) -> list[str]:
     stats = {key: [f(wc[i] for wc in v) for i in (0, 1) for f in (min, statistics.median)]
              for key, v in res.items()}
     lines = [_diagnose_heading(load, rev), "",
-             "Command: `python benchmarks/speed.py --only diagnose"
+             "Command: `python -m benchmarks.speed --only diagnose"
              + (f" --baseline {rev}" if rev else "") + (f" --load {load}" if load else "")
              + f"` at commit {_head()}, "
              f"{time.strftime('%Y-%m-%d')}; load average {load0:.1f} before and "
@@ -193,7 +192,7 @@ def _startup(d: Path, baseline: str | None = None) -> list[str]:
         print(f"{n:50s} wall {w:6.2f} s  CPU {c:6.2f} s  {g}", flush=True)
     load = os.getloadavg()[0]
     lines = ["## Start-up time (issue 13)", "",
-             "Command: `python benchmarks/speed.py --only startup"
+             "Command: `python -m benchmarks.speed --only startup"
              + (f" --baseline {baseline}" if baseline else "") + "`; least CPU of 3 fresh "
              f"processes (identify with an empty cache: one run); load average {load:.1f} at "
              "the end of the run (2 cores shared: wall times on a busy machine are upper "
@@ -303,7 +302,7 @@ def main() -> int:
                   f"{goal}", flush=True)
     load = os.getloadavg()[0]
     lines = ["# Speed of the main commands", "",
-             f"Command: `python benchmarks/speed.py`; machine: {platform.platform()}, "
+             f"Command: `python -m benchmarks.speed`; machine: {platform.platform()}, "
              f"{os.cpu_count()} cores, load average {load:.1f} at the end of the run; "
              "each command in a fresh process (cold start: imports and JAX compilation included).",
              "", "| command | wall [s] | CPU [s] | peak RSS of children [MiB] | goal |",

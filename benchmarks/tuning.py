@@ -3,7 +3,7 @@ held-out family of trajectories, against the best causal anchor (a 5-state Kalma
 
 Usage::
 
-    .venv/bin/python benchmarks/tuning.py [--quick] [--outdir results]
+    .venv/bin/python -m benchmarks.tuning [--quick] [--outdir results]
 
 At 0.5 mm position noise (100 Hz) every method ``cdprid tune`` accepts is tuned on the
 training family of ramped orbits (:data:`cdprid.tuning.TRAIN_FAMILY`, 0.1-0.8 Hz, radii
@@ -222,7 +222,7 @@ WHY = (
 def _markdown(entries, train, held, bounds, total, argv):
     anchor = entries[0]
     L = ["# Differentiator tuning under acceleration-response bounds", "",
-         f"Command: `python benchmarks/tuning.py {' '.join(argv)}` at commit {_git_commit()}  ",
+         f"Command: `python -m benchmarks.tuning {' '.join(argv)}` at commit {_git_commit()}  ",
          f"Machine: {platform.platform()}, Python {platform.python_version()}, "
          f"{os.cpu_count()} CPUs (shared with other jobs), jax {jax.__version__}  ",
          f"Date: {time.strftime('%Y-%m-%d %H:%M:%S')}; whole benchmark {total:.0f} s wall", "",

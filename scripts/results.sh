@@ -8,39 +8,41 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh dev
 PY=.venv/bin/python
 QUICK=${1:-}
+# run -m benchmarks.x from the root: the scripts import benchmarks, studies, replication and
+# tests as packages
 run() { echo "[results] $*"; "$PY" "$@"; }
 SHARED=${CDPRID_SHARED:-../shared}
-run benchmarks/differentiators.py ${QUICK:+--quick}
+run -m benchmarks.differentiators ${QUICK:+--quick}
 if [ -f benchmarks/paper_replication.py ]; then
   if [ -d "$SHARED/datasets/craft-sim-orbits" ]; then
-    run benchmarks/paper_replication.py --dataset "$SHARED/datasets/craft-sim-orbits"
+    run -m benchmarks.paper_replication --dataset "$SHARED/datasets/craft-sim-orbits"
   else
     TMP=$(mktemp -d)
     trap 'rm -rf "$TMP"' EXIT
     echo "[results] $SHARED is absent: regenerating the CRAFT-like orbits dataset (cdprid simulate, seed 0)"
     "$PY" -m cdprid.cli._main simulate --preset paper-orbits --seed 0 --out "$TMP/craft-sim-orbits"
-    run benchmarks/paper_replication.py --dataset "$TMP/craft-sim-orbits"
+    run -m benchmarks.paper_replication --dataset "$TMP/craft-sim-orbits"
   fi
 fi
-run benchmarks/diagnosis.py --seeds "$([ -n "$QUICK" ] && echo 1 || echo 3)"
-run benchmarks/excitation.py
-[ -f benchmarks/tuning.py ] && run benchmarks/tuning.py ${QUICK:+--quick}
-[ -f benchmarks/online.py ] && run benchmarks/online.py
-run benchmarks/speed.py
-run benchmarks/importers.py ${QUICK:+--quick}
-run benchmarks/caspr.py
+run -m benchmarks.diagnosis --seeds "$([ -n "$QUICK" ] && echo 1 || echo 3)"
+run -m benchmarks.excitation
+[ -f benchmarks/tuning.py ] && run -m benchmarks.tuning ${QUICK:+--quick}
+[ -f benchmarks/online.py ] && run -m benchmarks.online
+run -m benchmarks.speed
+run -m benchmarks.importers ${QUICK:+--quick}
+run -m benchmarks.caspr
 if command -v chromium >/dev/null 2>&1; then
-  run benchmarks/report_example.py
+  run -m benchmarks.report_example
 else
   echo "[results] skip benchmarks/report_example.py: no chromium (apt-get install chromium)"
 fi
-if [ -f benchmarks/real_uacdpr.py ]; then
+if [ -f studies/real_uacdpr.py ]; then
   if [ -d "$SHARED/datasets/uacdpr-freemotion02" ]; then
-    CDPRID_SHARED="$SHARED" run benchmarks/real_uacdpr.py
+    CDPRID_SHARED="$SHARED" run -m studies.real_uacdpr
   else
-    echo "[results] skip benchmarks/real_uacdpr.py: the real recording $SHARED/datasets/uacdpr-freemotion02 is absent"
+    echo "[results] skip studies/real_uacdpr.py: the real recording $SHARED/datasets/uacdpr-freemotion02 is absent"
   fi
 fi
 if [ -z "$QUICK" ]; then bash scripts/notebooks.sh; else bash scripts/notebooks.sh --fast; fi
-run benchmarks/make_index.py
+run -m benchmarks.make_index
 echo "[results] done: see results/README.md"

@@ -44,7 +44,14 @@ ALLOWED_REPORT_IMPORTS: dict[str, str] = {
 }
 # test files that import benchmarks/
 ALLOWED_BENCHMARK_USERS: dict[str, str] = {
-    "test_diagnose.py": "puts benchmarks/ on sys.path (diag)",
+    "test_diagnose.py": "runs benchmarks.diagnosis's run_one/run_case end to end (diag)",
+}
+# files (a notebook: any of its cells) that change sys.path; the repository root reaches
+# benchmarks, studies, replication and tests' helpers as packages (pytest's pythonpath,
+# ``python -m benchmarks.x`` from the root)
+ALLOWED_SYS_PATH: dict[str, str] = {
+    "notebooks/02_paper_replication.ipynb":
+        "a notebook's kernel starts in notebooks/: the root is put on the path for replication/",
 }
 # import cycles as frozensets of module names
 ALLOWED_CYCLES: dict[frozenset, str] = {
@@ -385,11 +392,8 @@ def _stale() -> list[str]:
             + [k for k in ALLOWED_REPORT_IMPORTS
                if k.split(" -> ")[1] not in g.get(k.split(" -> ")[0], set())]
             + [k for k in ALLOWED_BENCHMARK_USERS if k not in _benchmark_users()]
+            + [k for k in ALLOWED_SYS_PATH if k not in _sys_path_users()]
             + [", ".join(sorted(c)) for c in ALLOWED_CYCLES if c not in cycles])
-
-
-if __name__ == "__main__":
-    print("\n".join(_stale()) or "no stale allow-list entry")
 
 
 def test_architecture_doc_tree_is_current():
@@ -419,7 +423,7 @@ def test_validation_raises_typed_user_errors():
 # import CableRobot``), in src/, benchmarks/, replication/, scripts/ and notebooks/. A test in
 # ``tests/<sub>/`` may import ``cdprid.<sub>._x`` (the subpackage it tests: private helpers,
 # monkeypatching); every other test goes through the faces too.
-OUTSIDE_SRC = ("tests", "benchmarks", "replication", "scripts")
+OUTSIDE_SRC = ("tests", "benchmarks", "studies", "replication", "scripts")
 
 
 def _code_files() -> list[tuple[str, str]]:
@@ -629,3 +633,54 @@ def test_own_estimator_check_can_fail():
         "d/_a.py:1: imports differentiate from cdprid.signal", "d/_b.py:1: defines tension_at",
         "d/_c.py:2: calls diff of order 3", "d/_d.py:2: thresholds a norm (a rest rule)",
         "d/_e.py:1: MAD constant (a noise estimate)", "d/_e.py:2: calls interp"]
+
+
+# --------------------------------------------------------------------------- sys.path
+
+
+def _changes_sys_path(source: str) -> bool:
+    """Whether ``source`` calls ``sys.path.insert/append/extend`` or assigns to ``sys.path``."""
+    def is_sys_path(node) -> bool:
+        return (isinstance(node, ast.Attribute) and node.attr == "path"
+                and isinstance(node.value, ast.Name) and node.value.id == "sys")
+
+    for node in ast.walk(ast.parse(source)):
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                and node.func.attr in ("insert", "append", "extend")
+                and is_sys_path(node.func.value)):
+            return True
+        targets = (node.targets if isinstance(node, ast.Assign)
+                   else [node.target] if isinstance(node, ast.AugAssign) else [])
+        for tg in targets:
+            if is_sys_path(tg) or (isinstance(tg, ast.Subscript) and is_sys_path(tg.value)):
+                return True
+    return False
+
+
+def _sys_path_users() -> dict[str, str]:
+    """Files of src/, tests/, benchmarks/, studies/, replication/, scripts/ and notebooks/
+    (a notebook by file) that change ``sys.path``."""
+    return {rel.split("[")[0]: "changes sys.path" for rel, src in _code_files()
+            if rel != str(Path(__file__).relative_to(ROOT)) and _changes_sys_path(src)}
+
+
+@pytest.mark.parametrize("source, expected", [
+    ("import sys\nsys.path.insert(0, 'x')\n", True),
+    ("import sys\ndef f():\n    sys.path.append('x')\n", True),
+    ("import sys\nsys.path[:0] = ['x']\n", True),
+    ("import sys\nsys.path += ['x']\n", True),
+    ("import sys\nprint(sys.path)\nx = 'sys.path.insert(0, y)'\n", False),
+])
+def test_sys_path_detector(source, expected):
+    assert _changes_sys_path(source) is expected
+
+
+def test_no_sys_path_changes():
+    """Issue 36: benchmarks, studies, replication and shared test helpers are packages reached
+    from the repository root (pytest's ``pythonpath = ["."]``, ``python -m benchmarks.x``)."""
+    found = _sys_path_users()
+    _check(found, ALLOWED_SYS_PATH, "files that change sys.path")
+
+
+if __name__ == "__main__":
+    print("\n".join(_stale()) or "no stale allow-list entry")

@@ -7,16 +7,11 @@ tests need no ../shared.
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+import replication as rp  # noqa: E402
 
 from cdprid import read_dataset
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # replication/ beside src/
-import replication as rp  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -75,9 +75,8 @@ def test_a_killed_sweep_completes_only_its_missing_runs(tmp_path):
     log = tmp_path / "log.jsonl"
     script = tmp_path / "sweep.py"
     script.write_text(textwrap.dedent(f"""
-        import os, sys, time
-        sys.path.insert(0, {str(Path(__file__).parent)!r})
-        from test_sweep import counted_run, _specs
+        import os, time
+        from tests.base.test_sweep import counted_run, _specs
         from cdprid.base import run_sweep
 
         def slow(spec):
@@ -87,8 +86,11 @@ def test_a_killed_sweep_completes_only_its_missing_runs(tmp_path):
 
         run_sweep(_specs(8, marks={str(marks)!r}), slow, {str(log)!r}, progress=None)
     """))
+    # the repository root on the path: the script imports this file as tests.base.test_sweep
+    root = str(Path(__file__).resolve().parents[2])
+    path = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)
     proc = subprocess.Popen([sys.executable, str(script)],
-                            env={**os.environ, "BLOCK_FROM_THIRD": "1"})
+                            env={**os.environ, "PYTHONPATH": path, "BLOCK_FROM_THIRD": "1"})
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
         if log.exists() and len(load_log(log)) >= 2:
@@ -99,6 +101,7 @@ def test_a_killed_sweep_completes_only_its_missing_runs(tmp_path):
     before = set(load_log(log))
     assert before == {"run-0", "run-1"}
     env = {k: v for k, v in os.environ.items() if k != "BLOCK_FROM_THIRD"}
+    env["PYTHONPATH"] = path
     subprocess.run([sys.executable, str(script)], check=True, timeout=120, env=env)
     after = load_log(log)
     assert set(after) == {f"run-{k}" for k in range(8)}

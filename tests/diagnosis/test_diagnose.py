@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -17,8 +15,6 @@ from cdprid.diagnosis import _testing as T
 from cdprid.diagnosis import _unexplained as U
 from cdprid.diagnosis._candidates import Candidate
 from cdprid.signal import make_zero_phase_filter, zero_phase_filter
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 
 
 @pytest.mark.parametrize("n", [40, 700])
@@ -135,7 +131,7 @@ def test_noise_estimate_recovers_white_noise_level(rng):
 
 
 def _run(effect, seed, tmp_path):
-    from diagnosis import run_one
+    from benchmarks.diagnosis import run_one
 
     return run_one(effect, seed, tmp_path)
 
@@ -160,7 +156,7 @@ def test_hidden_effect_named_slow(effect, tmp_path):
 @pytest.mark.slow
 def test_effect_outside_the_vocabulary_is_unexplained_not_named(tmp_path):
     """Coulomb friction on every load cell: no finding, a 'sign of cable velocity' structure."""
-    from diagnosis import run_one
+    from benchmarks.diagnosis import run_one
 
     r = run_one("oov_load_cell_coulomb", 3, tmp_path)
     assert r["outcome"] == "correct-none", r
@@ -169,7 +165,7 @@ def test_effect_outside_the_vocabulary_is_unexplained_not_named(tmp_path):
 @pytest.mark.slow
 def test_non_redundant_six_cable_robot_names_a_gain_not_a_geometry_error(tmp_path):
     """Square W: a 4 % gain on cable 2 is named alone (issue 15's failing case)."""
-    from diagnosis import run_case
+    from benchmarks.diagnosis import run_case
 
     r = run_case([("tension_gain", {"cable": 2, "gain": 1.04})], 1, tmp_path, "six")
     assert r["outcome"] == "named", r

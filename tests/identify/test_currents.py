@@ -3,14 +3,9 @@ lengths and motor currents, against an independent simulator (tests/identify/win
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).parent))
-import winch_sim  # noqa: E402
+from tests.identify import winch_sim  # noqa: E402
 
 from cdprid.base import InputError  # noqa: E402
 from cdprid.identify import identify_currents  # noqa: E402

@@ -4,14 +4,10 @@ cables, homogeneous, the mass as reference."""
 from __future__ import annotations
 
 import os
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).parent))
-import winch_sim  # noqa: E402
+from tests.identify import winch_sim  # noqa: E402
 
 from cdprid.base import InputError  # noqa: E402
 from cdprid.identify._free_motion import free_directions, projected_regressor  # noqa: E402

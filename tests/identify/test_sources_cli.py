@@ -3,14 +3,10 @@
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).parent))
-import winch_sim  # noqa: E402
+from tests.identify import winch_sim  # noqa: E402
 
 from cdprid.cli import main  # noqa: E402
 from cdprid.model import SIX_SUSPENDED  # noqa: E402

@@ -5,7 +5,7 @@ out here; tensions from the wrench (inverse for 6 cables, least norm around a pr
 more); cables without pulleys, paid-out lengths ``|A - p - R b|`` and their derivatives by
 5-point differences of the analytic path; each winch a motor + gear + drum with physical
 constants, the current from the drum's torque balance. Used by ``tests/identify`` and
-``benchmarks/currents.py`` (which adds this folder to ``sys.path``).
+``benchmarks/currents.py`` (as ``tests.identify.winch_sim``, the repository root on the path).
 """
 
 from __future__ import annotations

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import jax
 import numpy as np
 
@@ -12,15 +9,13 @@ from cdprid.core import DriveParameters
 from cdprid.model import SIX_SUSPENDED, cable_lengths, quat_to_matrix, robot_from_dict
 from cdprid.simulation import simulate_drives
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "identify"))
-
 
 def _sim():
     """A stand-in for a SimResult: an independent numpy path (tests/identify/winch_sim.py) at
     100 Hz and made-up tensions (simulate_drives reads only these fields)."""
     from types import SimpleNamespace
 
-    import winch_sim
+    from tests.identify import winch_sim
 
     robot = robot_from_dict(SIX_SUSPENDED)
     path = winch_sim.Path(np.random.default_rng(0), [0.0, 0.0, 1.4], [0.25, 0.25, 0.15], 0.08)

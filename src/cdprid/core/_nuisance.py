@@ -48,7 +48,7 @@ Joint fit of the nuisances with the linear dynamic parameters:
 
 Linear vs Catmull-Rom, raw vs smoothed (measured)
 -------------------------------------------------
-``benchmarks/real_uacdpr.py`` (section "interpolation"; numbers in ``results/real-uacdpr.md``)
+``studies/real_uacdpr.py`` (section "interpolation"; numbers in ``results/real-uacdpr.md``)
 simulates the 8-cable CRAFT-like robot on the paper's orbits (20 s, 1 kHz tensions with the
 default 0.5 N noise, 100 Hz poses) with a known 23.7 ms delay and fits it (translation
 model, 3 seeds). On the RAW stream the cost ripples with the 1 ms tension step and both

@@ -7,7 +7,7 @@ rotation terms are *products* (``R I R^T alpha``, ``omega x I omega``, ``R m s x
 ``F`` does not commute with products: built from the filtered states, they differ from ``F``
 of the true terms at the rotation's harmonics. The inertia is a small share of the moment rows,
 so this mismatch, 1-2e-4 N m at a 2 Hz cutoff on noise-free data, moved an 8-cable robot's
-Ixx by 0.36 % (``benchmarks/bias_sources.py --mode mismatch --cutoff 2``; 1e-5 N m and 0.01 %
+Ixx by 0.36 % (``studies/bias_sources.py --mode mismatch --cutoff 2``; 1e-5 N m and 0.01 %
 with this path).
 
 Here, as :mod:`cdprid.core._linear_match` does for the causal differentiators, the

@@ -305,7 +305,7 @@ def acceleration_filter(y, dt, method: str = "euler-filtfilt", scale=None, **par
     (Numerov's weights). Without it the accelerations were 3e-4 smaller than ``W tau`` at
     1 Hz (100 Hz sampling), a mismatch many times the inertia's share of the moment rows:
     -5.7 % on an 8-cable robot's Ixx under the errors-in-variables weighting with tension noise
-    alone (``benchmarks/bias_sources.py --noise ten``). Every other method gets ``H``
+    alone (``studies/bias_sources.py --noise ten``). Every other method gets ``H``
     from itself: the mean-free signal is integrated twice (trapezoid) and differentiated twice
     by ``method``; for a linear method this is exactly ``H`` applied to the signal; for the
     homogeneous (SIHD, Levant) ones it is their response at the amplitude ``scale`` (the signal

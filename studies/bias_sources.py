@@ -14,9 +14,9 @@ Two measurements on the benchmark robots of ``benchmarks/efficiency.py`` (``rich
 
 Run against another revision's code with ``PYTHONPATH=<worktree>/src``. Examples::
 
-    python benchmarks/bias_sources.py --robot eight --noise ten --pairs 3
-    python benchmarks/bias_sources.py --robot eight --noise ori --pairs 15 --weighting none
-    python benchmarks/bias_sources.py --robot eight --mode mismatch --cutoff 2
+    python -m studies.bias_sources --robot eight --noise ten --pairs 3
+    python -m studies.bias_sources --robot eight --noise ori --pairs 15 --weighting none
+    python -m studies.bias_sources --robot eight --mode mismatch --cutoff 2
 """
 
 from __future__ import annotations
@@ -28,8 +28,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
 NOISE = {"pos": (3e-4, 0.0, 0.0), "ori": (0.0, 3e-4, 0.0), "ten": (0.0, 0.0, 0.5),
          "all": (3e-4, 3e-4, 0.5)}
 PRINCIPAL = {"m": 0, "mzG": 3, "Ixx": 4, "Iyy": 7, "Izz": 9}
@@ -39,7 +37,7 @@ def _setup(robot_name: str):
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    import efficiency
+    from benchmarks import efficiency
 
     from cdprid.model import preset
 
