@@ -128,3 +128,26 @@ def small_ds(tmp_path):
     q = np.tile([1.0, 0, 0, 0], (len(t), 1))
     tau = 20 + np.random.default_rng(0).normal(0, 0.5, (len(t), 8))
     return write_dataset(tmp_path / "ds", robot, t, pos, t, tau, quaternion=q)
+
+
+def moving_position(t):
+    """A smooth platform path (m) at times ``t`` for small dataset tests."""
+    return np.column_stack([0.2 * np.sin(0.7 * t), 0.15 * np.cos(0.5 * t), 1.2 + 0.05 * np.sin(t)])
+
+
+def smooth_tensions(t, m=8, seed=0):
+    """Positive, smooth tensions (N) with 0.1 N of seeded noise at times ``t``."""
+    rng = np.random.default_rng(seed)
+    return 30 + 5 * np.sin(np.outer(t, np.ones(m)) + np.arange(m)) + rng.normal(0, 0.1, (len(t), m))
+
+
+def write_moving_dataset(root, t, pos=None, tau=None, tt=None, **kw):
+    """A spec-v1 dataset of the CRAFT-like test robot moving along :func:`moving_position`."""
+    from cdprid.io import write_dataset
+    from cdprid.model import robot_from_dict
+
+    robot = robot_from_dict(ROBOT_CRAFT)
+    pos = moving_position(t) if pos is None else pos
+    tt = t if tt is None else tt
+    tau = smooth_tensions(tt) if tau is None else tau
+    return write_dataset(root, robot, t, pos, tt, tau, **kw)

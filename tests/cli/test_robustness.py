@@ -22,9 +22,8 @@ import pytest
 from cdprid.base import OutputError, UserError, atomic_dir, atomic_file, check_output
 from cdprid.cli._main import _is_user_error, main
 from cdprid.core import estimate_motion, segment_mask
-from cdprid.io import DatasetError, align, read_csv_stream, read_dataset, write_dataset
-from cdprid.model import robot_from_dict
-from conftest import ROBOT_CRAFT
+from cdprid.io import DatasetError, align, read_csv_stream, read_dataset
+from conftest import moving_position, smooth_tensions, write_moving_dataset
 
 SRC = str(Path(__file__).resolve().parents[2] / "src")
 
@@ -33,21 +32,7 @@ def _sha(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def _moving(t):
-    return np.column_stack([0.2 * np.sin(0.7 * t), 0.15 * np.cos(0.5 * t), 1.2 + 0.05 * np.sin(t)])
-
-
-def _tensions(t, m=8, seed=0):
-    rng = np.random.default_rng(seed)
-    return 30 + 5 * np.sin(np.outer(t, np.ones(m)) + np.arange(m)) + rng.normal(0, 0.1, (len(t), m))
-
-
-def _write(root, t, pos=None, tau=None, tt=None, **kw):
-    robot = robot_from_dict(ROBOT_CRAFT)
-    pos = _moving(t) if pos is None else pos
-    tt = t if tt is None else tt
-    tau = _tensions(tt) if tau is None else tau
-    return write_dataset(root, robot, t, pos, tt, tau, **kw)
+_moving, _tensions, _write = moving_position, smooth_tensions, write_moving_dataset
 
 
 @pytest.fixture

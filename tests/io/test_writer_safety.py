@@ -10,26 +10,7 @@ import numpy as np
 import pytest
 
 import cdprid.io._writer as dsmod
-from cdprid.io import write_dataset
-from cdprid.model import robot_from_dict
-from conftest import ROBOT_CRAFT
-
-
-def _moving(t):
-    return np.column_stack([0.2 * np.sin(0.7 * t), 0.15 * np.cos(0.5 * t), 1.2 + 0.05 * np.sin(t)])
-
-
-def _tensions(t, m=8, seed=0):
-    rng = np.random.default_rng(seed)
-    return 30 + 5 * np.sin(np.outer(t, np.ones(m)) + np.arange(m)) + rng.normal(0, 0.1, (len(t), m))
-
-
-def _write(root, t, pos=None, tau=None, tt=None, **kw):
-    robot = robot_from_dict(ROBOT_CRAFT)
-    pos = _moving(t) if pos is None else pos
-    tt = t if tt is None else tt
-    tau = _tensions(tt) if tau is None else tau
-    return write_dataset(root, robot, t, pos, tt, tau, **kw)
+from conftest import write_moving_dataset as _write
 
 
 def test_write_dataset_is_whole_or_absent(tmp_path, monkeypatch):
