@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from cdprid.base import UserError, atomic_file, write_json
+from cdprid.effects import EXTERNAL_WRENCH
 from cdprid.identify import SIHD_METHOD as _SIHD
 from cdprid.identify import OnlineResult, online_identify
 from cdprid.report import plot_online
@@ -53,7 +54,7 @@ def episode_notes(episodes, kept: bool) -> list[str]:
     """The note saying what the online detector did with its episodes (empty when none)."""
     if not episodes:
         return []
-    n = sum(e.kind == "external_wrench" for e in episodes)
+    n = sum(e.kind == EXTERNAL_WRENCH for e in episodes)
     k = len(episodes) - n
     how = ("reported, the update kept running (--keep-episodes)" if kept else
            "the update frozen during each (its rows left out), restarted at each payload step")

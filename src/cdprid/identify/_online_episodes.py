@@ -36,6 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
+from cdprid.effects import EXTERNAL_WRENCH
 from cdprid.episodes import FAR_PER_HOUR, Episode
 from cdprid.identify._online_step import _online_step
 from cdprid.identify._online_types import OnlineOutput
@@ -262,7 +263,7 @@ def online_episodes(t, x, names, dout: DetectOutput, lag: int = 0) -> list[Episo
         e = inn.mean(axis=0)
         f, mo = tuple(float(v) for v in -e[:3]), tuple(float(v) for v in -e[3:])
         detail = {"impulse_Ns": [float(v) for v in -inn[:, :3].sum(axis=0) * dt]}
-        kind = "payload_step" if code == 2 else "external_wrench"
+        kind = "payload_step" if code == 2 else EXTERNAL_WRENCH
         if code == 2 and names and names[0] == "m":
             m0, m1 = float(x[max(a - 1, 0), 0]), float(x[b, 0])
             detail.update(mass_before_kg=m0, mass_after_kg=m1, mass_change_kg=m1 - m0)
