@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 from cdprid.base import OutputError, UserError, atomic_dir, atomic_file, check_output
-from cdprid.cli._main import _is_user_error, main
+from cdprid.cli import main
+from cdprid.cli._exits import is_user_error
 from cdprid.core import estimate_motion, segment_mask
 from cdprid.io import DatasetError, align, read_csv_stream, read_dataset
 from conftest import moving_position, smooth_tensions, write_moving_dataset
@@ -113,14 +114,14 @@ def test_bad_json_and_non_object(tmp_path, capsys):
 
 
 def test_user_vs_internal_error_classification():
-    assert _is_user_error(UserError("x")) and _is_user_error(DatasetError("x"))
-    assert _is_user_error(OutputError("x"))
+    assert is_user_error(UserError("x")) and is_user_error(DatasetError("x"))
+    assert is_user_error(OutputError("x"))
     try:
         np.stack([])  # a ValueError raised inside numpy: internal, not the user's fault
     except ValueError as exc:
-        assert not _is_user_error(exc)
-    assert not _is_user_error(RuntimeError("x")) and not _is_user_error(TypeError("x"))
-    assert _is_user_error(PermissionError(13, "Permission denied", "/x"))
+        assert not is_user_error(exc)
+    assert not is_user_error(RuntimeError("x")) and not is_user_error(TypeError("x"))
+    assert is_user_error(PermissionError(13, "Permission denied", "/x"))
 
 
 # ----------------------------------------------------------------------------- outputs
@@ -348,26 +349,7 @@ def test_identify_json_after_gap_keeps_truth_like_result(tmp_path):
     assert any("gap" in n for n in notes)
 
 
-# ----------------------------------------------------------------------------- start-up
-
-
-def test_command_table_matches_the_registered_helps():
-    import argparse
-
-    from cdprid.cli._main import COMMANDS, build_parser
-
-    sp = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
-    helps = {ca.dest: ca.help for ca in sp._choices_actions}
-    assert {k: v[1] for k, v in COMMANDS.items() if k in helps} == helps
-
-
-def test_help_imports_no_jax():
-    code = ("import sys, contextlib, io\nfrom cdprid.cli._main import main\n"
-            "with contextlib.redirect_stdout(io.StringIO()):\n    rc = main(['--help'])\n"
-            "print(rc, 'jax' in sys.modules, 'scipy' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         env={**os.environ, "PYTHONPATH": SRC}, check=True).stdout.split()
-    assert out == ["0", "False", "False"]
+# ------------------------------------------------------------- outputs of every command
 
 
 CROSS_OUTPUTS = [

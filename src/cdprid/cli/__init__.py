@@ -1,17 +1,20 @@
-"""The ``cdprid`` command line: one module per command."""
+"""The ``cdprid`` command line: one module per command, listed once in
+:mod:`cdprid.cli._commands`."""
 
 # ruff: noqa: F401  (explicit re-exports)
 
 from cdprid.cli._main import build_parser as build_parser
 from cdprid.cli._main import console_main as console_main
 from cdprid.cli._main import main as main
-from cdprid.cli._main import parse_params as parse_params
-from cdprid.cli._signals import install_termination_handlers as install_termination_handlers
-from cdprid.cli._signals import restore_handlers as restore_handlers
 
-# The command modules load JAX: their names load on first use (PEP 562), so that ``import
-# cdprid.cli`` and ``cdprid --help`` stay fast.
-_LAZY = {"run_online_cli": "cdprid.cli._online"}
+# Names whose modules load cdprid.base, NumPy or JAX load on first use (PEP 562), so that
+# ``import cdprid.cli`` and ``cdprid --help`` stay fast.
+_LAZY = {
+    "parse_params": "cdprid.cli._json_args",
+    "install_termination_handlers": "cdprid.cli._signals",
+    "restore_handlers": "cdprid.cli._signals",
+    "run_online_cli": "cdprid.cli._online",
+}
 
 
 def __getattr__(name: str):
@@ -20,3 +23,7 @@ def __getattr__(name: str):
     import importlib
 
     return getattr(importlib.import_module(_LAZY[name]), name)
+
+
+def __dir__():
+    return sorted({*globals(), *_LAZY})

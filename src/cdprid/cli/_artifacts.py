@@ -1,6 +1,6 @@
 """``--mat`` and ``--report`` outputs shared by ``identify`` and ``diagnose`` (issue 39).
 
-Kept out of :mod:`cdprid.cli._main` so that the command modules change by a few lines.
+Kept out of the command modules so that each changes by a few lines.
 """
 
 from __future__ import annotations

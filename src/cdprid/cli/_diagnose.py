@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-__all__ = ["add_parser"]
+__all__ = ["configure"]
 
 
 def _run(args) -> int:
@@ -75,14 +75,15 @@ def _run(args) -> int:
     return 0
 
 
-def add_parser(sub) -> None:
-    """Register ``cdprid diagnose``."""
+def configure(p) -> None:
+    """Give the ``diagnose`` parser its description and options (the command registry,
+    :mod:`cdprid.cli._commands`, creates it)."""
     from cdprid.cli import _types as V  # option validators (cdprid.cli._types)
-    p = sub.add_parser(
-        "diagnose", help="find what the paper's model misses, name the cause, measure the gain",
-        description="Fit the paper's model, test every effect of the vocabulary as an "
-        "extension (HAC Wald tests, Bonferroni, null-calibrated thresholds, blocked held-out "
-        "validation), refit the accepted effects and report the held-out gain.")
+
+    p.description = ("Fit the paper's model, test every effect of the vocabulary as an "
+                     "extension (HAC Wald tests, Bonferroni, null-calibrated thresholds, blocked "
+                     "held-out validation), refit the accepted effects and report the held-out "
+                     "gain.")
     p.add_argument("dataset", help="dataset folder (spec v1)")
     p.add_argument("--json", help="write the diagnosis JSON here")
     p.add_argument("--report", help="write report.md, PNG figures and a self-contained "

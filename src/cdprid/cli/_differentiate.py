@@ -4,14 +4,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["add_parser"]
+__all__ = ["configure"]
 
 
 def _run(args) -> int:
     import numpy as np
 
     from cdprid.base import Progress, UserError, atomic_file, check_output
-    from cdprid.cli._main import parse_params
+    from cdprid.cli._json_args import parse_params
     from cdprid.io import read_csv_stream, sampling_report
 
     out = check_output(args.out, force=args.force, flag="--out", inputs=[args.input])
@@ -64,16 +64,15 @@ def _methods_description() -> str:
             "....\n\nmethods:\n" + "\n".join(lines))
 
 
-def add_parser(sub) -> None:
-    """Register ``cdprid differentiate`` (the method table is built only for its --help)."""
+def configure(p) -> None:
+    """Give the ``differentiate`` parser its description and options (the command registry,
+    :mod:`cdprid.cli._commands`, creates it); the method table is built only for its --help."""
     import argparse
 
     from cdprid.cli._types import existing_file, json_or_file
 
-    p = sub.add_parser(
-        "differentiate", help="estimate first and second derivatives of CSV columns",
-        description="Differentiate every column of a CSV with a 't' column.",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.description = "Differentiate every column of a CSV with a 't' column."
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
     format_help = p.format_help
 
     def _format_help() -> str:  # the method table imports JAX: only when help is asked for

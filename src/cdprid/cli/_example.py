@@ -1,11 +1,9 @@
 """``cdprid example --out DIR``: write the package's sample dataset for a first run.
-
-Registered by :mod:`cdprid.cli._main` through ``("cdprid.cli._example", "add_parser")``.
 """
 
 from __future__ import annotations
 
-__all__ = ["add_parser"]
+__all__ = ["configure"]
 
 
 def _cmd_example(args) -> int:
@@ -19,13 +17,13 @@ def _cmd_example(args) -> int:
     return 0
 
 
-def add_parser(sub) -> None:
-    """Add the ``example`` command to the subparsers."""
+def configure(p) -> None:
+    """Give the ``example`` parser its description and options (the command registry,
+    :mod:`cdprid.cli._commands`, creates it)."""
     from cdprid.data import SAMPLES
 
-    p = sub.add_parser("example", help="write a sample dataset (simulated, with its truth)",
-                       description="Write the package's small simulated sample dataset "
-                       "(spec v1, truth in meta.toml) into a new folder.")
+    p.description = ("Write the package's small simulated sample dataset (spec v1, truth in "
+                     "meta.toml) into a new folder.")
     p.add_argument("--out", required=True, help="dataset folder to create")
     p.add_argument("--name", default="sample-8cable", choices=sorted(SAMPLES),
                    help="which sample (default sample-8cable)")

@@ -16,19 +16,17 @@ import argparse
 import time
 from pathlib import Path
 
-import numpy as np
-
-from cdprid.report import plot_trajectory
-
-__all__ = ["add_parser", "run", "plot_trajectory"]
+__all__ = ["configure", "run"]
 
 
 def _initial_params(text, prob, flag="--initial"):
     """``--initial`` JSON over the default initial design (the gentle first run)."""
     if not text:
         return None
+    import numpy as np
+
     from cdprid.base import UserError
-    from cdprid.cli._main import load_json_object
+    from cdprid.cli._json_args import load_json_object
     from cdprid.excitation import initial_design
 
     family = prob.family
@@ -44,6 +42,8 @@ def _initial_params(text, prob, flag="--initial"):
 
 
 def _print_limits(prob):
+    import numpy as np
+
     lim = prob.limits
     used = set(lim.defaults_used)
     rows = [("tension_min", lim.tension_min, "N"), ("tension_max", lim.tension_max, "N"),
@@ -77,10 +77,11 @@ def _print_sigma(prob, res):
 
 def _write_outputs(tmp, prob, res, args):
     import jax
+    import numpy as np
 
     from cdprid.excitation import safety_series
     from cdprid.io import save_trajectory_csv
-    from cdprid.report import plot_safety_series
+    from cdprid.report import plot_safety_series, plot_trajectory
 
     save_trajectory_csv(res.trajectory, tmp / "trajectory.csv", rate_hz=100.0)
     initial_traj = prob.homed(jax.numpy.asarray(res.initial.z))
@@ -164,13 +165,13 @@ def run(args) -> int:
     return 0
 
 
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Register ``cdprid excite`` on an argparse subparsers object."""
+def configure(p: argparse.ArgumentParser) -> None:
+    """Give the ``excite`` parser its description and options (the command registry,
+    :mod:`cdprid.cli._commands`, creates it)."""
     from cdprid.cli import _types as V
 
-    p = subparsers.add_parser(
-        "excite", help="optimise a safe excitation trajectory (condition number of W_ID)",
-        description="Optimise an exciting trajectory for the identification of the platform's "
+    p.description = (
+        "Optimise an exciting trajectory for the identification of the platform's "
         "inertial parameters: minimise cond(W_ID) (or D-optimality) over a trajectory family, "
         "subject to every limit of robot.toml (spec 1.1: workspace, cable speed, acceleration, "
         "jerk, tilt, angular velocity and acceleration, cable clearance; absent limits get "
@@ -210,4 +211,3 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--no-dataset", action="store_true", help="do not simulate a dataset")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs")
     p.set_defaults(func=run)
-    return p

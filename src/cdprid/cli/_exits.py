@@ -8,26 +8,36 @@ import errno
 import os
 import signal
 import sys
-from pathlib import Path
 
 from cdprid.base import UserError
 
+__all__ = ["failed", "interrupted", "is_user_error", "user_message"]
 
-def _is_user_error(exc: BaseException) -> bool:
+
+def is_user_error(exc: BaseException) -> bool:
     """Whether ``exc`` reports a problem in the user's input (exit 2) rather than a bug (exit 1).
 
-    By type: :class:`~cdprid.base.UserError` and its subclasses (``InputError``, which every
-    validation in the library raises, ``DatasetError``, ``RobotFileError``, ``OutputError``),
-    OS errors on a named path (read-only or missing folder, a folder given as a file, ...), a
-    full disk, and a ``LinAlgError`` (degenerate input). One safety net remains: a plain
-    ``ValueError`` whose last frame is in cdprid's own code (a builtin conversion such as
-    ``float(text)`` on user input); ``tests/test_architecture.py`` keeps ``raise ValueError``
-    out of src. A ``ValueError`` from inside NumPy, SciPy or JAX is an internal error.
+    Decided by the exception's type alone: :class:`~cdprid.base.UserError` and its subclasses
+    (``InputError``, which every validation in the library raises, ``DatasetError``,
+    ``RobotFileError``, ``OutputError``), an output that exists (``FileExistsError``), OS errors
+    on a named path (read-only or missing folder, a folder given as a file, ...), a full disk,
+    a ``LinAlgError`` (degenerate input), and the library's input errors that are not
+    ``UserError`` subclasses (:data:`LIBRARY_INPUT_ERRORS`: a trajectory the robot cannot hold
+    with admissible tensions, too few usable samples). Any other exception -- a plain ``ValueError``
+    included, wherever it was raised -- is an internal error: validation raises typed errors
+    (``tests/test_architecture.py`` keeps ``raise ValueError`` out of src), so input that
+    slipped past it is a bug to report, not the user's mistake.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The exception that ended the command.
+
+    Returns
+    -------
+    bool
     """
-    if isinstance(exc, UserError):
-        return True
-    geo = sys.modules.get("cdprid.model._geometry")
-    if geo is not None and isinstance(exc, getattr(geo, "RobotFileError", ())):
+    if isinstance(exc, UserError) or isinstance(exc, _library_input_errors()):
         return True
     if isinstance(exc, FileExistsError):  # an output that exists (commands refuse to replace)
         return True
@@ -35,21 +45,39 @@ def _is_user_error(exc: BaseException) -> bool:
         return True
     if isinstance(exc, OSError) and exc.errno in _DISK_ERRNOS:  # full disk, quota, read-only
         return True
-    if type(exc).__name__ == "LinAlgError":  # SVD/QR without convergence: degenerate input
-        return True
-    if isinstance(exc, ValueError) and exc.__traceback__ is not None:
-        tb = exc.__traceback__
-        while tb.tb_next is not None:
-            tb = tb.tb_next
-        pkg = str(Path(__file__).resolve().parents[1])  # src/cdprid
-        return str(Path(tb.tb_frame.f_code.co_filename).resolve()).startswith(pkg)
-    return False
+    return type(exc).__name__ == "LinAlgError"  # SVD/QR without convergence: degenerate input
 
 
 _DISK_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS}
 
+# Errors of the library that report the user's input without being UserError subclasses, as
+# (package face, class name). They are looked up in ``sys.modules``, so that deciding an exit
+# code imports nothing: an exception of a package not yet imported cannot be one of them.
+LIBRARY_INPUT_ERRORS = (("cdprid.model", "InfeasibleTensionsError"),
+                        ("cdprid.core", "InsufficientDataError"))
 
-def _user_message(exc: BaseException) -> str:
+
+def _library_input_errors() -> tuple[type, ...]:
+    found = []
+    for face, name in LIBRARY_INPUT_ERRORS:
+        cls = getattr(sys.modules.get(face), name, None)
+        if cls is not None:
+            found.append(cls)
+    return tuple(found)
+
+
+def user_message(exc: BaseException) -> str:
+    """The one sentence printed for a user error (after ``cdprid: error: ``).
+
+    Parameters
+    ----------
+    exc : BaseException
+        An exception for which :func:`is_user_error` holds.
+
+    Returns
+    -------
+    str
+    """
     if type(exc).__name__ == "LinAlgError":
         return (f"a linear-algebra step failed on these data ({exc}): the regression is "
                 "degenerate; check the units, the axes (z up?) and the geometry in robot.toml.")
@@ -64,14 +92,38 @@ def _user_message(exc: BaseException) -> str:
     return text.splitlines()[0] if text else type(exc).__name__
 
 
-def _interrupted(signum: int) -> int:
+def interrupted(signum: int) -> int:
+    """Say that the command was interrupted (nothing partial left) and return 128 + ``signum``.
+
+    Parameters
+    ----------
+    signum : int
+        The signal that ended the command (SIGINT: "interrupted", else "terminated").
+
+    Returns
+    -------
+    int
+        The exit code.
+    """
     print(f"cdprid: {'interrupted' if signum == signal.SIGINT else 'terminated'}; no partial "
           "output was left", file=sys.stderr)
     return 128 + int(signum)
 
 
-def _failed(exc: BaseException) -> int:
-    """Exit code and message of an exception that ended a command (not a signal)."""
+def failed(exc: BaseException) -> int:
+    """Print the message of an exception that ended a command (not a signal); its exit code.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The exception.
+
+    Returns
+    -------
+    int
+        2 for a user error or a closed standard output, 1 for an internal error (re-raised
+        with ``CDPRID_DEBUG`` set).
+    """
     try:
         raise exc
     except BrokenPipeError:  # stdout closed by the reader (``cdprid ... | head``)
@@ -81,8 +133,8 @@ def _failed(exc: BaseException) -> int:
               file=sys.stderr)
         return 2
     except Exception as exc:  # noqa: BLE001
-        if _is_user_error(exc):
-            print(f"cdprid: error: {_user_message(exc)}", file=sys.stderr)
+        if is_user_error(exc):
+            print(f"cdprid: error: {user_message(exc)}", file=sys.stderr)
             return 2
         if os.environ.get("CDPRID_DEBUG"):
             raise

@@ -1,15 +1,14 @@
-"""``cdprid import`` (convert other formats into spec-v1) and ``cdprid calibrate``.
+"""``cdprid import FORMAT``: convert another format into a spec-v1 dataset.
 
-Registered by :mod:`cdprid.cli._main` through ``("cdprid.cli._import", "add_parser")``.
+Formats: UACDPR recordings, pose and tension tables, ROS bags, C3D, CASPR robot models
+(:mod:`cdprid.cli._import_caspr`).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from cdprid.base import InputError
-
-__all__ = ["add_parser"]
+__all__ = ["configure", "swivel_axis", "uacdpr_inputs"]
 
 
 def _cmd_import_uacdpr(args) -> int:
@@ -26,10 +25,10 @@ def _cmd_import_uacdpr(args) -> int:
 
     if args.no_calibrate:
         out = import_uacdpr(args.vicon, args.robot_log, args.config, args.out,
-                            overwrite=args.force, swivel_axis=args.swivel_axis)
+                            overwrite=args.force, swivel_axis=swivel_axis(args))
     else:
         out = import_calibrated_uacdpr(args.vicon, args.robot_log, args.config, args.out,
-                                       force=args.force, swivel_axis=args.swivel_axis,
+                                       force=args.force, swivel_axis=swivel_axis(args),
                                        subsample=args.subsample, nuisance=not args.no_nuisance,
                                        progress=say)
     with open(out / "meta.toml", "rb") as fh:
@@ -49,49 +48,6 @@ def _cmd_import_uacdpr(args) -> int:
               f"{[round(v, 2) for v in nu['offset_N']]} N")
     elif "error" in nu:
         print(f"nuisance fit failed: {nu['error']}")
-    return 0
-
-
-def _cmd_calibrate(args) -> int:
-    from cdprid.base import check_distinct, check_output
-    from cdprid.identify import calibrate_geometry, calibration_data, write_calibrated_dataset
-    from cdprid.io import load_uacdpr
-    from cdprid.report import calibration_figures
-
-    inputs = [args.vicon, args.robot_log, args.config, getattr(args, "dataset", None)]
-    check_distinct({"--json": args.json, "--out": args.out})
-    if args.json:  # before the minute of calibration: an existing file needs --force
-        check_output(args.json, force=args.force, flag="--json", inputs=inputs)
-    if args.out:
-        check_output(args.out, force=args.force, flag="--out", kind="dir", inputs=inputs)
-    rec = load_uacdpr(args.vicon, args.robot_log, args.config, swivel_axis=args.swivel_axis)
-    data = calibration_data(rec).subsample(args.subsample)
-    from cdprid.base import Progress
-
-    prog = Progress("calibrate")
-    prog.say(f"geometric calibration on {len(data.t)} Vicon frames (about a minute) ...")
-    res = calibrate_geometry(rec.robot, data, anchors=args.anchors,
-                             swivel_sign=args.swivel_sign, yaw_starts=args.yaw_starts,
-                             progress=prog.say)
-    prog.say("calibration done")
-    print(f"samples {res.n_samples}, condition {res.condition:.3g}")
-    print(f"RMS before: {res.rms_before}")
-    print(f"RMS after:  {res.rms_after}")
-    print(f"cable lengths, m: {[round(float(v), 4) for v in res.lengths]} "
-          f"+- {[round(float(v), 4) for v in res.sigma['length']]}")
-    if args.json:
-        from cdprid.base import write_json
-
-        write_json(args.json, res.as_dict(), force=args.force)
-        print(f"wrote {args.json}")
-    if args.out:
-        if not args.dataset:
-            raise InputError("--out needs --dataset, the folder written by `cdprid import uacdpr`.")
-        write_calibrated_dataset(args.dataset, res, args.out, overwrite=args.force)
-        print(f"wrote {args.out}")
-    if args.figures:
-        for p in calibration_figures(rec.robot, data, res, args.figures):
-            print(f"wrote {p}")
     return 0
 
 
@@ -247,8 +203,10 @@ def _add_generic_formats(fmt) -> None:
     c.set_defaults(func=_cmd_import_c3d)
 
 
-def _inputs(p) -> None:
+def uacdpr_inputs(p) -> None:
+    """The UACDPR recording's options (``import uacdpr`` and ``calibrate``)."""
     from cdprid.cli import _types as V  # option validators (cdprid.cli._types)
+
     p.add_argument("--vicon", required=True, type=V.existing_file,
                    help="raw Vicon trajectories export (.txt/.csv)")
     p.add_argument("--robot-log", required=True, type=V.existing_file,
@@ -259,13 +217,20 @@ def _inputs(p) -> None:
                    help="which FixedFrame vector is the swivel axis (default: the importer's)")
 
 
-def add_parser(sub) -> None:
-    """Add ``import`` (with the ``uacdpr`` format) and ``calibrate`` to the subparsers."""
-    from cdprid.cli import _types as V  # option validators (cdprid.cli._types)
+def swivel_axis(args) -> str:
+    """``--swivel-axis``, or the importer's default (read only when a command runs, so that the
+    parser imports no JAX)."""
     from cdprid.io import DEFAULT_SWIVEL_AXIS
 
-    p = sub.add_parser("import", help="convert another format into a spec-v1 dataset",
-                       description="Convert recordings of other labs into spec-v1 datasets.")
+    return args.swivel_axis or DEFAULT_SWIVEL_AXIS
+
+
+def configure(p) -> None:
+    """Give the ``import`` parser its description and formats (the command registry,
+    :mod:`cdprid.cli._commands`, creates it)."""
+    from cdprid.cli import _types as V  # option validators (cdprid.cli._types)
+
+    p.description = "Convert recordings of other labs into spec-v1 datasets."
     fmt = p.add_subparsers(dest="format", metavar="FORMAT")
     fmt.required = True
     u = fmt.add_parser("uacdpr", help="UACDPR (Bologna): Vicon export + robot _exp.mat + config",
@@ -275,7 +240,7 @@ def add_parser(sub) -> None:
                        "(meta.toml [nuisance]); tensions at 1 kHz, swivel and inclinometer "
                        "streams, robot.toml from the configuration .mat. Progress on stderr; "
                        "the folder appears whole or not at all.")
-    _inputs(u)
+    uacdpr_inputs(u)
     u.add_argument("--out", required=True, help="dataset folder to create")
     u.add_argument("--force", action="store_true", help="overwrite an existing dataset")
     u.add_argument("--no-calibrate", action="store_true",
@@ -286,25 +251,8 @@ def add_parser(sub) -> None:
     u.add_argument("--no-nuisance", action="store_true",
                    help="skip the informational dynamic nuisance estimate (offsets, delay) "
                    "written to meta.toml [nuisance]")
-    u.set_defaults(func=_cmd_import_uacdpr, swivel_axis=DEFAULT_SWIVEL_AXIS)
+    u.set_defaults(func=_cmd_import_uacdpr)
     _add_generic_formats(fmt)
     from cdprid.cli._import_caspr import add_format
 
     add_format(fmt)
-
-    c = sub.add_parser("calibrate", help="geometric calibration of a locked-winch recording",
-                       description="Estimate the Vicon->base transform, the marker->platform "
-                       "transform (or the attachments), the constant cable lengths and the "
-                       "swivel offsets by nonlinear least squares.")
-    _inputs(c)
-    c.add_argument("--anchors", choices=["config", "free"], default="config")
-    c.add_argument("--swivel-sign", type=float, default=1.0, choices=[1.0, -1.0])
-    c.add_argument("--yaw-starts", type=V.positive_int, default=4)
-    c.add_argument("--subsample", type=V.positive_int, default=2, help="use every k-th Vicon frame")
-    c.add_argument("--dataset", type=V.existing_dir,
-                   help="imported dataset to rewrite in the base frame (--out)")
-    c.add_argument("--out", help="write the calibrated dataset here")
-    c.add_argument("--force", action="store_true")
-    c.add_argument("--json", help="write the estimate as JSON")
-    c.add_argument("--figures", help="folder for sanity figures")
-    c.set_defaults(func=_cmd_calibrate, swivel_axis=DEFAULT_SWIVEL_AXIS)

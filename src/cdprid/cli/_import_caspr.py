@@ -1,6 +1,6 @@
 """``cdprid import caspr``: a CASPR robot model (bodies + cables XML) -> robot.toml.
 
-Registered by :func:`cdprid.cli._import.add_parser` (one line there).
+Registered by :func:`cdprid.cli._import.configure` (one line there).
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ import time
 
 from cdprid.base import InputError
 
-__all__ = ["add_parser", "run"]
+__all__ = ["configure", "run"]
 
 
 class _Ordered(argparse.Action):
@@ -50,7 +50,7 @@ def _group_effects(items):
 
 
 def run(args) -> int:
-    """Run ``cdprid simulate`` with parsed arguments (see :func:`add_parser`)."""
+    """Run ``cdprid simulate`` with parsed arguments (see :func:`configure`)."""
     import jax
 
     jax.config.update("jax_enable_x64", True)
@@ -154,19 +154,20 @@ def _check_samples(span_s: float, rate_pose: float, rate_tension: float) -> None
                              "lower the rate or --duration.")
 
 
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Register the ``simulate`` subcommand on an argparse subparsers object."""
+def configure(p: argparse.ArgumentParser) -> None:
+    """Give the ``simulate`` parser its description and options (the command registry,
+    :mod:`cdprid.cli._commands`, creates it). The description lists the effect vocabulary and
+    ``--preset`` the presets: building it imports :mod:`cdprid.effects` and
+    :mod:`cdprid.model` (and so JAX)."""
     from cdprid.cli import _types as V  # option validators (cdprid.cli._types)
     from cdprid.effects import VOCABULARY
     from cdprid.model import PRESETS
 
-    p = subparsers.add_parser(
-        "simulate",
-        help="write a synthetic dataset (spec v1) with optional injected effects",
-        description="Simulate a cable robot following a trajectory and write pose, tensions "
+    p.description = (
+        "Simulate a cable robot following a trajectory and write pose, tensions "
         "and the truth as a spec-v1 dataset. Effects: "
         + "; ".join(f"{k} {{{', '.join(v)}}}" if v else k for k, v in VOCABULARY.items())
-        + ".",
+        + "."
     )
     p.add_argument("--out", required=True, help="dataset folder to write")
     p.add_argument("--trajectory", type=V.existing_file,
@@ -231,4 +232,3 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("--force", action="store_true", help="overwrite an existing dataset")
     p.set_defaults(func=run, effect_items=[])
-    return p

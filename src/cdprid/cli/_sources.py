@@ -27,7 +27,7 @@ def add_source_options(p) -> None:
 def run_source(args, parse_params, write_json) -> int:
     """Run ``identify --source currents | free-motion``: output checks before any work, the
     identification, the table on stdout, warnings on stderr, ``--json`` (written by
-    ``write_json``; ``parse_params`` reads ``--params``: both from :mod:`cdprid.cli._main`)."""
+    ``write_json``; ``parse_params`` reads ``--params``: both from :mod:`cdprid.cli._json_args`)."""
     from cdprid.base import UserError, check_output
     from cdprid.cli._echo import echo_warnings
     from cdprid.io import dataset_inputs, read_dataset

@@ -22,7 +22,7 @@ import sys
 
 from cdprid.base import InputError
 
-__all__ = ["add_parser"]
+__all__ = ["configure"]
 
 
 def _run(args) -> int:
@@ -141,14 +141,15 @@ def _figure_path(json_path):
     return p.with_name(p.stem + ".response.png")
 
 
-def add_parser(sub) -> None:
-    """Register ``cdprid tune``."""
+def configure(p) -> None:
+    """Give the ``tune`` parser its description and options (the command registry,
+    :mod:`cdprid.cli._commands`, creates it)."""
     from cdprid.cli import _types as V  # option validators (cdprid.cli._types)
-    p = sub.add_parser(
-        "tune", help="tune a differentiator's parameters for the data's noise level",
-        description="Tune SIHD gains by gradient through the scan (or a baseline's "
-        "hyperparameter by grid search) on noise realisations of a training signal at the "
-        "given or estimated position-noise level; report held-out RMSE vs the paper gains.")
+
+    p.description = ("Tune SIHD gains by gradient through the scan (or a baseline's "
+                     "hyperparameter by grid search) on noise realisations of a training signal "
+                     "at the given or estimated position-noise level; report held-out RMSE vs "
+                     "the paper gains.")
     p.add_argument("--dataset", type=V.existing_dir,
                    help="estimate the position noise from this dataset (spec v1)")
     p.add_argument("--noise-std", type=V.positive_float, default=None, help="position noise std, m")

@@ -182,7 +182,7 @@ def existing_path(text: str) -> str:
 def json_or_file(text: str) -> str:
     """Inline JSON (starting with ``{``) or the path of an existing JSON file.
 
-    The JSON itself is parsed later by :func:`cdprid.cli._main.load_json_object`; this only
+    The JSON itself is parsed later by :func:`cdprid.cli._json_args.load_json_object`; this only
     refuses a
     path that does not exist, so that ``--params nofile.json`` says so instead of "bad JSON".
     """
