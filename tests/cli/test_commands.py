@@ -167,3 +167,15 @@ def test_main_exit_code_by_exception_type(monkeypatch, tmp_path, capsys, make, r
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(line), err
     assert not (tmp_path / "ex").exists()
+
+
+@pytest.mark.parametrize("var,value", [("CDPRID_SCAN_UNROLL", "0"),
+                                       ("CDPRID_CACHE_DIR", "{file}")])
+def test_bad_environment_is_one_sentence_and_exit_2(monkeypatch, tmp_path, capsys, var, value):
+    """Checked before the command line is parsed: nothing is built or written."""
+    (tmp_path / "a_file").write_text("")
+    monkeypatch.setenv(var, value.format(file=tmp_path / "a_file"))
+    assert main(["example", "--out", str(tmp_path / "ex")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"cdprid: error: environment variable {var}=")
+    assert not (tmp_path / "ex").exists()

@@ -34,10 +34,8 @@ def environment_error() -> str | None:
                     "at least 1 (unset it for the default 1).")
     cache = os.environ.get("CDPRID_CACHE_DIR")
     if cache is not None and cache.strip().lower() not in ("off", "0", "none", ""):
-        from pathlib import Path
-
-        p = Path(cache).expanduser()
-        if p.exists() and not p.is_dir():
+        p = os.path.expanduser(cache)  # os.path: pathlib costs ~7 ms of `cdprid --help`
+        if os.path.exists(p) and not os.path.isdir(p):
             return (f"environment variable CDPRID_CACHE_DIR={cache!r} names a file, not a "
                     "folder (use a folder, or 'off' to disable the cache).")
     return None
