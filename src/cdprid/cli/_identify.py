@@ -134,8 +134,8 @@ def _with_guards(ds, rep):
 
 
 def configure(p) -> None:
-    """Give the ``identify`` parser its description and options (command registry:
-    :mod:`cdprid.cli._commands`)."""
+    """Give the ``identify`` parser its description and options (the command registry,
+    :mod:`cdprid.cli._commands`, creates it)."""
     from cdprid.base import TRIM_S
 
     p.description = ("Identify m, m s_G (and the inertia with the full model) from a spec-v1 "
