@@ -277,3 +277,42 @@ def test_true_robot_and_gravity_apply_the_geometry_and_gravity_terms():
     g0 = -np.asarray(rob.gravity)[2]  # g = [0, 0, -g0]: the formula of the docs
     assert np.allclose(g, g0 * np.array([np.sin(ry), -np.sin(rx) * np.cos(ry),
                                          -np.cos(rx) * np.cos(ry)]), atol=1e-14)
+
+
+# ------------------------------------------------------------------------ the hook context
+
+
+def test_every_hook_reads_the_typed_context_as_it_reads_the_dict(rng):
+    """The per-cable hooks give the same with :class:`CableContext` as with the dict the
+    diagnosis builds today (so the diagnosis can pass the typed one)."""
+    import jax.numpy as jnp
+
+    from cdprid.effects import CableContext
+
+    blocks = {b: (rng.normal(size=n) * 0.01 if n > 1 else jnp.asarray(0.01 * (i + 1)))
+              for i, (b, n) in enumerate(b for f in DIAGNOSIS.values() for b in f.blocks)}
+    R = jnp.eye(3)
+    fields = dict(at=dict(blocks), taud=jnp.asarray(3.0), ldot=jnp.asarray(-0.2), R=R,
+                  p=jnp.array([0.1, 0.2, 1.0]), k=jnp.array([0.0, 0.0, -1.0]),
+                  ref=jnp.array([1.0, 0.0, 0.0]), t=jnp.asarray(4.0),
+                  slide=jnp.asarray(-0.7), bb=jnp.array([0.05, -0.05, 0.02]))
+    typed = CableContext(**fields)
+    geo = {"A": jnp.array([2.0, 1.0, 3.0]), "b": jnp.array([0.05, -0.05, 0.02]),
+           "r": jnp.asarray(0.0)}
+    q = {k: v * 2 for k, v in blocks.items()}
+    hooks = 0
+    for form in DIAGNOSIS.values():
+        if form.tension is not None:
+            assert np.allclose(form.tension(20.0, q, fields), form.tension(20.0, q, typed))
+            hooks += 1
+        if form.leave is not None:
+            T = geo["A"]
+            assert np.allclose(form.leave(T, geo, q, fields), form.leave(T, geo, q, typed))
+            hooks += 1
+    assert hooks == 7  # delay, offset, drift, gain, friction, friction on all, flipped pulley
+    # the typed context is read-only and reports a missing entry as a dict does
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        typed.ldot = 0.0
+    with pytest.raises(KeyError):
+        dataclasses.replace(typed, bb=None)["bb"]
+    assert dataclasses.replace(typed, slide=None).get("slide", 1.0) == 1.0

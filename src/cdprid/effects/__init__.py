@@ -6,6 +6,7 @@ registry from which the vocabulary, the sensor chain, the diagnosis table, the v
 
 # ruff: noqa: F401  (explicit re-exports)
 
+from cdprid.effects._context import CableContext as CableContext
 from cdprid.effects._docs import vocabulary_markdown as vocabulary_markdown
 from cdprid.effects._effects import Effect as Effect
 from cdprid.effects._effects import effect_parameters_table as effect_parameters_table

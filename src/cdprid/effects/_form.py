@@ -74,8 +74,9 @@ class DiagnosisForm:
     tension, geometry, leave, gravity, load, model : callable, optional
         The effect's physics in the diagnosis's forward model, JAX, applied in the order of
         :data:`DIAGNOSIS` at each stage of :func:`cdprid.diagnosis._model.cable_contribution`
-        (one cable, its blocks ``q`` by name, ``c`` the context: the blocks at the
-        linearisation point ``c["at"]``, ``taud``, ``ldot``, ``R``, ``p``, ``k``, ``ref``,
+        (one cable, its blocks ``q`` by name, ``c`` the context,
+        :class:`~cdprid.effects.CableContext`, read by key: the blocks at the linearisation
+        point ``c["at"]``, ``taud``, ``ldot``, ``R``, ``p``, ``k``, ``ref``, ``t``, ``slide``,
         ``bb``): ``tension(tau, q, c)`` the tension behind the load-cell reading;
         ``geometry(geo, q)`` the exit point ``A``, attachment ``b`` (platform frame) and
         pulley radius ``r``; ``leave(T, geo, q, c)`` the leave point; ``gravity(g, q)``;
