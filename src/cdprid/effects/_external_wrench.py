@@ -1,9 +1,9 @@
 """``external_wrench``: a push on the platform for a while (one module, one effect).
 
-Everything the tool knows about this effect is here: its parameters, its model text (for
-``docs/effects.md``) and the wrench the simulator's plant adds. It is not a candidate of the
-diagnosis (a wrench that changes from push to push has no parameters to fit): the episodes
-stage (:mod:`cdprid.episodes`) locates it in time and the fits leave it out.
+Everything the tool knows about this effect is here, in :data:`SPEC`: its parameters, its
+model text (for ``docs/effects.md``) and the wrench the simulator's plant adds. It is not a
+candidate of the diagnosis (a wrench that changes from push to push has no parameters to fit):
+the episodes stage (:mod:`cdprid.episodes`) locates it in time and the fits leave it out.
 """
 
 from __future__ import annotations
@@ -11,21 +11,18 @@ from __future__ import annotations
 import numpy as np
 
 from cdprid.base import InputError
+from cdprid.effects._spec import EffectSpec, Parameter, Place
 
-__all__ = ["NAME", "EXTERNAL_WRENCH", "PARAMETERS", "DOC", "RAMP_S", "check", "profile",
-           "external_wrench"]
+__all__ = ["SPEC", "EXTERNAL_WRENCH", "RAMP_S", "profile"]
 
 NAME = "external_wrench"
 #: the name as the face exports it
 EXTERNAL_WRENCH = NAME
 
-#: parameter name -> kind (see :data:`cdprid.effects.VOCABULARY`)
-PARAMETERS = {"start_s": "float", "end_s": "float", "force_N": "vec3", "moment_Nm": "vec3"}
-
 #: duration of each smooth ramp of a push, s (at most a third of the push)
 RAMP_S = 0.1
 
-DOC = """``external_wrench {start_s, end_s, force_N, moment_Nm}``
+_DOC = """``external_wrench {start_s, end_s, force_N, moment_Nm}``
     Something outside the robot (a hand, a contact, a brake) pushes the platform between
     ``start_s`` and ``end_s`` (s, the trajectory's clock): the force ``force_N`` (N, base
     frame, applied at P) and the moment ``moment_Nm`` (N m about P, base frame), each times
@@ -37,8 +34,8 @@ DOC = """``external_wrench {start_s, end_s, force_N, moment_Nm}``
     interval); they add."""
 
 
-def check(params: dict) -> None:
-    """Raise :class:`InputError` unless ``end_s > start_s`` (one sentence)."""
+def _check(params: dict) -> None:
+    """The push ends after it starts: ``end_s > start_s``."""
     if not params["end_s"] > params["start_s"]:
         raise InputError(f"effect '{NAME}' needs end_s > start_s, got start_s = "
                          f"{params['start_s']:g} and end_s = {params['end_s']:g}.")
@@ -68,26 +65,15 @@ def profile(t, start_s: float, end_s: float) -> np.ndarray:
     return s7((t - start_s) / ramp) * s7((end_s - t) / ramp)
 
 
-def external_wrench(effects, t) -> np.ndarray:
-    """The summed external wrench of every ``external_wrench`` effect, ``(k, 6)``.
+def _wrench(t, p) -> np.ndarray:
+    """The push's wrench ``(k, 6)`` at times ``t`` (force N and moment N m, base frame)."""
+    w = np.concatenate([np.asarray(p["force_N"], float), np.asarray(p["moment_Nm"], float)])
+    return profile(t, p["start_s"], p["end_s"])[:, None] * w[None, :]
 
-    Parameters
-    ----------
-    effects : sequence of Effect
-    t : array (k,)
-        Plant times, s.
 
-    Returns
-    -------
-    ndarray (k, 6)
-        Force (N, base frame) and moment about P (N m, base frame) on the platform.
-    """
-    t = np.asarray(t, float)
-    out = np.zeros((t.size, 6))
-    for e in effects:
-        if e.name == NAME:
-            p = e.params
-            w = np.concatenate([np.asarray(p["force_N"], float),
-                                np.asarray(p["moment_Nm"], float)])
-            out += profile(t, p["start_s"], p["end_s"])[:, None] * w[None, :]
-    return out
+SPEC = EffectSpec(
+    name=NAME,
+    parameters=(Parameter("start_s", "float", "s"), Parameter("end_s", "float", "s"),
+                Parameter("force_N", "vec3", "N"), Parameter("moment_Nm", "vec3", "N m")),
+    doc=_DOC, place=Place.PLATFORM, check=_check, wrench=_wrench, episodic=True,
+)

@@ -1,13 +1,21 @@
 """How the diagnosis represents one effect: :class:`DiagnosisForm` (one per effect).
 
 A leaf module: each effect's module declares its form here without importing the vocabulary.
+A form names the JSON parameter of each of its theta blocks (``keys``, one per block) even when
+it reports through ``params=``: the ``>= 0`` clamp of a refit (``nonneg``) is found through that
+name, so a form that could lose it is refused at construction.
 """
 
 from __future__ import annotations
 
 import dataclasses
 
-__all__ = ["DiagnosisForm"]
+__all__ = ["DiagnosisForm", "SpecError"]
+
+
+class SpecError(Exception):
+    """A malformed effect declaration (a spec, a diagnosis form or the registry): a mistake of
+    whoever adds an effect, found at import, never the user's (so not an ``InputError``)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -33,8 +41,8 @@ class DiagnosisForm:
         ``"always"``, ``"no_pulley"`` (robot.toml gives no pulley) or ``"rotation"``
         (the pose stream rotates).
     keys : tuple of str
-        JSON parameter names of the block values, in order (a key of ``size`` 3 or 2 takes
-        that many values as one list).
+        JSON parameter names of the block values, one per block, in order (a key of
+        ``size`` 3 or 2 takes that many values as one list). Required with ``params=`` too.
     params : callable, optional
         ``(values, extra) -> dict`` instead of ``keys`` (e.g. a gain is ``1 + theta``).
     interval : callable, optional
@@ -48,7 +56,7 @@ class DiagnosisForm:
     bounds : dict
         Plausibility bound of a refitted parameter's magnitude (degenerate linearisation).
     nonneg : tuple of str
-        Parameters that must be >= 0 after a refit.
+        Parameters (keys of scalar blocks) whose theta value must be >= 0 after a refit.
     ranges : dict
         Parameters that must lie in an open interval after a refit.
     separated_by : dict
@@ -66,8 +74,9 @@ class DiagnosisForm:
     tension, geometry, leave, gravity, load, model : callable, optional
         The effect's physics in the diagnosis's forward model, JAX, applied in the order of
         :data:`DIAGNOSIS` at each stage of :func:`cdprid.diagnosis._model.cable_contribution`
-        (one cable, its blocks ``q`` by name, ``c`` the context: the blocks at the
-        linearisation point ``c["at"]``, ``taud``, ``ldot``, ``R``, ``p``, ``k``, ``ref``,
+        (one cable, its blocks ``q`` by name, ``c`` the context,
+        :class:`~cdprid.effects.CableContext`, read by key: the blocks at the linearisation
+        point ``c["at"]``, ``taud``, ``ldot``, ``R``, ``p``, ``k``, ``ref``, ``t``, ``slide``,
         ``bb``): ``tension(tau, q, c)`` the tension behind the load-cell reading;
         ``geometry(geo, q)`` the exit point ``A``, attachment ``b`` (platform frame) and
         pulley radius ``r``; ``leave(T, geo, q, c)`` the leave point; ``gravity(g, q)``;
@@ -104,3 +113,21 @@ class DiagnosisForm:
     gravity: object = None
     load: object = None
     model: object = None
+
+    def __post_init__(self):
+        if self.blocks and len(self.keys) != len(self.blocks):
+            raise SpecError(
+                f"a diagnosis form needs one JSON name in keys per theta block (also with "
+                f"params=, for its clamp and bounds): blocks {[b for b, _ in self.blocks]}, "
+                f"keys {list(self.keys)}.")
+        sizes = dict(zip(self.keys, (n for _, n in self.blocks), strict=False))
+        bad = [k for k in self.nonneg if sizes.get(k) != 1]
+        if bad:
+            raise SpecError(f"nonneg names {bad}, which are not keys of scalar blocks "
+                             f"{sizes}: the >= 0 clamp would be lost.")
+
+    @property
+    def nonneg_blocks(self) -> tuple:
+        """The theta blocks whose value must be >= 0 after a refit (from ``nonneg``)."""
+        return tuple(b for k, (b, _) in zip(self.keys, self.blocks, strict=True)
+                     if k in self.nonneg)

@@ -1,10 +1,10 @@
 """``load_cell_hysteresis``: a load cell whose reading stays flat after each reversal of the
 tension (a play, or backlash, operator of width ``width_N``; one module, one effect).
 
-Everything the tool knows about this effect is here: its parameters, its model text (for
-``docs/effects.md``), what the load cell reads (the simulator's sensor chain, an exact
+Everything the tool knows about this effect is here, in :data:`SPEC`: its parameters, its model
+text (for ``docs/effects.md``), what the load cell reads (the simulator's sensor chain, an exact
 recurrence in ``lax.scan``) and its form in the diagnosis (a regressor that reproduces the flat
-stretch after each reversal). :mod:`cdprid.effects._effects` registers it with one line.
+stretch after each reversal). :mod:`cdprid.effects._registry` registers it with one line.
 
 Derivation of the diagnosis form. With x the force on the cell and y = P_w[x] its reading (the
 play operator), the state ``h = (x - y) / w`` lies in ``[-1/2, 1/2]``: ``+1/2`` while the force
@@ -28,16 +28,12 @@ import numpy as np
 
 from cdprid.base import InputError
 from cdprid.effects._form import DiagnosisForm
+from cdprid.effects._spec import EffectSpec, Parameter, Place
 
-__all__ = ["NAME", "PARAMETERS", "DOC", "read", "FORM", "play_operator", "reversal_regressor",
-           "SMOOTH_S", "THRESHOLD_SIGMA"]
+__all__ = ["SPEC", "read", "play_operator", "reversal_regressor", "SMOOTH_S",
+           "THRESHOLD_SIGMA"]
 
-NAME = "load_cell_hysteresis"
-
-#: parameter name -> kind (see :data:`cdprid.effects.VOCABULARY`)
-PARAMETERS = {"cable": "cable", "width_N": "float"}
-
-DOC = """``load_cell_hysteresis {cable, width_N}``
+_DOC = """``load_cell_hysteresis {cable, width_N}``
     The load cell of cable ``cable`` is hysteretic (friction in its flexure or its mount,
     backlash in its linkage): a play (backlash) operator of width w = ``width_N`` acts on the
     force x the cell feels (the tension at the cell, after ``pulley_friction``), before its
@@ -189,13 +185,19 @@ def _hysteresis_model(y, d, q):
     return y - jnp.einsum("nim,nm->ni", W, q["hysteresis"] * h)
 
 
-FORM = DiagnosisForm(
-    blocks=(("hysteresis", 1),), per_cable=True, group=1, keys=("width_N",),
-    model=_hysteresis_model, bounds={"width_N": 100.0}, nonneg=("width_N",),
-    separated_by={
-        "time_delay": "a trajectory with reversals at several tension rates (a clock offset "
-                      "grows with the rate, the play's step does not; only this cell lags)",
-        "pulley_friction": "motion where the tension reverses while the cable keeps its "
-                           "direction (friction follows the cable's speed, hysteresis the "
-                           "tension's rate)",
-    })
+SPEC = EffectSpec(
+    name="load_cell_hysteresis",
+    parameters=(Parameter("cable", "cable"), Parameter("width_N", "float", "N", minimum=0.0)),
+    doc=_DOC, place=Place.CELL, read=read,
+    diagnosis=DiagnosisForm(
+        blocks=(("hysteresis", 1),), per_cable=True, group=1, keys=("width_N",),
+        model=_hysteresis_model, bounds={"width_N": 100.0}, nonneg=("width_N",),
+        separated_by={
+            "time_delay": "a trajectory with reversals at several tension rates (a clock "
+                          "offset grows with the rate, the play's step does not; only this "
+                          "cell lags)",
+            "pulley_friction": "motion where the tension reverses while the cable keeps its "
+                               "direction (friction follows the cable's speed, hysteresis the "
+                               "tension's rate)",
+        }),
+)

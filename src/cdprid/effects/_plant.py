@@ -1,15 +1,15 @@
 """What the simulator's plant takes from a list of effects (:func:`plant_terms`).
 
 The simulator asks this module instead of testing effect names: the scalar terms of the
-plant (delay, drag, cable mass, rotation amplitude) and its switches (winch encoders, tilted
-gravity).
+plant (delay, drag, cable mass, rotation amplitude; each spec's ``plant``) and its switches
+(winch encoders, tilted gravity; the specs with an ``encoder`` or ``gravity`` term).
 """
 
 from __future__ import annotations
 
 import dataclasses
 
-__all__ = ["ENCODER_EFFECT", "PlantTerms", "plant_terms"]
+__all__ = ["PlantTerms", "plant_terms"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -41,21 +41,23 @@ class PlantTerms:
 
 
 def plant_terms(effects) -> PlantTerms:
-    """The plant's scalar terms and switches from a list of effects (see :class:`PlantTerms`)."""
-    by_name = {e.name: e.params for e in effects}
+    """The plant's scalar terms and switches from a list of effects (see :class:`PlantTerms`).
 
-    def value(name, key):
-        return float(by_name[name][key]) if name in by_name else 0.0
+    Parameters
+    ----------
+    effects : sequence of Effect
 
-    return PlantTerms(
-        delay_s=value("time_delay", "delay_s"),
-        drag_Ns_per_m=value("viscous_drag", "coefficient_Ns_per_m"),
-        rho_kg_per_m=value("cable_mass", "linear_density_kg_per_m"),
-        rotation_amplitude_rad=value("rotational_dynamics", "amplitude_rad"),
-        encoders="cable_elasticity" in by_name,
-        tilted="frame_tilt" in by_name,
-    )
+    Returns
+    -------
+    PlantTerms
+    """
+    from cdprid.effects._registry import SPECS
 
-
-#: the effect the winch encoders measure (its findings come from lengths.csv)
-ENCODER_EFFECT = "cable_elasticity"
+    values: dict = {}
+    encoders = tilted = False
+    for e in effects:
+        spec = SPECS[e.name]
+        values.update({field: float(e.params[key]) for field, key in spec.plant})
+        encoders |= spec.encoder is not None
+        tilted |= spec.gravity is not None
+    return PlantTerms(**values, encoders=encoders, tilted=tilted)

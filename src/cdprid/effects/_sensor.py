@@ -1,48 +1,23 @@
 """The load-cell sensor chain, declared once in physical order.
 
-What a load cell reads, from the cable to the number in ``tension.csv``: the tension on the
+What a load cell reads, from the cable to the number in ``tensions.csv``: the tension on the
 winch side of the pulley (``pulley_friction``), through the play of a hysteretic cell
 (``load_cell_hysteresis``), scaled by the cell's gain (``tension_gain``),
 plus its zero offset (``tension_offset``) and its zero drift (``tension_drift``), then noise.
-The simulator applies :data:`SENSOR_CHAIN` in this order (:func:`load_cell_reading`); the
-diagnosis undoes it in the reverse order (the ``tension`` hooks of
-:data:`cdprid.effects.DIAGNOSIS`, checked by the tests).
+Each effect declares its place (:class:`cdprid.effects._spec.Place`); the chain
+(:data:`cdprid.effects._registry.SENSOR_CHAIN`) is derived from the registry in that order and
+the simulator applies it (:func:`load_cell_reading`); the diagnosis undoes it in the reverse
+order (the ``tension`` hooks of :data:`cdprid.effects.DIAGNOSIS`, checked at import and by the
+tests).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from cdprid.effects import _load_cell_hysteresis, _tension_drift
+from cdprid.effects._registry import SENSOR_CHAIN
 
 __all__ = ["SENSOR_CHAIN", "load_cell_reading"]
-
-
-def _friction(x, p, ctx):
-    i = slice(None) if p["cable"] == "all" else p["cable"] - 1
-    ld = ctx["ldot"][:, i]
-    x[:, i] += -p["coulomb_N"] * np.sign(ld) - p["viscous_Ns_per_m"] * ld
-    return x
-
-
-def _gain(x, p, ctx):
-    x[:, p["cable"] - 1] *= p["gain"]
-    return x
-
-
-def _offset(x, p, ctx):
-    x[:, p["cable"] - 1] += p["offset_N"]
-    return x
-
-
-#: (effect name, how it changes the reading) in physical order, cable to number
-SENSOR_CHAIN = (
-    ("pulley_friction", _friction),
-    (_load_cell_hysteresis.NAME, _load_cell_hysteresis.read),
-    ("tension_gain", _gain),
-    ("tension_offset", _offset),
-    (_tension_drift.NAME, _tension_drift.read),
-)
 
 
 def load_cell_reading(effects, tau, W, v, omega, t) -> np.ndarray:

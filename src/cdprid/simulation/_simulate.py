@@ -9,7 +9,7 @@ produce the platform wrench of the Newton-Euler equations,
 with W from :func:`cdprid.model.wrench_matrix` on the TRUE geometry (exit/anchor errors,
 pulleys) and ``w_ext`` the external wrench of the effects (viscous drag, cable weight);
 the tensions come from :func:`cdprid.model.distribute_tensions` (closest to a reference
-pretension, never clipped). The effects are described in :mod:`cdprid.effects._effects`.
+pretension, never clipped). The effects are described in ``docs/effects.md``.
 
 Sensors: position noise (m, Gaussian, per axis), orientation noise (rad: the measured
 quaternion is ``q * exp(n)``, n Gaussian in the platform frame), tension noise (N), each
@@ -353,7 +353,7 @@ def simulate(
         True platform parameters (default: those of robot.toml's ``[platform]``, else
         :func:`cdprid.model.craft_like_truth`).
     effects : sequence of Effect or (name, params) pairs
-        See :mod:`cdprid.effects._effects`.
+        See ``docs/effects.md`` (:data:`cdprid.effects.REGISTRY`).
     noise : SensorNoise, optional
         Default ``SensorNoise()`` (0.2 mm, 0.5 N).
     rate_pose, rate_tension : float
