@@ -6,6 +6,7 @@ located in time so that the fits can leave it out.
 
 from cdprid.episodes._glitches import add_glitches as add_glitches
 from cdprid.episodes._glitches import find_glitches as find_glitches
+from cdprid.episodes._lengths import winch_lengths as winch_lengths
 from cdprid.episodes._stage import FAR_PER_HOUR as FAR_PER_HOUR
 from cdprid.episodes._stage import Episode as Episode
 from cdprid.episodes._stage import Episodes as Episodes
