@@ -94,3 +94,14 @@ def _geometric(robot, sig):
     a, b = np.asarray(robot.B_A), np.asarray(robot.P_b)
     return np.linalg.norm(a[None] - np.asarray(sig.position)[:, None]
                           - np.einsum("nij,mj->nmi", R, b), axis=2)
+
+
+def test_the_study_measures_coverage_of_a_push_interval():
+    """studies/real_uacdpr_episodes.py's acceptance figure: the share of a push interval the
+    union of the episodes covers."""
+    from studies.real_uacdpr_episodes import coverage
+
+    eps = [{"start_s": 5.42, "end_s": 9.13}, {"start_s": 4.0, "end_s": 5.0}]
+    assert coverage(eps, 4.9, 8.6) == pytest.approx((8.6 - 5.42 + 0.1) / 3.7, abs=2e-3)
+    assert coverage([], 4.9, 8.6) == 0.0
+    assert coverage([{"start_s": 0.0, "end_s": 40.0}], 12.0, 15.2) == 1.0
