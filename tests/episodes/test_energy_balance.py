@@ -106,30 +106,3 @@ def test_the_study_measures_coverage_of_a_push_interval():
     assert coverage([], 4.9, 8.6) == 0.0
     assert coverage([{"start_s": 0.0, "end_s": 40.0}], 12.0, 15.2) == 1.0
 
-
-def test_identify_hands_the_lengths_stream_to_the_episodes(tmp_path, monkeypatch):
-    """identify's episodes stage gets the dataset's lengths.csv on the pose times (the
-    energy balance's gate and winch work), and None without a stream."""
-    from cdprid.cli import main
-    from cdprid.identify import _episodes as stage
-    from cdprid.io import align, read_dataset
-
-    seen = []
-
-    def spy(robot, sig, **kw):
-        seen.append(kw.get("lengths"))
-        return find_episodes(robot, sig, **kw)
-
-    monkeypatch.setattr(stage, "find_episodes", spy)
-    assert main(["simulate", "--out", str(tmp_path / "s"), "--duration", "12", "--lengths",
-                 "--seed", "3"]) == 0
-    ds = read_dataset(tmp_path / "s")
-    sig = align(ds)
-    stage.without_episodes(ds, sig, {}, 0.5, False, [])
-    cols, vals = ds.extra["lengths"]
-    want = np.column_stack([np.interp(sig.t, vals[:, 0], vals[:, i])
-                            for i in range(1, ds.robot.n_cables + 1)])
-    assert seen[-1] is not None and np.allclose(seen[-1], want)
-    ds.extra.pop("lengths")
-    stage.without_episodes(ds, sig, {}, 0.5, False, [])
-    assert seen[-1] is None

@@ -26,7 +26,7 @@ import jax
 import numpy as np
 from scipy import stats
 
-from cdprid.base import CUTOFF_HZ, TRIM_S
+from cdprid.base import CUTOFF_HZ, TRIM_S, InputError
 from cdprid.core import (
     ROTATION_WARN_DEG,
     estimate_motion,
@@ -276,7 +276,7 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     t = np.asarray(sig.t, float)
     n, dt = len(t), float(sig.dt)
     if lengths is not None and np.shape(lengths) != (n, robot.n_cables):
-        raise ValueError(f"lengths: shape {np.shape(lengths)}, expected ({n}, "
+        raise InputError(f"lengths: shape {np.shape(lengths)}, expected ({n}, "
                          f"{robot.n_cables}) (one column per cable at the pose times)")
     margin = max(2, int(math.ceil(2.0 / (cutoff_hz * dt))))
     keep = segment_mask(t, sig.segments, trim) & (np.ones(n, bool) if use is None
