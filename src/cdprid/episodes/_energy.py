@@ -1,13 +1,17 @@
 """The energy balance, a second test independent of the wrench residual, for locked winches.
 
-When every cable keeps its length (the winches are locked: the geometric lengths from the
-poses vary by less than :data:`LOCKED_RANGE_M`), a taut cable pulls along itself while its
+When every cable keeps its length (the winches are locked: the winch lengths stream, or
+without one the geometric lengths from the poses, varies by less than
+:data:`LOCKED_RANGE_M`), a taut cable pulls along itself while its
 attachment moves on a sphere about its exit point: it does no work. The platform's mechanical
 energy (the fitted rigid body: mass, first moment and inertia about P)
 
     E = 1/2 m |v|^2 + v . (omega x R m s) + 1/2 omega_P^T I_P omega_P - g . (m p + R m s)
 
-can then rise only by outside work (friction and drag take energy away). Its trend (a
+can then rise only by outside work (friction and drag take energy away). With a lengths
+stream the little the winches still move is booked too: the outside work is ``E`` plus
+the work the cables carried away, ``int sum_i tau_i dl_i/dt dt`` (:func:`outside_work`). Its
+trend (a
 moving mean over :data:`TREND_S`, which averages out most of the exchange between kinetic
 and potential energy
 within a swing) rises by more than its null spread, which comes from the recording itself
@@ -23,7 +27,8 @@ from scipy.ndimage import uniform_filter1d
 
 from cdprid.episodes._scan import runs
 
-__all__ = ["LOCKED_RANGE_M", "TREND_S", "MIN_S", "locked", "energy_runs"]
+__all__ = ["LOCKED_RANGE_M", "TREND_S", "MIN_S", "locked", "energy_runs", "winch_power",
+           "outside_work"]
 
 #: winches locked: every geometric cable length stays within this range (1-99 %), m (a
 #: calibration error moves them by millimetres on a swinging platform, a winch by decimetres)
@@ -43,6 +48,42 @@ def locked(lengths: np.ndarray, use: np.ndarray) -> bool:
         return False
     lo, hi = np.percentile(x, [1, 99], axis=0)
     return bool(np.all(hi - lo < LOCKED_RANGE_M))
+
+
+def winch_power(tension, lengths, dt: float) -> np.ndarray:
+    """Power the cables carry away from the platform through the winches, ``sum_i tau_i
+    dl_i/dt`` (n,), W.
+
+    A cable of reeled length ``l_i`` under tension ``tau_i`` pulls its attachment towards its
+    exit; when the winch pays out (``dl_i/dt > 0``) the attachment moves away against that
+    pull, so the platform loses ``tau_i dl_i/dt`` (the cable's stretch, below a millimetre
+    here, is neglected). With locked winches it is the creep of the encoders times the
+    tensions, close to zero.
+
+    Parameters
+    ----------
+    tension : ndarray (n, m)
+        Tensions, N.
+    lengths : ndarray (n, m)
+        Reeled cable lengths (the winches' encoders) at the same times, m.
+    dt : float
+        Sampling period, s.
+
+    Returns
+    -------
+    ndarray (n,)
+    """
+    rate = np.gradient(np.asarray(lengths, float), dt, axis=0)
+    return np.sum(np.asarray(tension, float) * rate, axis=1)
+
+
+def outside_work(E, power, dt: float) -> np.ndarray:
+    """Work done on the platform from outside the robot since the first sample (n,), J: the
+    rise of its mechanical energy ``E`` (J) plus what the cables carried away through the
+    winches (``power``, :func:`winch_power`, W; trapezoidal integral)."""
+    P = np.asarray(power, float)
+    carried = np.concatenate([[0.0], np.cumsum(0.5 * (P[1:] + P[:-1])) * dt])
+    return np.asarray(E, float) - float(np.asarray(E)[0]) + carried
 
 
 def mechanical_energy(beta, model: str, v, om, R, p, gravity) -> np.ndarray:

@@ -26,7 +26,7 @@ import jax
 import numpy as np
 from scipy import stats
 
-from cdprid.base import CUTOFF_HZ, TRIM_S
+from cdprid.base import CUTOFF_HZ, TRIM_S, InputError
 from cdprid.core import (
     ROTATION_WARN_DEG,
     estimate_motion,
@@ -36,7 +36,13 @@ from cdprid.core import (
     wrench_matrices,
 )
 from cdprid.effects import EXTERNAL_WRENCH
-from cdprid.episodes._energy import energy_runs, locked, mechanical_energy
+from cdprid.episodes._energy import (
+    energy_runs,
+    locked,
+    mechanical_energy,
+    outside_work,
+    winch_power,
+)
 from cdprid.episodes._glitches import find_glitches
 from cdprid.episodes._scan import (
     SCALES_S,
@@ -257,8 +263,11 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     use : ndarray (n,) of bool, optional
         Samples the fit may use at all (e.g. every cable taut); default all.
     lengths : ndarray (n, m), optional
-        Winch encoder lengths at the pose times (the energy test runs when they are
-        constant); None: the energy test runs when the platform swings freely.
+        Winch encoder lengths at the pose times, m: the energy test runs when they stay
+        within :data:`cdprid.episodes._energy.LOCKED_RANGE_M`, and the work the cables carry
+        away through the winches (tension times reeling rate) is booked. None: the energy
+        test runs when the geometric lengths from the poses stay within that range (a freely
+        swinging platform on locked winches).
 
     Returns
     -------
@@ -266,6 +275,9 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     """
     t = np.asarray(sig.t, float)
     n, dt = len(t), float(sig.dt)
+    if lengths is not None and np.shape(lengths) != (n, robot.n_cables):
+        raise InputError(f"lengths: shape {np.shape(lengths)}, expected ({n}, "
+                         f"{robot.n_cables}) (one column per cable at the pose times)")
     margin = max(2, int(math.ceil(2.0 / (cutoff_hz * dt))))
     keep = segment_mask(t, sig.segments, trim) & (np.ones(n, bool) if use is None
                                                   else np.asarray(use, bool))
@@ -283,7 +295,7 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     eps += _glitch_episodes(t, glitch, gsize)
     energy, excl = _energy_episodes(robot, sig, mo, beta, model,
                                     segment_mask(t, sig.segments, trim) & ~gl_excl, excl,
-                                    margin, far_per_hour)
+                                    margin, far_per_hour, lengths)
     eps += energy
     eps.sort(key=lambda e: e.start_s)
     return Episodes(tuple(eps), t, excl, margin * dt, far_per_hour, passes, caveat)
@@ -322,16 +334,24 @@ def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour)
     return found, excl, nm, beta, passes, caveat
 
 
-def _energy_episodes(robot, sig, mo, beta, model, use, excl, margin, far_per_hour):
-    """The energy test's episodes when the winches are locked, and the exclusion widened."""
-    # straight exit-to-attachment distances (a pulley's wrap changes them by far less than
-    # the locked range)
-    b = np.einsum("nij,mj->nmi", np.asarray(mo.B_R_P), np.asarray(robot.P_b))
-    L = np.linalg.norm(np.asarray(robot.B_A)[None] - np.asarray(mo.position)[:, None] - b, axis=2)
+def _energy_episodes(robot, sig, mo, beta, model, use, excl, margin, far_per_hour,
+                     lengths=None):
+    """The energy test's episodes when the winches are locked, and the exclusion widened.
+    Locked: the winch lengths ``lengths`` (n, m) when given (their creep's work booked by
+    :func:`outside_work`), else the geometric lengths from the poses."""
+    if lengths is not None:
+        L = np.asarray(lengths, float)
+    else:  # straight exit-to-attachment distances (a pulley's wrap changes them by far
+        # less than the locked range)
+        b = np.einsum("nij,mj->nmi", np.asarray(mo.B_R_P), np.asarray(robot.P_b))
+        L = np.linalg.norm(np.asarray(robot.B_A)[None] - np.asarray(mo.position)[:, None] - b,
+                           axis=2)
     if not locked(L, use):
         return [], excl
     E = mechanical_energy(beta, model, mo.velocity, mo.omega, mo.B_R_P, mo.position,
                           robot.gravity)
+    if lengths is not None:
+        E = outside_work(E, winch_power(sig.tension, L, float(sig.dt)), float(sig.dt))
     t = np.asarray(sig.t, float)
     out, new = [], np.zeros_like(excl)
     for a, b, work, p in energy_runs(t, E, use, excl, far_per_hour):

@@ -4,7 +4,7 @@ glitches (:func:`cdprid.episodes.find_episodes`) left out of the fit, as gaps ar
 from __future__ import annotations
 
 from cdprid.base import CUTOFF_HZ, InputError
-from cdprid.episodes import find_episodes
+from cdprid.episodes import find_episodes, winch_lengths
 
 __all__ = ["without_episodes"]
 
@@ -38,7 +38,7 @@ def without_episodes(ds, sig, params: dict, trim: float, keep_episodes: bool | N
     if keep_episodes is None:
         return keep, None
     eps = find_episodes(ds.robot, sig, cutoff_hz=float(params.get("cutoff_hz", CUTOFF_HZ)),
-                        trim=trim)
+                        trim=trim, lengths=winch_lengths(ds, sig.t))
     if eps.episodes and keep_episodes:
         notes.append(f"{len(eps.episodes)} episode(s) located and kept in the fit "
                      "(--keep-episodes)")

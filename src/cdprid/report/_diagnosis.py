@@ -229,7 +229,10 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    figs = diagnosis_figures(result, out)
+    from cdprid.report._timeline import timeline_png
+
+    tl = timeline_png(result, out)  # the residual timeline, episodes shaded and labelled
+    figs = ([tl] if tl is not None else []) + diagnosis_figures(result, out)
     figs.append(unexplained_figure(result, out))
     clk = clock_figure(result, out)
     if clk is not None:

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["estimates_table", "img", "list_section", "page", "table", "timeline_figure"]
+__all__ = ["episode_bands", "estimates_table", "img", "list_section", "page", "table",
+           "timeline_figure"]
 
 CSS = """
 body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;margin:0 auto;
@@ -144,20 +145,52 @@ def timeline_figure(t, residuals: dict, use=None, train=None, episodes=(), expla
             ax.axvspan(t[i0], t[i1 - 1], color="0.6", alpha=0.15, lw=0)
         if len(edges):
             ax.axvspan(np.nan, np.nan, color="0.6", alpha=0.15, label="held out")
-    colours = ["tab:purple", "tab:orange", "tab:red", "tab:brown", "tab:pink", "tab:olive"]
-    kinds = sorted({str(e.get("kind", "")) for e in episodes})
-    for e in episodes:
-        c = colours[kinds.index(str(e.get("kind", ""))) % len(colours)]
-        ax.axvspan(float(e["start_s"]), float(e["end_s"]), color=c, alpha=0.25, lw=0)
-    for k in kinds:
-        ax.axvspan(np.nan, np.nan, color=colours[kinds.index(k) % len(colours)], alpha=0.25,
-                   label=f"episode: {k or 'unnamed'}")
+    episode_bands(ax, episodes)
     ax.set_xlabel("t [s]")
     ax.set_ylabel("|force residual| [N]")
     ax.grid(alpha=0.3)
-    ax.legend(loc="upper right", fontsize=7, ncol=2)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), fontsize=7, ncol=3)
     ax.set_title(title, fontsize=9)
     return png_bytes(fig)
+
+
+#: colours of the episode bands, one per kind (sorted by name)
+EPISODE_COLOURS = ("tab:purple", "tab:orange", "tab:red", "tab:brown", "tab:pink", "tab:olive")
+
+
+def episode_bands(ax, episodes) -> list:
+    """Shade each episode on ``ax`` (a band from ``start_s`` to ``end_s``, s, one colour per
+    kind, a legend entry per kind) and label it at the top with its number and kind.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+        Time on its x axis, s.
+    episodes : sequence of dict
+        ``start_s``, ``end_s`` (s) and ``kind``.
+
+    Returns
+    -------
+    list of (Polygon, Text)
+        The band and the label of each episode, in the order given.
+    """
+    kinds = sorted({str(e.get("kind", "")) for e in episodes})
+    out = []
+    for i, e in enumerate(episodes, 1):
+        kind = str(e.get("kind", ""))
+        c = EPISODE_COLOURS[kinds.index(kind) % len(EPISODE_COLOURS)]
+        a, b = float(e["start_s"]), float(e["end_s"])
+        band = ax.axvspan(a, b, color=c, alpha=0.25, lw=0)
+        text = ax.text(0.5 * (a + b), 0.98, f"{i}: {kind or 'unnamed'}", color="0.15",
+                       fontsize=7, ha="center", va="top", rotation=90, clip_on=True,
+                       transform=ax.get_xaxis_transform(),
+                       bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": c,
+                             "alpha": 0.85})
+        out.append((band, text))
+    for k in kinds:
+        ax.axvspan(np.nan, np.nan, color=EPISODE_COLOURS[kinds.index(k) % len(EPISODE_COLOURS)],
+                   alpha=0.25, label=f"episode: {k or 'unnamed'}")
+    return out
 
 
 def page(title: str, verdict_html: str, body: list[str], made_by: dict, tone: str = "") -> str:
