@@ -47,13 +47,6 @@ from cdprid.core import crb as crb_bound
 from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
 from cdprid.identify._cells import CellCalibration
-from cdprid.identify._currents_noise import (
-    chain_alpha,
-    filter_gain,
-    hac_bandwidth,
-    hac_fixed,
-    period,
-)
 from cdprid.identify._drive_cells import cells_against_drives
 from cdprid.identify._eiv_currents import corrected, normal_and_noise
 from cdprid.identify._episodes import _trimmed
@@ -189,6 +182,19 @@ def _length_rates(lengths, segments, dt: float, differentiator: str, params: dic
     return v, a
 
 
+def _filter_gain(t_src, t, wf, pre=None, seed: int = 1) -> float:
+    """Variance of ``F[interp(P[x])]`` for unit white noise ``x`` on the stream's own clock,
+    low-passed (``P``, cutoff ``pre`` or none), interpolated onto the pose clock and filtered
+    (10 % of each end dropped)."""
+    x = np.random.default_rng(seed).normal(size=(len(t_src), 3))
+    if pre is not None:
+        x = zero_phase_filter(x, _period(t_src), pre)
+    xi = np.column_stack([np.interp(t, t_src, x[:, c]) for c in range(3)])
+    f = np.asarray(wf(xi, np.ones(3)))
+    k = slice(len(t) // 10, len(t) - len(t) // 10)
+    return float(np.mean(np.var(f[k], axis=0)))
+
+
 def _fast_rate(t_src, l_src, t, seed: int = 2):
     """The winches' velocity for the Coulomb sign (n, m): the lengths on their own clock
     through a zero-phase low-pass at ``SIGN_CUTOFF_HZ`` (or 0.2 of their rate), central
@@ -316,7 +322,7 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     ref = choose_reference(reference, ds.robot, drives)
     (ct, cur_raw), lens = _streams(ds, m)
     pre = _prefilter_cutoff(ct, ds.pose_t)
-    cur = cur_raw if pre is None else zero_phase_filter(cur_raw, period(ct), pre)
+    cur = cur_raw if pre is None else zero_phase_filter(cur_raw, _period(ct), pre)
     ds_i = dataclasses.replace(ds, tension_t=ct, tension=cur)
     sig = align(ds_i, t_start, t_end)
     notes = [n.replace("tension", "current") for n in sig.notes]
@@ -374,10 +380,14 @@ def _datasheet_prior(drives, ref, p: int, m: int, notes: list):
     return P, mean
 
 
+def _period(t) -> float:
+    return float(np.median(np.diff(t)))
+
+
 def _prefilter_cutoff(t_src, pose_t) -> float | None:
     """A stream sampled faster than the poses is low-passed at a quarter of the pose rate
     before its interpolation (None: not faster)."""
-    dt, dtp = period(t_src), period(pose_t)
+    dt, dtp = _period(t_src), _period(pose_t)
     return 0.25 / dtp if dt < dtp / 1.5 else None
 
 
@@ -398,7 +408,7 @@ def _design(ds, sig, motion, reg, keep, lengths, lens, ct, pre, wf, noise, diffe
     sign, still, noise["v_zone"] = _friction_sign(v_fast, s_v, params, sig.dt)
     sign_c = _expected_sign(v_cur, s_v)
     if pre is not None:
-        sign_c = zero_phase_filter(sign_c, period(ct), pre)
+        sign_c = zero_phase_filter(sign_c, _period(ct), pre)
     sign = np.column_stack([np.interp(motion.t, ct, v) for v in sign_c.T])
     noise["sign"] = sign
     D = _drive_design(ds, motion, np.asarray(sig.tension), lengths, sign, wf, sig.dt,
@@ -441,8 +451,7 @@ def _noise(ds, sig, ct, cur, t, lengths, wf, differentiator, params, pre=None) -
     s_cur = estimate_noise(np.asarray(cur, float))
     _, _, s_pos, s_rot = noise_levels(dataclasses.replace(ds, tension_t=ct, tension=cur), sig)
     C = noise_gains(differentiator, params, sig.dt, wf)
-    return {"current_A": s_cur, "g_current": filter_gain(ct, t, wf, pre),
-            "alpha": chain_alpha(ct, t, wf, pre),
+    return {"current_A": s_cur, "g_current": _filter_gain(ct, t, wf, pre),
             "length_m": estimate_noise(np.asarray(lengths, float)), "position_m": s_pos,
             "rotation_rad": s_rot, "C": C}
 
@@ -483,8 +492,7 @@ def _fit(ds, model, motion, idx, reg, D, ref, rates, noise, chunk, notes, prior=
                   max(noise["position_m"], 1e-12), noise["rotation_rad"], noise["C"],
                   chunk=chunk)[:n]
     gls = least_squares_blocks(lambda a, b: rows(a, b, U), n, tuple(names[k] for k in o),
-                               covariance="iid", chunk=chunk)
-    gls = hac_fixed(lambda a, b: rows(a, b, U), gls, n, hac_bandwidth(noise["alpha"], n), chunk)
+                               covariance="hac", chunk=chunk)
     N, Q = normal_and_noise(full, U, n, m, p, noise, chunk)
     phi, Ai, Po, extra, mu = corrected(N, Q, o, r, n / max(float(gls.hac_bandwidth), 1.0),
                                        prior)
