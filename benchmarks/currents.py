@@ -63,6 +63,75 @@ def one(robot, tau_ref, seed, duration, tmp):
     return z, est[0] / x[0] - 1, ms, dz.reshape(5, m), rep
 
 
+def _wrench_x(x, p, a, R, om, al):
+    """The simulator's wrench for the parameter vector ``x`` (m, m s_G, I_P's six)."""
+    m = x[0]
+    s = x[1:4] / m
+    IP = np.array([[x[4], x[5], x[6]], [x[5], x[7], x[8]], [x[6], x[8], x[9]]])
+    IG = IP - m * (s @ s * np.eye(3) - np.outer(s, s))
+    return winch_sim.wrench(m, s, IG, p, a, R, om, al)
+
+
+def bound(name, seed, sigma=0.03, tol=0.1, duration=30.0, amp=0.25, rot_amp=0.08, prior=True):
+    """Cramer-Rao bound (%) of the mass and of m s_G (norm of the three std over |m s_G|) from
+    the currents alone, on the simulator's recording of ``seed``: poses and lengths exact,
+    white current noise ``sigma`` A at 500 Hz (250 Hz here, two samples averaged), drive 1's
+    k known, the others' datasheet tolerance ``tol`` as priors (std tol k / sqrt(3)), the
+    internal forces of a redundant robot a free nuisance per sample. A lower bound of any
+    unbiased estimator's std on the noisy recording (which also has pose and encoder
+    noise)."""
+    robot, tau_ref = ROBOTS[name]
+    rng = np.random.default_rng(seed)
+    A = np.array([c["exit"] for c in robot["cable"]], float)
+    b = np.array([c["anchor"] for c in robot["cable"]], float)
+    mc = len(A)
+    path = winch_sim.Path(rng, robot.get("home"), [amp, amp, 0.6 * amp], rot_amp)
+    td = np.arange(0.0, duration, 1 / 500.0)[::2]  # every other sample: 250 Hz, sigma scaled
+    p, v, a, R, om, al = winch_sim.rates(path, td)
+    W = winch_sim.wrench_matrix(A, b, p, R)
+    x0 = truth_vector(10)
+    w0 = _wrench_x(x0, p, a, R, om, al)
+    tau = winch_sim.tensions(W, w0, tau_ref)
+    L0, L1, L2 = winch_sim.lengths(A, b, path, td)
+    d = winch_sim.drive_truth(rng, mc)
+    k, J, fv, fc, c = winch_sim.reflected(d)
+    aa = 1 / k
+    Z = np.stack([(_wrench_x(x0 + h, p, a, R, om, al) - _wrench_x(x0 - h, p, a, R, om, al))
+                  / 2e-4 for h in 1e-4 * np.eye(10)], axis=2)  # (n, 6, 10), linear in x
+    Wp = np.linalg.pinv(W)  # (n, m, 6)
+    G = Wp @ Z  # tension's sensitivity to x (the least-norm part)
+    q = 10 + 5 * mc
+    Nn = None
+    if mc > 6:
+        Nn = np.linalg.svd(W)[2][:, 6:, :].transpose(0, 2, 1)  # (n, m, m-6) null space
+    s = np.sign(L1)
+    ipure = (tau - J * L2 - fv * L1 - fc * s + c)  # = k i (noise-free), per cable
+    n = len(td)
+    Jac = np.zeros((n, mc, q))
+    Jac[:, :, :10] = aa[None, :, None] * G
+    for j in range(mc):
+        Jac[:, j, 10 + j] = ipure[:, j]          # d i / d a_j
+        Jac[:, j, 10 + mc + j] = -aa[j] * L2[:, j]
+        Jac[:, j, 10 + 2 * mc + j] = -aa[j] * L1[:, j]
+        Jac[:, j, 10 + 3 * mc + j] = -aa[j] * s[:, j]
+        Jac[:, j, 10 + 4 * mc + j] = aa[j]
+    s2 = sigma ** 2 / 2  # two 500 Hz samples averaged per kept sample
+    if Nn is None:
+        F = np.einsum("nja,njb->ab", Jac, Jac) / s2
+    else:  # internal forces: a free nuisance per sample (tau + N lam), projected out
+        B = aa[None, :, None] * Nn  # (n, m, r)
+        P = np.eye(mc)[None] - B @ np.linalg.solve(np.swapaxes(B, 1, 2) @ B, np.swapaxes(B, 1, 2))
+        F = np.einsum("nja,njk,nkb->ab", Jac, P, Jac) / s2
+    keep = np.r_[0:10, 11:q]  # a_1 known
+    F = F[np.ix_(keep, keep)]
+    if prior:
+        for j in range(1, mc):
+            F[10 + j - 1, 10 + j - 1] += 1 / (aa[j] * tol / np.sqrt(3)) ** 2
+    C = np.linalg.inv(F)
+    sd = np.sqrt(np.diag(C))
+    return 100 * sd[0] / x0[0], 100 * np.linalg.norm(sd[1:4]) / np.linalg.norm(x0[1:4])
+
+
 def row(name, Z, M, S, D, names, seconds, failed, untold=0) -> str:
     """One table row from the seeds so far."""
     Z, M, S, D = map(np.array, (Z, M, S, D))
@@ -117,9 +186,18 @@ def main(argv=None) -> int:
                     help="robots to run (default: all)")
     ap.add_argument("--out", default=None,
                     help="default results/currents.md, results/currents-ROBOT.md with one --robot")
+    ap.add_argument("--bound", action="store_true",
+                    help="print the mass and m s_G Cramer-Rao bounds per seed (no fit)")
     ap.add_argument("--merge", action="store_true",
                     help="write results/currents.md from the results/currents-ROBOT.md tables")
     args = ap.parse_args(argv)
+    if args.bound:
+        for name in args.robot or list(ROBOTS):
+            b = np.array([bound(name, seed, duration=args.duration) for seed in range(args.seeds)])
+            print(f"| {name} | {args.seeds} | {np.median(b[:, 0]):.2f} | {b[:, 0].min():.2f}-"
+                  f"{b[:, 0].max():.2f} | {np.median(b[:, 1]):.1f} | {b[:, 1].min():.1f}-"
+                  f"{b[:, 1].max():.1f} |", flush=True)
+        return 0
     if args.merge:
         found = [line for name in ROBOTS
                  for f in [ROOT / "results" / f"currents-{name}.md"] if f.exists()
