@@ -92,3 +92,26 @@ def test_every_refit_profiles_the_clock_again(friction_and_clock):
     theta[di] = 0.0388  # 38.8 ms: what the base-model profile once named for 22 ms
     t = refit(prob, s, theta=theta, active_idx=sorted([di, *fric]))
     assert abs(t.theta[di] - 0.022) < 1e-3, t.theta[di]
+
+
+def test_clock_check_names_the_clock_once_friction_is_in_the_model(friction_and_clock):
+    """The check after a step: with friction on every pulley accepted, the clock offset is
+    refitted jointly and named at 22 ms with an interval from the joint profile covering it;
+    on the model that already holds it, nothing changes."""
+    from cdprid.diagnosis import candidate_list
+    from cdprid.diagnosis._clock import clock_check, clock_interval
+    from cdprid.diagnosis._selection import refit
+
+    prob, base, s = friction_and_clock
+    fric = prob.layout.candidate_indices("pulley_friction_all")
+    s1 = refit(prob, s, active_idx=fric)
+    cands = candidate_list(prob.m, False, prob.d.robot)
+    extra = {"base_mass_kg": float(base.x[0])}
+    t = clock_check(prob, s1, cands, 1e-5, 0.01, extra, lambda m: None, "test")
+    assert [c.effect for c in t.accepted] == ["time_delay"]
+    assert abs(t.findings[0].parameters["delay_s"] - 0.022) < 1e-3
+    t, info = clock_interval(prob, t, extra)
+    lo, hi = t.findings[0].interval["delay_s"]
+    assert lo <= t.findings[0].parameters["delay_s"] <= hi and hi - lo < 0.01
+    assert info["joint_interval_s"] == [lo, hi]
+    assert clock_check(prob, t, cands, 1e-5, 0.01, extra, lambda m: None, "test") is t

@@ -1,15 +1,19 @@
-"""The clock stage of the diagnosis: a tension-stream offset profiled before the greedy search.
+"""The clock stage of the diagnosis: the tension-stream offset, profiled first and tried again
+after every step.
 
 Real recordings carry a clock offset between the tension and pose streams of tens of
 milliseconds (the UACDPR importer measures -25 ms). A first-order expansion of the delay at
-zero under-rates such offsets, and velocity-like effects (viscous friction, drag) alias
-part of them, so a greedy search can take those first and never come back to the clock.
-This stage profiles the held-out criterion of the base model over a grid of delays (every
-sample of the grid is the exact shift of the tension stream, not an expansion), refits
-the delay jointly from the profile's minimum, and accepts it as the first finding when it
-passes the Bonferroni-corrected Wald test and improves the held-out residual. Once
-accepted, the delay is active in every later refit (the other effects are found with the
-clock right); the backward stage can still remove it.
+zero under-rates such offsets, and velocity-like effects (viscous friction, drag, friction on
+every pulley) alias part of them. :func:`clock_stage` profiles the held-out criterion of the
+base model over a grid of delays (exact shifts of the tension stream) and, when its best shift
+improves the held-out residual by :data:`FIRST_GAIN`, tries the delay first
+(:func:`clock_check`). :func:`clock_check` is called again after every accepted step: the
+delay is refitted jointly with every effect of the current model (its joint profile,
+:mod:`cdprid.diagnosis._profile`, then Gauss-Newton) and accepted when it passes the
+Bonferroni-corrected Wald test and improves the held-out residual. Once accepted, every later
+refit profiles it again jointly (never fixed at its first value); the backward stage can
+still remove it. :func:`clock_interval` gives the named delay its interval from the final
+model's joint profile; :func:`clock_size` the size of a delay not named.
 
 Which effect is the clock is declared by its :class:`~cdprid.effects.DiagnosisForm`
 (``clock=True``); this module names no effect.
@@ -118,7 +122,14 @@ def clock_check(prob: Problem, s: Selection, candidates, thr: float, gain: float
     rms_before = heldout_rms(prob, Z, y)
     theta = np.array(s.theta, float)
     theta[idx] = 0.0
-    t = refit(prob, s, theta=theta, active_idx=sorted(set(s.active_idx) | set(idx)))
+    active = sorted(set(s.active_idx) | set(idx))
+    # a cheap screen (no new linearisation): the joint profile's best training-cost gain;
+    # a delay that cannot reach half the held-out gate is not refitted
+    _, cost, _ = joint_profile(prob, theta, s.x, s.rotational, active)
+    c0 = cost[int(np.argmin(np.abs(GRID_S)))]
+    if 1.0 - np.sqrt(max(float(np.min(cost)), 0.0) / max(c0, 1e-300)) < 0.5 * gain:
+        return s
+    t = refit(prob, s, theta=theta, active_idx=active)
     Z, y, _, _ = linear_model(prob, t)
     rms_after = heldout_rms(prob, Z, y)
     var = float(t.th_cov[idx[0], idx[0]])
