@@ -196,6 +196,10 @@ def test_cli_json_contract(tmp_path):
     assert res["extended"]["heldout_residual_rms"] < res["base"]["heldout_residual_rms"]
     assert (rep / "report.md").is_file() and (rep / "residual_time.png").is_file()
     assert "## What remains unexplained" in (rep / "report.md").read_text()
+    v = res["info"]["verdict"]  # issue 37: a verdict that is true, in the JSON and the report
+    assert v["within_noise"] == (v["heldout_force_rms_N"]
+                                 <= v["noise_predicted_rms_N"] * (1 + v["margin"]))
+    assert f"Verdict: {v['text']}" in (rep / "report.md").read_text()
     assert isinstance(res["unexplained"], list)
     # outputs are never overwritten without --force (checked before any work)
     assert main(["diagnose", str(sim), "--json", str(out), "--quiet"]) == 2
