@@ -23,7 +23,7 @@ import math
 import jax
 import numpy as np
 
-from cdprid.diagnosis._model import tension_at
+from cdprid.core import CATMULL_ROM, tension_at
 from cdprid.diagnosis._problem import Problem, design
 from cdprid.effects import DIAGNOSIS
 
@@ -44,7 +44,7 @@ def clock_index(prob: Problem) -> int | None:
 def _shift_fn(prob: Problem):
     store = prob.cache.setdefault("clock_shift", {})
     if "fn" not in store:
-        store["fn"] = jax.jit(lambda s: tension_at(prob.d, prob.d.t + s))
+        store["fn"] = jax.jit(lambda s: tension_at(prob.d.stream, prob.d.t + s, CATMULL_ROM))
     return store
 
 
