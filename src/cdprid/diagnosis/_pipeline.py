@@ -252,7 +252,7 @@ def diagnose(
     res = DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
                           ext_params, ext_ho, ranking, info, _arrays(prob, base, resid),
                           unexplained=unexplained, notes=notes, competing=competing)
-    return _with_episodes(res, eps, prob, prob_with, Z, y)
+    return _with_episodes(res, eps, prob, prob_with, s)
 
 
 def _complete_info(info, not_named, rule, el_info, clock_info, second, t0, sub) -> None:
@@ -264,9 +264,10 @@ def _complete_info(info, not_named, rule, el_info, clock_info, second, t0, sub) 
         info["subset"] = sub.as_json()
 
 
-def _with_episodes(res: DiagnosisResult, eps, prob: Problem, prob_with: Problem, Z, y):
+def _with_episodes(res: DiagnosisResult, eps, prob: Problem, prob_with: Problem, s):
     """The result with its episodes and the extended model's held-out force rms with the
     episodes' samples kept (the fit unchanged: ``prob``'s training samples and weights)."""
+    Z, y, _, _ = linear_model(prob, s)  # the final model's linearisation
     kept = dataclasses.replace(prob_with, train=prob.train, wrow=prob.wrow)
     return dataclasses.replace(res, episodes=eps.as_json(),
                                extended_heldout_rms_with_episodes=force_heldout_rms(kept, Z, y))
