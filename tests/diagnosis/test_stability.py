@@ -6,6 +6,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from cdprid.diagnosis._candidates import Candidate
 from cdprid.diagnosis._stability import _resembles, block_test, group_test, sensor_alternatives
@@ -77,3 +78,49 @@ def test_the_survey_tolerance_is_robot_tomls_or_its_default():
 
     assert survey_tolerance_m(robot_from_dict(SIX_SUSPENDED)) == SURVEY_TOLERANCE_M == 0.02
     assert survey_tolerance_m(robot_from_dict(dict(SIX_SUSPENDED, survey_tolerance=0.1))) == 0.1
+
+
+@pytest.fixture(scope="module")
+def offset_on_cable_2(tmp_path_factory):
+    """20 s of the 6-cable suspended robot with a 3 N offset on load cell 2 (sensor noise)."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    from cdprid.diagnosis import base_fit, prepare, start
+    from cdprid.effects import Effect
+    from cdprid.io import read_dataset
+    from cdprid.model import SIX_SUSPENDED, preset, robot_from_dict
+    from cdprid.simulation import SensorNoise, simulate, write_simulation
+
+    robot = robot_from_dict(SIX_SUSPENDED)
+    sim = simulate(robot, preset("rich", robot, duration=20.0),
+                   effects=[Effect("tension_offset", {"cable": 2, "offset_N": 3.0})],
+                   noise=SensorNoise(position_m=1e-4, tension_N=0.3), seed=4)
+    ds = read_dataset(write_simulation(sim, tmp_path_factory.mktemp("off") / "d"))
+    prob, base = base_fit(prepare(ds))
+    return prob, start(prob, base)
+
+
+@pytest.mark.slow
+def test_a_replacing_finding_carries_its_own_test_not_the_replaced_one(offset_on_cable_2):
+    """Issue 37: findings that replace a geometry error kept its p-value and statistic. The
+    restated finding of the true offset is significant with its own Wald statistic (theta^2 /
+    var from the refit's HAC covariance, Bonferroni over the candidates); an offset on a
+    cable without one is not; each held-out rms before is that of the model without it."""
+    from cdprid.diagnosis import Finding
+    from cdprid.diagnosis._selection import refit
+    from cdprid.diagnosis._stability import restated
+
+    prob, s = offset_on_cable_2
+    true, null = Candidate("tension_offset", 2), Candidate("tension_offset", 5)
+    idx = [prob.layout.candidate_indices(c.effect, c.cable)[0] for c in (true, null)]
+    t = refit(prob, s, active_idx=sorted(idx))
+    old = Finding("exit_point_error", {"cable": 2}, {}, ["x"], 1.0, 0.9, 0.5, 1.0, 1e-5)
+    f_true, f_null = restated(prob, t, (true, null), old, 40, 0.8)
+    stat = t.theta[idx[0]] ** 2 / t.th_cov[idx[0], idx[0]]
+    assert f_true.effect == "tension_offset" and f_true.statistic == pytest.approx(stat)
+    assert f_true.p_value < 1e-10 and f_true.statistic > 100
+    assert f_null.p_value > 1e-3, f_null  # 40 x a chi2(1) tail: no offset on cable 5
+    assert f_true.heldout_rms_after == f_null.heldout_rms_after == 0.8
+    assert f_true.heldout_rms_before > 1.5 * f_null.heldout_rms_before  # the true one matters
+    assert f_true.threshold == old.threshold and f_true.aliases == old.aliases

@@ -25,8 +25,10 @@ import numpy as np
 from scipy import stats
 
 from cdprid.diagnosis._candidates import Candidate, alias_label, implausible, vocab_params
-from cdprid.diagnosis._problem import Problem, heldout_rms
+from cdprid.diagnosis._competing import dm_p_worse
+from cdprid.diagnosis._problem import Problem, heldout_residuals, heldout_rms
 from cdprid.diagnosis._profile import clock_index
+from cdprid.diagnosis._result import Finding
 from cdprid.diagnosis._selection import (
     Selection,
     effect_size_N,
@@ -44,6 +46,10 @@ from cdprid.effects import DIAGNOSIS
 LEVEL = 1e-3
 #: survey tolerance of exit and attachment points when robot.toml states none, m
 SURVEY_TOLERANCE_M = 0.02
+#: a geometry error beyond the survey tolerance is named when every sensor-side alternative
+#: predicts the held-out data worse by the search's gate, or significantly worse at this
+#: one-sided level (Diebold-Mariano test on the held-out losses)
+GEOMETRY_DM_LEVEL = 0.01
 
 
 def _fit(Z, y, lags):
@@ -260,12 +266,65 @@ def _screen(prob: Problem, s: Selection, k: int, alts: list, n_keep: int = 3) ->
     return [a for _, a in scored[:n_keep]]
 
 
+def _losses(prob: Problem, Z, y) -> np.ndarray:
+    """Per-sample held-out squared error (weighted units, the 6 rows summed)."""
+    _, r = heldout_residuals(prob, Z, y)
+    return np.sum(r * r, axis=1)
+
+
+def _best_alternative(prob: Problem, s: Selection, k: int, candidates: list, extra: dict):
+    """The sensor-side alternative to finding ``k`` that predicts the held-out data best:
+    ``(rms, alternative, refitted model, per-sample held-out losses)``, or None. An
+    alternative whose refit is singular (its columns dependent on the model's) or implausible
+    is no account of the data."""
+    best = None
+    for alt in _screen(prob, s, k, sensor_alternatives(s.accepted[k], candidates, s.accepted)):
+        try:
+            t = _replace(prob, s, k, alt)
+        except np.linalg.LinAlgError:
+            continue
+        why = "".join(implausible(a.effect, vocab_params(a, t.theta, prob.layout, extra,
+                                                         t.th_cov)) for a in alt)
+        if why or model_implausible(prob, t, extra):
+            continue
+        Zt, yt, _, _ = linear_model(prob, t)
+        r = heldout_rms(prob, Zt, yt)
+        if best is None or r < best[0]:
+            best = (r, alt, t, _losses(prob, Zt, yt))
+    return best
+
+
+def restated(prob: Problem, t: Selection, alt: tuple, f: Finding, n_tests: int,
+             rms_after: float) -> tuple:
+    """The findings of the candidates ``alt`` that replaced ``f`` in the model ``t``, each with
+    its own test in ``t``: the HAC Wald statistic of its parameters given every other column
+    (Bonferroni over ``n_tests`` candidates, as the search's), and the held-out rms of ``t``
+    without it (linearised) before ``rms_after``; never the replaced finding's numbers."""
+    Z, y, n_model, _ = linear_model(prob, t)
+    out = []
+    for a in alt:
+        idx = [i for i in prob.layout.candidate_indices(a.effect, a.cable) if i in t.active_idx]
+        th = t.theta[idx]
+        V = t.th_cov[np.ix_(idx, idx)]
+        stat = float(th @ np.linalg.lstsq(V, th, rcond=None)[0]) if idx else 0.0
+        p = float(stats.chi2.sf(stat, max(len(idx), 1)))
+        cols = finding_columns(a, prob.layout, list(t.active_idx), n_model)
+        rest = [j for j in range(Z.shape[2]) if j not in cols]
+        out.append(dataclasses.replace(
+            f, effect=a.vocabulary_effect, aliases=sorted(set(f.aliases)),
+            heldout_rms_before=float(heldout_rms(prob, Z[:, :, rest], y)),
+            heldout_rms_after=float(rms_after), p_value=float(min(1.0, p * n_tests)),
+            statistic=stat))
+    return tuple(out)
+
+
 def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: float,
                    extra: dict, say) -> tuple[Selection, list]:
     """Geometry findings beyond the survey tolerance must beat every sensor-side alternative
-    on held-out prediction (by ``min_gain``); otherwise the best alternative replaces it
-    (when plausible and it keeps the held-out gain) or it is withdrawn and reported under
-    ``unexplained``. Returns the model and the entries."""
+    on held-out prediction: by ``min_gain``, or significantly (one-sided Diebold-Mariano at
+    :data:`GEOMETRY_DM_LEVEL`); otherwise the best alternative replaces it (when it predicts
+    at least as well; its findings restated with their own tests, :func:`restated`) or it is
+    withdrawn and reported under ``unexplained``. Returns the model and the entries."""
     tol = survey_tolerance_m(prob.d.robot)
     out = []
     k = 0
@@ -276,48 +335,37 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
             continue
         Z, y, _, _ = linear_model(prob, s)
         rms_geo = heldout_rms(prob, Z, y)
-        best = None
-        for alt in _screen(prob, s, k, sensor_alternatives(c, candidates, s.accepted)):
-            t = _replace(prob, s, k, alt)
-            why = "".join(implausible(a.effect, vocab_params(a, t.theta, prob.layout, extra,
-                                                             t.th_cov)) for a in alt)
-            why = why or model_implausible(prob, t, extra)
-            if why:
-                continue
-            Zt, yt, _, _ = linear_model(prob, t)
-            r = heldout_rms(prob, Zt, yt)
-            if best is None or r < best[0]:
-                best = (r, alt, t)
-        if best is None or rms_geo < best[0] * (1 - min_gain):
+        best = _best_alternative(prob, s, k, candidates, extra)
+        p_worse = 0.0 if best is None else dm_p_worse(best[3], _losses(prob, Z, y), prob.lags)
+        if best is None or rms_geo < best[0] * (1 - min_gain) or p_worse < GEOMETRY_DM_LEVEL:
             k += 1  # the geometry error beats every sensor-side alternative: named
             continue
-        r, alt, t = best
+        r, alt, t, _ = best
         size, f = _displacement_m(c, s, prob), s.findings[k]
         label = " + ".join(a.label for a in alt)
         what = (f"acts like {c.vocabulary_effect} {f.parameters} ({100 * size:.3g} cm, beyond "
                 f"the survey tolerance {100 * tol:.3g} cm), but {label} predicts the held-out "
                 f"data {'as well' if r > rms_geo else 'better'} ({rms_geo:.4g} against "
-                f"{r:.4g}, weighted units)")
-        entry = {"where": c.label, "size": effect_size_N(prob, s, c), "p_value": 1.0,
-                 "test": "geometry against sensor-side alternatives (held-out)",
-                 "withdrawn_finding": alias_label(c)}
+                f"{r:.4g}, weighted units; p = {p_worse:.2g} that it predicts worse)")
         if r <= rms_geo:  # the sensor-side explanation predicts at least as well: named
             say(f"geometry: {c.label} ({100 * size:.3g} cm) does not beat {label} on "
                 f"held-out prediction ({rms_geo:.4f} against {r:.4f}); replaced by it")
-            fs = tuple(dataclasses.replace(
-                f, effect=a.vocabulary_effect, aliases=sorted(set(f.aliases) | {alias_label(c)}),
-                heldout_rms_after=float(r)) for a in alt)
+            fs = restated(prob, t, alt, dataclasses.replace(
+                f, aliases=sorted(set(f.aliases) | {alias_label(c)})), len(candidates), r)
             s = with_vocabulary(prob, dataclasses.replace(
                 t, accepted=s.accepted[:k] + tuple(alt) + s.accepted[k + 1:],
                 findings=s.findings[:k] + fs + s.findings[k + 1:]), extra)
             k += len(alt)  # (the finding keeps the geometry error among its aliases)
         else:  # within the gate: neither is named
             say(f"geometry: {c.label} ({100 * size:.3g} cm) beats {label} by less than "
-                f"{100 * min_gain:g} % on held-out prediction; withdrawn")
-            out.append({**entry, "correlates_with": f"{what}: not named; a survey of the "
-                        "point would tell"})
+                f"{100 * min_gain:g} % on held-out prediction, not significantly "
+                f"(p = {p_worse:.2g}); withdrawn")
+            out.append({"where": c.label, "size": effect_size_N(prob, s, c), "p_value": 1.0,
+                        "test": "geometry against sensor-side alternatives (held-out)",
+                        "withdrawn_finding": alias_label(c),
+                        "correlates_with": f"{what}: not named; a survey of the point would tell"})
             s = withdraw(prob, s, k, extra)
     return s, out
 
 
-__all__ = ["geometry_stage", "stability_stage", "survey_tolerance_m"]
+__all__ = ["geometry_stage", "restated", "stability_stage", "survey_tolerance_m"]
