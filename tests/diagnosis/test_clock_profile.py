@@ -115,3 +115,24 @@ def test_clock_check_names_the_clock_once_friction_is_in_the_model(friction_and_
     assert lo <= t.findings[0].parameters["delay_s"] <= hi and hi - lo < 0.01
     assert info["joint_interval_s"] == [lo, hi]
     assert clock_check(prob, t, cands, 1e-5, 0.01, extra, lambda m: None, "test") is t
+
+
+def test_the_size_of_a_clock_not_named_leaves_the_final_models_linearisation(
+        friction_and_clock):
+    """``clock_size`` refits the final model with the delay added (22 ms found beside the
+    friction) and leaves the final model's linearisations in the cache (the later stages
+    would linearise it again: a speed fix)."""
+    from cdprid.diagnosis._candidates import Candidate
+    from cdprid.diagnosis._clock import clock_size
+    from cdprid.diagnosis._selection import linear_model, refit
+
+    prob, _, s = friction_and_clock
+    fric = prob.layout.candidate_indices("pulley_friction_all")
+    t = refit(prob, s, active_idx=sorted(fric))
+    linear_model(prob, t)
+    before = list(prob.cache["design"])
+    out = clock_size(prob, t, Candidate("time_delay"), {})
+    assert list(prob.cache["design"]) == before
+    assert abs(out["parameters"]["delay_s"] - 0.022) < 1e-3, out
+    lo, hi = out["interval"]["delay_s"]
+    assert lo <= out["parameters"]["delay_s"] <= hi

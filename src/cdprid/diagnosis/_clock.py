@@ -181,14 +181,22 @@ def clock_interval(prob: Problem, s: Selection, extra: dict) -> tuple[Selection,
 
 def clock_size(prob: Problem, s: Selection, c, extra: dict) -> dict:
     """A clock offset the search did not name: its value, 95 % interval and p-value from the
-    final model with the delay added and refitted jointly (never a linearisation at 0)."""
+    final model with the delay added and refitted jointly (never a linearisation at 0).
+
+    The final model's linearisations stay in ``prob.cache`` (this refit's would displace
+    them: the stages after it then linearised the final model again, 10 s of a 317 s
+    diagnosis on a loaded machine)."""
     idx = prob.layout.candidate_indices(c.effect, c.cable)
     theta = np.array(s.theta, float)
     theta[idx] = 0.0
-    t = refit(prob, s, theta=theta, active_idx=sorted(set(s.active_idx) | set(idx)))
+    saved = dict(prob.cache.get("design", {}))
+    try:
+        t = refit(prob, s, theta=theta, active_idx=sorted(set(s.active_idx) | set(idx)))
+        lo, hi, open_ends = _joint_interval(prob, t, idx[0])
+    finally:
+        prob.cache["design"] = saved
     var = float(t.th_cov[idx[0], idx[0]])
     stat = float(t.theta[idx[0]] ** 2 / var) if var > 0 else 0.0
-    lo, hi, open_ends = _joint_interval(prob, t, idx[0])
     key = DIAGNOSIS[c.effect].keys[0]
     return {"parameters": vocab_params(c, t.theta, prob.layout, extra), "interval": {key: [lo, hi]},
             "p_value": float(stats.chi2.sf(stat, 1)), "statistic": stat,
