@@ -50,6 +50,7 @@ def test_the_clock_of_a_clean_800_hz_recording_is_covered(tmp_path):
 
     jax.config.update("jax_enable_x64", True)
     import tests._testbench as tb
+
     from cdprid.diagnosis import base_fit, prepare, start
     from cdprid.diagnosis._profile import clock_index
     from cdprid.diagnosis._selection import refit

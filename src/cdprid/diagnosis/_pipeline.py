@@ -130,7 +130,7 @@ def _split_at_joins(sig, joins):
     segments = []
     for a, b in sig.segments:
         edges = [a] + [c for c in cuts if a < c < b] + [b]
-        segments += list(zip(edges[:-1], edges[1:]))
+        segments += list(zip(edges[:-1], edges[1:], strict=True))
     return dataclasses.replace(sig, segments=tuple(segments))
 
 
