@@ -64,3 +64,21 @@ def test_undamped_step_that_raises_the_cost_is_reported_not_taken(monkeypatch):
                                                False, np.ones(6), np.ones(200, bool), 3)
     assert status is Status.FAILED and lin is None
     assert th[0] == 30.0
+
+
+def test_a_start_where_the_model_is_not_finite_is_a_failed_refit():
+    """A design that is NaN at the start (a clock offset reaching past the tension stream,
+    which is never extrapolated) ends the refit as failed instead of raising LinAlgError in
+    the least squares (UACDPR: a competing model's refit did, 2026-11-27)."""
+    design, _ = _problem()
+
+    def nan_design(theta, x, rotational):
+        y, A, C = design(theta, x, rotational)
+        A = A.copy()
+        A[:5] = np.nan
+        return y, A, C
+
+    th, _, _, lin, status = refit_gauss_newton(nan_design, np.array([7.0]), np.zeros(10), [0],
+                                               False, np.ones(6), np.ones(200, bool), 3)
+    assert status is Status.FAILED and lin is None
+    assert th[0] == 7.0

@@ -61,8 +61,15 @@ def refit_gauss_newton(design, theta, x0, active_idx, rotational, wrow, train, l
     V = np.zeros((px + len(ai), px + len(ai)))
     lin, status = None, Status.MAX_STEPS
     y, A, C = design(theta, x, rotational)
+    if not all(np.all(np.isfinite(v)) for v in (y, A, C)):
+        # e.g. a start whose clock offset reaches past the tension stream (never extrapolated)
+        return theta, x, np.zeros((len(theta), len(theta))), None, Status.FAILED
     for _ in range(max_iter):
-        xs, step, V = _gn_step(y, A, C, theta, ai, wrow, train, lags, px)
+        try:
+            xs, step, V = _gn_step(y, A, C, theta, ai, wrow, train, lags, px)
+        except np.linalg.LinAlgError:  # a singular or non-finite solve: no model here
+            status = Status.FAILED
+            break
         x[:px] = xs
         if len(ai) == 0:
             status = Status.CONVERGED
