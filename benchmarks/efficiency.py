@@ -33,16 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-
-def positive_int(text: str) -> int:
-    """``--workers``: a positive integer (a local cluster of -2 workers waited forever)."""
-    try:
-        v = int(text)
-    except ValueError:
-        v = 0
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a positive integer")
-    return v
+from benchmarks.diagnosis import positive_int
 
 
 ROOT = Path(__file__).resolve().parents[1]
