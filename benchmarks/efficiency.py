@@ -35,7 +35,6 @@ import numpy as np
 
 from benchmarks.diagnosis import positive_int
 
-
 ROOT = Path(__file__).resolve().parents[1]
 METHODS = {
     "euler-filtfilt, cutoff from the data, eiv weighting (default)": ("euler-filtfilt", {}, "eiv"),
