@@ -196,6 +196,10 @@ def test_cli_json_contract(tmp_path):
     assert res["extended"]["heldout_residual_rms"] < res["base"]["heldout_residual_rms"]
     assert (rep / "report.md").is_file() and (rep / "residual_time.png").is_file()
     assert "## What remains unexplained" in (rep / "report.md").read_text()
+    v = res["info"]["verdict"]  # issue 37: a verdict that is true, in the JSON and the report
+    assert v["within_noise"] == (v["heldout_force_rms_N"]
+                                 <= v["noise_predicted_rms_N"] * (1 + v["margin"]))
+    assert f"Verdict: {v['text']}" in (rep / "report.md").read_text()
     assert isinstance(res["unexplained"], list)
     # outputs are never overwritten without --force (checked before any work)
     assert main(["diagnose", str(sim), "--json", str(out), "--quiet"]) == 2
@@ -379,7 +383,12 @@ def test_refit_hands_back_the_linearisation_at_its_result(tmp_path):
     assert y_c is not y_f
     scale = float(np.max(np.abs(y_f)))
     assert np.max(np.abs(y_c - y_f)) < 1e-5 * scale
-    assert np.allclose(C_c[:, :, idx], C_f[:, :, idx], rtol=1e-3, atol=1e-6 * np.max(np.abs(C_f)))
+    # the refit stops within 1e-3 std of its last linearisation, and the delay's column moves
+    # fast with the delay at the first samples (the tension's second derivative at the
+    # filter's edge: 4e-4 on an entry of 0.23 for 2e-8 s): the columns agree in norm
+    for i in idx:
+        err = np.linalg.norm(C_c[:, :, i] - C_f[:, :, i]) / np.linalg.norm(C_f[:, :, i])
+        assert err < 1e-4, (i, err)
     with pytest.raises(ValueError):  # cached arrays are shared: read-only
         y_c[0, 0] = 1.0
 

@@ -1,15 +1,19 @@
-"""The clock stage of the diagnosis: a tension-stream offset profiled before the greedy search.
+"""The clock stage of the diagnosis: the tension-stream offset, profiled first and tried again
+after every step.
 
 Real recordings carry a clock offset between the tension and pose streams of tens of
 milliseconds (the UACDPR importer measures -25 ms). A first-order expansion of the delay at
-zero under-rates such offsets, and velocity-like effects (viscous friction, drag) alias
-part of them, so a greedy search can take those first and never come back to the clock.
-This stage profiles the held-out criterion of the base model over a grid of delays (every
-sample of the grid is the exact shift of the tension stream, not an expansion), refits
-the delay jointly from the profile's minimum, and accepts it as the first finding when it
-passes the Bonferroni-corrected Wald test and improves the held-out residual. Once
-accepted, the delay is active in every later refit (the other effects are found with the
-clock right); the backward stage can still remove it.
+zero under-rates such offsets, and velocity-like effects (viscous friction, drag, friction on
+every pulley) alias part of them. :func:`clock_stage` profiles the held-out criterion of the
+base model over a grid of delays (exact shifts of the tension stream) and, when its best shift
+improves the held-out residual by :data:`FIRST_GAIN`, tries the delay first
+(:func:`clock_check`). :func:`clock_check` is called again after every accepted step: the
+delay is refitted jointly with every effect of the current model (its joint profile,
+:mod:`cdprid.diagnosis._profile`, then Gauss-Newton) and accepted when it passes the
+Bonferroni-corrected Wald test and improves the held-out residual. Once accepted, every later
+refit profiles it again jointly (never fixed at its first value); the backward stage can
+still remove it. :func:`clock_interval` gives the named delay its interval from the final
+model's joint profile; :func:`clock_size` the size of a delay not named.
 
 Which effect is the clock is declared by its :class:`~cdprid.effects.DiagnosisForm`
 (``clock=True``); this module names no effect.
@@ -26,8 +30,9 @@ from scipy import stats
 from cdprid.core import CATMULL_ROM, tension_at
 from cdprid.diagnosis._candidates import Candidate, implausible, vocab_interval, vocab_params
 from cdprid.diagnosis._problem import Problem, heldout_rms
+from cdprid.diagnosis._profile import clock_index, joint_profile, profile_interval
 from cdprid.diagnosis._result import Finding
-from cdprid.diagnosis._selection import Selection, linear_model, refit
+from cdprid.diagnosis._selection import Selection, linear_model, model_implausible, refit
 from cdprid.effects import DIAGNOSIS
 
 #: the clock is accepted first only when it improves the held-out residual by this much (a
@@ -87,7 +92,6 @@ def clock_stage(prob: Problem, base, s: Selection, candidates, alpha: float, min
     info = {"delay_s": GRID_S.tolist(), "heldout_rms": prof.tolist(), "minimum_s": d0}
     say(f"clock: held-out profile over delays {GRID_S[0]:+.3f} to {GRID_S[-1]:+.3f} s: minimum "
         f"at {1e3 * d0:+.1f} ms")
-    idx = prob.layout.candidate_indices(c.effect, c.cable)
     Z, y, _, _ = linear_model(prob, s)
     rms_before = heldout_rms(prob, Z, y)
     gain = max(min_gain, FIRST_GAIN)
@@ -95,27 +99,105 @@ def clock_stage(prob: Problem, base, s: Selection, candidates, alpha: float, min
         say(f"clock: the profile's best shift improves the held-out residual by less than "
             f"{100 * gain:g} %; left to the greedy search")
         return s, info
+    t = clock_check(prob, s, candidates, alpha / len(candidates), gain, extra, say, "clock")
+    return t, info
+
+
+def clock_check(prob: Problem, s: Selection, candidates, thr: float, gain: float, extra: dict,
+                say, where: str) -> Selection:
+    """The clock offset added to the model ``s`` when the data ask for it.
+
+    The delay is refitted jointly with every effect of ``s`` (its profile over exact shifts,
+    :func:`cdprid.diagnosis._profile.joint_delay`, then Gauss-Newton); it is accepted when its
+    HAC Wald test given the others passes ``thr``, it is plausible and the held-out residual
+    improves by ``gain`` (relative). Returns ``s`` with the clock as a new finding, or ``s``.
+    Called on the base model and after every accepted step, so that a clock offset hidden at
+    first by friction on every pulley is found once the friction is in the model.
+    """
+    c = clock_candidate(candidates)
+    if c is None or c in s.accepted:
+        return s
+    idx = prob.layout.candidate_indices(c.effect, c.cable)
+    Z, y, _, _ = linear_model(prob, s)
+    rms_before = heldout_rms(prob, Z, y)
     theta = np.array(s.theta, float)
-    theta[idx] = d0
-    t = refit(prob, s, theta=theta, active_idx=sorted(set(s.active_idx) | set(idx)))
+    theta[idx] = 0.0
+    active = sorted(set(s.active_idx) | set(idx))
+    # a cheap screen (no new linearisation): the joint profile's best training-cost gain;
+    # a delay that cannot reach half the held-out gate is not refitted
+    _, cost, _ = joint_profile(prob, theta, s.x, s.rotational, active)
+    c0 = cost[int(np.argmin(np.abs(GRID_S)))]
+    if 1.0 - np.sqrt(max(float(np.min(cost)), 0.0) / max(c0, 1e-300)) < 0.5 * gain:
+        return s
+    t = refit(prob, s, theta=theta, active_idx=active)
     Z, y, _, _ = linear_model(prob, t)
     rms_after = heldout_rms(prob, Z, y)
     var = float(t.th_cov[idx[0], idx[0]])
     stat = float(t.theta[idx[0]] ** 2 / var) if var > 0 else 0.0
     p = float(stats.chi2.sf(stat, 1))
-    thr = alpha / len(candidates)
     vocab = vocab_params(c, t.theta, prob.layout, extra, t.th_cov)
-    why = implausible(c.effect, vocab)
+    why = implausible(c.effect, vocab) or model_implausible(prob, t, extra)
     if why or not p < thr or rms_after > rms_before * (1 - gain):
-        say(f"clock: {c.label} at {1e3 * t.theta[idx[0]]:+.1f} ms not accepted first "
-            f"(p = {p:.2e}, held-out {rms_before:.4f} -> {rms_after:.4f}"
-            + (f", {why}" if why else "") + "); left to the greedy search")
-        return s, info
+        say(f"{where}: {c.label} at {1e3 * t.theta[idx[0]]:+.1f} ms (joint profile) not "
+            f"accepted (p = {p:.2e}, held-out {rms_before:.4f} -> {rms_after:.4f}"
+            + (f", {why}" if why else "") + ")")
+        return s
     std = np.sqrt(np.clip(np.diag(t.th_cov), 0, None))
     f = Finding(effect=c.vocabulary_effect, parameters=vocab,
                 interval=vocab_interval(c, t.theta, std, prob.layout, extra), aliases=[],
                 heldout_rms_before=float(rms_before), heldout_rms_after=float(rms_after),
                 p_value=float(min(1.0, p * len(candidates))), statistic=stat, threshold=thr)
-    say(f"clock: accepted {c.label}: {vocab}; held-out rms {rms_before:.4f} -> "
-        f"{rms_after:.4f} (weighted units)")
-    return dataclasses.replace(t, accepted=t.accepted + (c,), findings=t.findings + (f,)), info
+    say(f"{where}: accepted {c.label} (joint profile): {vocab}; held-out rms "
+        f"{rms_before:.4f} -> {rms_after:.4f} (weighted units)")
+    return dataclasses.replace(t, accepted=t.accepted + (c,), findings=t.findings + (f,))
+
+
+def _joint_interval(prob: Problem, t: Selection, di: int) -> tuple[float, float, bool]:
+    """The delay's 95 % interval at the model ``t`` (delay active): its joint profile
+    calibrated on the HAC variance (:func:`cdprid.diagnosis._profile.profile_interval`)."""
+    grid, cost, _ = joint_profile(prob, t.theta, t.x, t.rotational, list(t.active_idx))
+    return profile_interval(grid, cost, float(t.theta[di]), float(t.th_cov[di, di]))
+
+
+def clock_interval(prob: Problem, s: Selection, extra: dict) -> tuple[Selection, dict]:
+    """The named clock offset's interval from the final model's joint profile (the union of
+    the profile-likelihood and Wald intervals); ``info`` for ``info["clock_profile"]``."""
+    di = clock_index(prob)
+    for k, c in enumerate(s.accepted):
+        if not DIAGNOSIS[c.effect].clock or di not in s.active_idx:
+            continue
+        grid, cost, _ = joint_profile(prob, s.theta, s.x, s.rotational, list(s.active_idx))
+        lo, hi, open_ends = profile_interval(grid, cost, float(s.theta[di]),
+                                             float(s.th_cov[di, di]))
+        f = s.findings[k]
+        key = DIAGNOSIS[c.effect].keys[0]
+        f = dataclasses.replace(f, interval={**f.interval, key: [lo, hi]})
+        info = {"joint_delay_s": grid.tolist(), "joint_training_cost": cost.tolist(),
+                "joint_minimum_s": float(s.theta[di]), "joint_interval_s": [lo, hi],
+                "interval_reaches_grid_edge": open_ends}
+        return dataclasses.replace(s, findings=s.findings[:k] + (f,) + s.findings[k + 1:]), info
+    return s, {}
+
+
+def clock_size(prob: Problem, s: Selection, c, extra: dict) -> dict:
+    """A clock offset the search did not name: its value, 95 % interval and p-value from the
+    final model with the delay added and refitted jointly (never a linearisation at 0).
+
+    The final model's linearisations stay in ``prob.cache`` (this refit's would displace
+    them: the stages after it then linearised the final model again, 10 s of a 317 s
+    diagnosis on a loaded machine)."""
+    idx = prob.layout.candidate_indices(c.effect, c.cable)
+    theta = np.array(s.theta, float)
+    theta[idx] = 0.0
+    saved = dict(prob.cache.get("design", {}))
+    try:
+        t = refit(prob, s, theta=theta, active_idx=sorted(set(s.active_idx) | set(idx)))
+        lo, hi, open_ends = _joint_interval(prob, t, idx[0])
+    finally:
+        prob.cache["design"] = saved
+    var = float(t.th_cov[idx[0], idx[0]])
+    stat = float(t.theta[idx[0]] ** 2 / var) if var > 0 else 0.0
+    key = DIAGNOSIS[c.effect].keys[0]
+    return {"parameters": vocab_params(c, t.theta, prob.layout, extra), "interval": {key: [lo, hi]},
+            "p_value": float(stats.chi2.sf(stat, 1)), "statistic": stat,
+            "interval_reaches_grid_edge": open_ends}

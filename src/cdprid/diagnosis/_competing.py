@@ -14,7 +14,9 @@ tell apart from it:
   the Bartlett HAC variance over the residuals' correlation length) does not find the
   alternative worse at :data:`DM_LEVEL`.
 
-Each entry carries the replacing effect's parameters under that model, so a user sees both
+A named clock offset is always compared with friction on every pulley in its place and the
+reverse (:func:`clock_twins`: the two alias on every cable, issue 37). Each entry carries the
+replacing effect's parameters under that model, so a user sees both
 explanations with their sizes (e.g. a 16 N offset on cable 2, or a 0.8 deg frame tilt).
 """
 
@@ -30,6 +32,7 @@ from cdprid.diagnosis._candidates import alias_label, vocab_params
 from cdprid.diagnosis._problem import Problem, force_heldout_rms, heldout_residuals, heldout_rms
 from cdprid.diagnosis._selection import extends_base, linear_model, refit, refit_rejected
 from cdprid.diagnosis._testing import hac_cov
+from cdprid.effects import DIAGNOSIS
 
 #: one-sided level of the test that an alternative model predicts worse
 DM_LEVEL = 0.05
@@ -53,6 +56,21 @@ def dm_p_worse(loss_alt, loss_best, lags: int) -> float:
     if not var > 0:
         return 0.5 if d.mean() == 0 else (0.0 if d.mean() > 0 else 1.0)
     return float(stats.norm.sf(d.mean() / math.sqrt(var)))
+
+
+def clock_twins(c, candidates) -> list:
+    """The candidates that can pass for ``c`` when ``c`` is the clock offset or friction on
+    every pulley (velocity-like on every cable): the other one. A named clock offset is
+    always compared with friction on every pulley in its place, and the reverse, so that a
+    recording on which the two cannot be told apart says so (a competing model)."""
+    clock = [a for a in candidates if DIAGNOSIS[a.effect].clock]
+    common_friction = [a for a in candidates if a.cable is None and DIAGNOSIS[a.effect].report_size
+                       and not DIAGNOSIS[a.effect].clock]
+    if DIAGNOSIS[c.effect].clock:
+        return common_friction
+    if c in common_friction:
+        return clock
+    return []
 
 
 def _losses(prob: Problem, Z, y) -> np.ndarray:
@@ -119,6 +137,9 @@ def _competing(prob, s, candidates, min_gain, extra, say):
             a = by_label.get(lab)
             if a is not None and a not in s.accepted and not extends_base(a):
                 pairs.append((k, c, a))
+        for a in clock_twins(c, candidates):  # friction and the clock: always compared
+            if a not in s.accepted and (k, c, a) not in pairs:
+                pairs.insert(0, (k, c, a))
     out, n_tried = [], 0
     for k, c, a in pairs[:MAX_ALTERNATIVES]:
         theta = s.theta.copy()

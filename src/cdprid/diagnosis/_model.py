@@ -103,13 +103,20 @@ class DiagData(eqx.Module):
     #: Coulomb terms use it (see :func:`cdprid.core.sliding_sign`); ``None``:
     #: ``sign(ldot)``
     slide: jnp.ndarray | None = None
+    #: the tension stream through the core's zero-phase low-pass (:data:`cdprid.core.SMOOTH_HZ`)
+    #: that the forward model interpolates; ``None``: the raw stream
+    tau_smooth: jnp.ndarray | None = None
 
     @property
     def stream(self) -> TensionStream:
-        """The raw tension stream as the core's :class:`cdprid.core.TensionStream` (the forward
-        model reads it with :func:`cdprid.core.tension_at`, Catmull-Rom)."""
+        """The tension stream the forward model reads with :func:`cdprid.core.tension_at`
+        (Catmull-Rom) as the core's :class:`cdprid.core.TensionStream`: the low-passed one
+        (``tau_smooth``) when set, else the raw one. Interpolating the raw noisy stream
+        between its samples makes the fit's cost ripple with the tension step in the delay
+        (the core's measurement, :data:`cdprid.core.SMOOTH_HZ`)."""
         k = self.tau_grid.shape[0]
-        return TensionStream(self.tau_t0 + self.tau_dt * jnp.arange(k), self.tau_grid,
+        vals = self.tau_grid if self.tau_smooth is None else self.tau_smooth
+        return TensionStream(self.tau_t0 + self.tau_dt * jnp.arange(k), vals,
                              self.tau_t0, self.tau_dt)
 
 

@@ -26,7 +26,7 @@ from cdprid.core import refuse_implausible, rest_mask
 from cdprid.diagnosis._base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from cdprid.diagnosis._budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis._candidates import alias_label, candidate_list
-from cdprid.diagnosis._clock import clock_stage
+from cdprid.diagnosis._clock import clock_check, clock_interval, clock_stage
 from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis._problem import Problem, force_heldout_rms, measured, prepare
@@ -41,12 +41,14 @@ from cdprid.diagnosis._selection import (
     swap_stage,
 )
 from cdprid.diagnosis._sizes import not_named_sizes
+from cdprid.diagnosis._stability import geometry_stage, stability_stage
 from cdprid.diagnosis._testing import wald
 from cdprid.diagnosis._unexplained import (
     finding_floor_N,
     structure_features,
     unexplained_stage,
 )
+from cdprid.diagnosis._verdict import verdict
 from cdprid.episodes import find_episodes
 from cdprid.io import Dataset, align
 from cdprid.model import PARAMETER_NAMES
@@ -128,7 +130,7 @@ def _split_at_joins(sig, joins):
     segments = []
     for a, b in sig.segments:
         edges = [a] + [c for c in cuts if a < c < b] + [b]
-        segments += list(zip(edges[:-1], edges[1:]))
+        segments += list(zip(edges[:-1], edges[1:], strict=True))
     return dataclasses.replace(sig, segments=tuple(segments))
 
 
@@ -235,22 +237,22 @@ def diagnose(
         prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain,
         np.random.default_rng(seed), say)
     feats = _structure(prob)
-    s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
+    s, hints, withdrawn, clock_info = _checks(prob, s, candidates, feats, alpha, min_gain,
+                                              thr_first, extra, say, clock_info)
     competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say, other)
-    Z, y, _, _ = linear_model(prob, s)
-    unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
-    _say_unexplained(unexplained, say)
+    unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say)
     findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
         "train_until": train_until, "taut_threshold_N": taut_N,
         "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
     _complete_info(info, not_named_sizes(prob, base, s, candidates, extra, thr_first), rule,
                    el_info, clock_info, second, t0, sub)
+    info["verdict"] = verdict(prob, noise, s.x, ext_ho, len(findings), seed)
     say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
     res = DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
                           ext_params, ext_ho, ranking, info, _arrays(prob, base, resid),
                           unexplained=unexplained, notes=notes, competing=competing)
-    return _with_episodes(res, eps, prob, prob_with, Z, y)
+    return _with_episodes(res, eps, prob, prob_with, s)
 
 
 def _complete_info(info, not_named, rule, el_info, clock_info, second, t0, sub) -> None:
@@ -262,12 +264,34 @@ def _complete_info(info, not_named, rule, el_info, clock_info, second, t0, sub) 
         info["subset"] = sub.as_json()
 
 
-def _with_episodes(res: DiagnosisResult, eps, prob: Problem, prob_with: Problem, Z, y):
+def _with_episodes(res: DiagnosisResult, eps, prob: Problem, prob_with: Problem, s):
     """The result with its episodes and the extended model's held-out force rms with the
     episodes' samples kept (the fit unchanged: ``prob``'s training samples and weights)."""
+    Z, y, _, _ = linear_model(prob, s)  # the final model's linearisation
     kept = dataclasses.replace(prob_with, train=prob.train, wrow=prob.wrow)
     return dataclasses.replace(res, episodes=eps.as_json(),
                                extended_heldout_rms_with_episodes=force_heldout_rms(kept, Z, y))
+
+
+def _checks(prob, s, candidates, feats, alpha, min_gain, thr_first, extra, say, clock_info):
+    """The stages that may take a finding back: backward elimination, geometry beyond the
+    survey tolerance against the sensor-side alternatives, stability over halves of the
+    recording and groups of cables; then the clock's interval from the final model's joint
+    profile. Returns ``(selection, hints, withdrawn findings for unexplained, clock info)``."""
+    s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
+    s, withdrawn = geometry_stage(prob, s, candidates, min_gain, extra, say)
+    s, unstable = stability_stage(prob, s, extra, say)
+    s, joint_clock = clock_interval(prob, s, extra)
+    return s, hints, withdrawn + unstable, {**clock_info, **joint_clock}
+
+
+def _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say):
+    """The ``unexplained`` stage on the final model, with the withdrawn findings after it."""
+    Z, y, _, _ = linear_model(prob, s)
+    unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
+    unexplained += withdrawn
+    _say_unexplained(unexplained, say)
+    return unexplained, rule
 
 
 def _timed_say(progress, t0):
@@ -339,7 +363,7 @@ def _search(prob, base, noise, extra, candidates, alpha, n_null, max_effects, mi
             ranking, thr_first = rank, thr
         if nxt is None:
             break
-        s = nxt
+        s = clock_check(prob, nxt, candidates, thr_first, min_gain, extra, say, f"step {step}")
     s = swap_stage(prob, s, candidates, min_gain, extra, say)
     s, other, second = _second_start(prob, base, s0, s, candidates, alpha, thr_first,
                                      max_effects, min_gain, extra, say)
@@ -364,7 +388,7 @@ def _second_start(prob, base, s0, s, candidates, alpha, thr, max_effects, min_ga
                                  step, thr)
         if nxt is None:
             break
-        t = nxt
+        t = clock_check(prob, nxt, candidates, thr, min_gain, extra, say, f"step {step}")
     t = swap_stage(prob, t, candidates, min_gain, extra, say)
     if set(t.accepted) == set(s.accepted):
         say("pair start: the same model as the greedy path")

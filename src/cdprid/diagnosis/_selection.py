@@ -26,6 +26,7 @@ from cdprid.diagnosis._candidates import (
 )
 from cdprid.diagnosis._model import ThetaLayout
 from cdprid.diagnosis._problem import Problem, design, heldout_rms, seed_design
+from cdprid.diagnosis._profile import clock_index, joint_delay
 from cdprid.diagnosis._refit import refit_gauss_newton
 from cdprid.diagnosis._result import Finding
 from cdprid.diagnosis._testing import aliases_of, partial_wald, partial_wald_many
@@ -159,12 +160,18 @@ def refit(prob: Problem, s: Selection, theta=None, active_idx=None, rotational=N
     A parameter that must be >= 0 (friction, drag, cable mass, pulley radius) and refits
     negative is held at its bound 0 and the others refitted (an active-set step, at most
     three): a coefficient that is zero in truth (a friction without viscous part) then does
-    not make its effect implausible or pull the others.
+    not make its effect implausible or pull the others. When the clock offset is active it
+    starts from its joint profile (:func:`cdprid.diagnosis._profile.joint_delay`: every other
+    parameter of this model re-solved at each exact shift), never from the previous model's
+    value.
     """
     theta = np.array(s.theta if theta is None else theta, float)
     active = list(s.active_idx if active_idx is None else active_idx)
     rot = s.rotational if rotational is None else rotational
     x0 = s.x if x is None else x
+    di = clock_index(prob)
+    if di is not None and di in active:  # the clock offset profiled jointly, every refit
+        theta[di] = joint_delay(prob, theta, x0, rot, active)
     for _ in range(4):
         th, x_new, th_cov, lin, status = refit_gauss_newton(functools.partial(design, prob), theta,
                                                     x0, active, rot, prob.wrow, prob.train,

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from cdprid.diagnosis._candidates import vocab_interval, vocab_params
+from cdprid.diagnosis._clock import clock_size
 from cdprid.diagnosis._selection import candidate_columns, linear_model, score_step
 from cdprid.diagnosis._testing import partial_wald
 from cdprid.effects import DIAGNOSIS
@@ -41,6 +42,11 @@ def not_named_sizes(prob, base, s, candidates, extra: dict, thr_p: float) -> lis
         th[idx] = beta
         std[idx] = np.sqrt(np.clip(np.diag(V), 0, None))
         interval = vocab_interval(c, th, std, prob.layout, extra)
+        params = vocab_params(c, th, prob.layout, extra)
+        if DIAGNOSIS[c.effect].clock:  # the joint profile, never the linearisation at 0
+            js = clock_size(prob, s, c, extra)
+            params, interval, p, stat = (js["parameters"], js["interval"], js["p_value"],
+                                         js["statistic"])
         why = (f"not significant at the search's threshold (p < {thr_p:.2g})" if p >= thr_p else
                "significant alone but not named: it did not improve the held-out "
                "residual enough, or its refit was implausible (see the progress log)")
@@ -53,7 +59,7 @@ def not_named_sizes(prob, base, s, candidates, extra: dict, thr_p: float) -> lis
                     "opposite to friction between the load cell and the platform (a load "
                     "cell on the winch side of its pulley, or another effect)")
         out.append({"effect": c.vocabulary_effect,
-                    "parameters": vocab_params(c, th, prob.layout, extra),
+                    "parameters": params,
                     "interval": interval, "p_value": float(p), "statistic": float(stat),
                     "named": False, "why": why})
     return out

@@ -111,8 +111,9 @@ class CableRobot(eqx.Module):
         Unit vectors (base frame, perpendicular to the axis) of swivel angle 0.
     gravity : array (3,)
         Gravity acceleration, base frame, m/s^2.
-    name, limits, platform
-        Static metadata.
+    name, limits, platform, survey_tolerance_m
+        Static metadata (``survey_tolerance_m``: robot.toml's ``survey_tolerance``, m, or
+        None when not stated).
     """
 
     B_A: jnp.ndarray
@@ -124,6 +125,9 @@ class CableRobot(eqx.Module):
     name: str = eqx.field(static=True, default="robot")
     limits: Limits = eqx.field(static=True, default=Limits())
     platform: NominalPlatform = eqx.field(static=True, default=NominalPlatform())
+    #: how far the surveyed exit and attachment points may be from the truth, m (robot.toml
+    #: top-level ``survey_tolerance``; ``None``: not stated, the diagnosis assumes 0.02 m)
+    survey_tolerance_m: float | None = eqx.field(static=True, default=None)
 
     @property
     def n_cables(self) -> int:
@@ -230,7 +234,7 @@ def _platform(source: str, plat: dict, inertia) -> NominalPlatform:
 
 
 _KNOWN_KEYS = {
-    "the top level": ("name", "gravity", "limits", "cable", "platform"),
+    "the top level": ("name", "gravity", "limits", "cable", "platform", "survey_tolerance"),
     "[limits]": ("tension_min", "tension_max", "cable_speed_max", "workspace_min",
                  "workspace_max", *_LIMITS_11),
     "[[cable]]": ("exit", "anchor", "pulley_radius", "pulley_axis", "pulley_reference",
@@ -295,6 +299,7 @@ def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
         name=str(name),
         limits=limits,
         platform=platform,
+        survey_tolerance_m=_positive(source, data, "survey_tolerance", "the top level"),
     )
 
 
@@ -412,6 +417,8 @@ def robot_to_dict(robot: CableRobot) -> dict:
            for k, v in dataclasses.asdict(robot.limits).items() if v is not None}
     if lim:
         out["limits"] = lim
+    if robot.survey_tolerance_m is not None:
+        out["survey_tolerance"] = float(robot.survey_tolerance_m)
     cables = []
     for i in range(robot.n_cables):
         c = {

@@ -250,9 +250,11 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     lines += ["", "Residual RMS per wrench axis (fx, fy, fz [N], mx, my, mz [N m]): "
               + ", ".join(f"{r:.4g}" for r in result.base_residual_rms), ""]
     lines += ["## Findings", ""]
+    verdict = result.info.get("verdict")
     if not result.findings:
-        lines.append("No effect passes the tests: the paper's model explains this data within "
-                     "its noise (every candidate of the vocabulary was tested).")
+        lines.append("No effect passes the tests (every candidate of the vocabulary was "
+                     "tested): " + (verdict["text"] if verdict else "the held-out residual was not "
+                                    "compared with the noise") + ".")
     for f in result.findings:
         lines.append(f"- **{f.effect}** {f.parameters}; 95 % interval {f.interval}; "
                      f"held-out rms {f.heldout_rms_before:.4g} -> {f.heldout_rms_after:.4g} "
@@ -269,6 +271,8 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
         lines.append(f"| {k} | {v['value']:.6g} | {v['std']:.3g} | {ch} |")
     lines += ["", f"Held-out force residual RMS: base {result.base_heldout_rms:.4g} N -> "
               f"extended {result.extended_heldout_rms:.4g} N ({result.info['heldout']}).", ""]
+    if verdict:
+        lines += [f"Verdict: {verdict['text']} ({verdict['definition']}).", ""]
     w = result.info.get("weight_at_rest")
     if w:
         lines += [f"Weight at rest ({w['n_samples']} samples from t = {w['t_first']:.3g} s): "

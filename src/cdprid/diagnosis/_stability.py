@@ -1,0 +1,371 @@
+"""Outside the vocabulary stays outside: every finding must be stable (issue 37, item 3).
+
+A finding names a physical effect, so its parameters are the same on every part of the
+recording and, for an effect common to all cables (the clock offset, friction on every
+pulley), on every group of cables. :func:`stability_stage` estimates each finding's
+parameters on the two halves of the training samples and, for a common effect, on two groups
+of cables (the effect's per-cable columns summed per group), all other columns of the final
+model free; when they disagree beyond their HAC intervals (a chi-square test at
+:data:`LEVEL`, Bonferroni over the findings) the finding is withdrawn, the model refitted
+without it, and it is reported under ``unexplained`` with what it resembled and why it was
+not accepted (a hysteretic load cell acts like a 25 ms clock offset on its own cable only).
+
+:func:`geometry_stage` names an exit or attachment error larger than the robot's survey
+tolerance (robot.toml ``survey_tolerance``) only when it predicts the held-out data better
+than every sensor-side alternative on its cable and in common (offset, gain, drift,
+friction, the clock offset, and their pairs on the cable): several sensor errors at once were
+read as 9-12 cm exit-point errors.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy import stats
+
+from cdprid.diagnosis._candidates import Candidate, alias_label, implausible, vocab_params
+from cdprid.diagnosis._competing import dm_p_worse
+from cdprid.diagnosis._problem import Problem, heldout_residuals, heldout_rms
+from cdprid.diagnosis._profile import clock_index
+from cdprid.diagnosis._result import Finding
+from cdprid.diagnosis._selection import (
+    Selection,
+    effect_size_N,
+    extends_base,
+    finding_columns,
+    linear_model,
+    model_implausible,
+    refit,
+    with_vocabulary,
+)
+from cdprid.diagnosis._testing import hac_cov
+from cdprid.effects import DIAGNOSIS
+
+#: family-wise level of the stability tests (Bonferroni over the findings)
+LEVEL = 1e-3
+#: survey tolerance of exit and attachment points when robot.toml states none, m
+SURVEY_TOLERANCE_M = 0.02
+#: a geometry error beyond the survey tolerance is named when every sensor-side alternative
+#: predicts the held-out data worse by the search's gate, or significantly worse at this
+#: one-sided level (Diebold-Mariano test on the held-out losses)
+GEOMETRY_DM_LEVEL = 0.01
+
+
+def _fit(Z, y, lags):
+    """LS coefficients and their HAC covariance."""
+    p = Z.shape[2]
+    beta, *_ = np.linalg.lstsq(Z.reshape(-1, p), y.reshape(-1), rcond=None)
+    e = y - np.einsum("nip,p->ni", Z, beta)
+    return beta, hac_cov(Z, e, lags)
+
+
+def _disagree(b1, V1, b2, V2):
+    """Chi-square statistic and p-value of ``b1 == b2`` (independent estimates)."""
+    d = np.atleast_1d(b1 - b2)
+    V = np.atleast_2d(V1 + V2)
+    stat = float(d @ np.linalg.lstsq(V, d, rcond=None)[0])
+    return stat, float(stats.chi2.sf(stat, len(d)))
+
+
+def block_test(prob: Problem, Z, y, cols: list) -> dict:
+    """The finding's columns estimated on the first and second half of the training samples
+    (a guard of ``lags`` samples between them), every other column free on each half."""
+    idx = np.nonzero(prob.train)[0]
+    h = len(idx) // 2
+    a, b = idx[:max(h - prob.lags, 1)], idx[min(h + prob.lags, len(idx) - 1):]
+    b1, V1 = _fit(Z[a], y[a], prob.lags)
+    b2, V2 = _fit(Z[b], y[b], prob.lags)
+    stat, p = _disagree(b1[cols], V1[np.ix_(cols, cols)], b2[cols], V2[np.ix_(cols, cols)])
+    return {"kind": "halves of the recording", "first": b1[cols], "second": b2[cols],
+            "std_first": np.sqrt(np.diag(V1)[cols]), "std_second": np.sqrt(np.diag(V2)[cols]),
+            "statistic": stat, "p": p}
+
+
+def per_cable_columns(prob: Problem, s: Selection, c: Candidate, C):
+    """The common effect's columns split per cable, ``(n, 6, m, q)`` unweighted, or None.
+
+    The clock offset: ``W_j d tau_j/dt`` (the derivative of the cable's wrench with respect
+    to the delay, the tension rate by central differences of the interpolated stream);
+    an effect whose vocabulary effect is also a per-cable form (friction on every pulley):
+    that form's columns.
+    """
+    form = DIAGNOSIS[c.effect]
+    m = prob.m
+    if form.clock:
+        from cdprid.diagnosis._profile import _shift_fn
+
+        fn, h = _shift_fn(prob)["fn"], 1e-3
+        d = float(s.theta[clock_index(prob)])
+        rate = (np.asarray(fn(d + h)) - np.asarray(fn(d - h))) / (2 * h)
+        cols = prob.filt(prob.W_all * rate[:, None, :])  # (n, 6, m)
+        return cols[..., None]
+    twin = form.vocabulary
+    if twin and twin in DIAGNOSIS and DIAGNOSIS[twin].per_cable:
+        q = len(prob.layout.candidate_indices(twin, 1))
+        return np.stack([C[:, :, prob.layout.candidate_indices(twin, j + 1)]
+                         for j in range(m)], axis=2).reshape(C.shape[0], 6, m, q)
+    return None
+
+
+def group_test(prob: Problem, Z, y, cols: list, per_cable) -> dict:
+    """The common effect estimated on two groups of cables (1..m/2 and the rest; its
+    per-cable columns summed per group replace its columns), and on every cable alone."""
+    m = per_cable.shape[2]
+    rest = [j for j in range(Z.shape[2]) if j not in cols]
+    w = prob.wrow[None, :, None, None]
+    pc = per_cable * w
+    g1, g2 = pc[:, :, : m // 2].sum(2), pc[:, :, m // 2:].sum(2)
+    q = pc.shape[3]
+    tr = prob.train
+    Zg = np.concatenate([Z[:, :, rest], g1, g2], axis=2)
+    beta, V = _fit(Zg[tr], y[tr], prob.lags)
+    i1 = list(range(len(rest), len(rest) + q))
+    i2 = list(range(len(rest) + q, len(rest) + 2 * q))
+    d = beta[i1] - beta[i2]
+    Vd = V[np.ix_(i1, i1)] + V[np.ix_(i2, i2)] - V[np.ix_(i1, i2)] - V[np.ix_(i2, i1)]
+    stat = float(d @ np.linalg.lstsq(np.atleast_2d(Vd), d, rcond=None)[0])
+    Zc = np.concatenate([Z[:, :, rest], pc.reshape(pc.shape[0], 6, m * q)], axis=2)
+    bc, Vc = _fit(Zc[tr], y[tr], prob.lags)
+    each = bc[len(rest):].reshape(m, q)
+    each_std = np.sqrt(np.clip(np.diag(Vc)[len(rest):], 0, None)).reshape(m, q)
+    return {"kind": f"cables 1-{m // 2} against {m // 2 + 1}-{m}", "first": beta[i1],
+            "second": beta[i2], "std_first": np.sqrt(np.diag(V)[i1]),
+            "std_second": np.sqrt(np.diag(V)[i2]), "statistic": stat,
+            "p": float(stats.chi2.sf(stat, q)), "per_cable": each, "per_cable_std": each_std}
+
+
+def _resembles(c: Candidate, f, res: dict) -> str:
+    """'acts like <effect> <parameters> on ...: not a <effect>' for ``unexplained``."""
+    what = f"acts like {c.vocabulary_effect} {f.parameters}"
+    if "per_cable" in res:
+        each, sd = res["per_cable"][:, 0], res["per_cable_std"][:, 0]
+        sig = [j + 1 for j in range(len(each)) if abs(each[j]) > 1.96 * sd[j]]
+        where = (f"on cable {sig[0]} only" if len(sig) == 1 else
+                 f"on cables {', '.join(map(str, sig))} only" if sig and len(sig) < len(each)
+                 else "unequally on the cables")
+        scale = 1e3 if DIAGNOSIS[c.effect].clock else 1.0
+        unit = " ms" if DIAGNOSIS[c.effect].clock else ""
+        return (f"{what} {where} (per cable: "
+                + ", ".join(f"{scale * v:.3g}{unit}" for v in each)
+                + f"); {res['kind']} disagree (p = {res['p']:.2g}): "
+                f"not a {c.vocabulary_effect} common to all cables")
+    return (f"{what}, but its estimates on the {res['kind']} disagree ("
+            f"{np.round(res['first'], 6).tolist()} +- {np.round(res['std_first'], 6).tolist()} "
+            f"against {np.round(res['second'], 6).tolist()} +- "
+            f"{np.round(res['std_second'], 6).tolist()}, p = {res['p']:.2g}): not a constant "
+            f"{c.vocabulary_effect}")
+
+
+def withdraw(prob: Problem, s: Selection, k: int, extra: dict) -> Selection:
+    """The model refitted without finding ``k``."""
+    c = s.accepted[k]
+    theta, x = s.theta.copy(), s.x.copy()
+    rot, active = s.rotational, list(s.active_idx)
+    if extends_base(c):
+        rot = False
+        x[4:] = 0.0
+    else:
+        idx = prob.layout.candidate_indices(c.effect, c.cable)
+        theta[idx] = 0.0
+        active = [i for i in active if i not in idx]
+    t = refit(prob, s, theta=theta, active_idx=active, rotational=rot, x=x)
+    return with_vocabulary(prob, dataclasses.replace(
+        t, accepted=s.accepted[:k] + s.accepted[k + 1:],
+        findings=s.findings[:k] + s.findings[k + 1:]), extra)
+
+
+def stability_stage(prob: Problem, s: Selection, extra: dict, say) -> tuple[Selection, list]:
+    """Withdraw the findings whose parameters disagree between halves of the recording or
+    groups of cables; returns the model and their ``unexplained`` entries."""
+    out = []
+    k = 0
+    while k < len(s.accepted):
+        c, f = s.accepted[k], s.findings[k]
+        if extends_base(c):
+            k += 1
+            continue
+        Z, y, n_model, C = linear_model(prob, s)
+        cols = finding_columns(c, prob.layout, list(s.active_idx), n_model)
+        if not cols:
+            k += 1
+            continue
+        level = LEVEL / max(len(s.accepted), 1)
+        tests = [block_test(prob, Z, y, cols)]
+        pc = None if DIAGNOSIS[c.effect].per_cable else per_cable_columns(prob, s, c, C)
+        if pc is not None:
+            tests.append(group_test(prob, Z, y, cols, pc))
+        bad = [r for r in tests if r["p"] < level]
+        if not bad:
+            k += 1
+            continue
+        res = bad[-1]
+        size = effect_size_N(prob, s, c)
+        say(f"stability: {c.label} withdrawn: its estimates on the {res['kind']} disagree "
+            f"(p = {res['p']:.2e} < {level:.1e})")
+        out.append({"where": c.label, "size": size, "correlates_with": _resembles(c, f, res),
+                    "p_value": res["p"], "test": "stability (halves of the recording, groups "
+                    "of cables)", "withdrawn_finding": alias_label(c)})
+        s = withdraw(prob, s, k, extra)
+    return s, out
+
+
+# ------------------------------------------------------------------ geometry beyond survey
+
+
+def survey_tolerance_m(robot) -> float:
+    """The survey tolerance of exit and attachment points, m (robot.toml
+    ``survey_tolerance``, default :data:`SURVEY_TOLERANCE_M`)."""
+    tol = getattr(robot, "survey_tolerance_m", None)
+    return float(SURVEY_TOLERANCE_M if tol is None else tol)
+
+
+def _displacement_m(c: Candidate, s: Selection, prob: Problem) -> float:
+    idx = prob.layout.candidate_indices(c.effect, c.cable)
+    return float(np.linalg.norm(s.theta[idx]))
+
+
+def sensor_alternatives(c: Candidate, candidates: list, accepted) -> list:
+    """Sensor-side alternatives to a geometry finding on cable ``c.cable``: every per-cable
+    form on the same cable that is not a displacement, the pair offset + gain-like forms
+    on it, and the common forms acting on the readings (the clock offset, friction on every
+    pulley); candidates already in the model are left out."""
+    one = [a for a in candidates if a not in accepted and DIAGNOSIS[a.effect].blocks and (
+        (a.cable == c.cable and not DIAGNOSIS[a.effect].displacement)
+        or (a.cable is None and (DIAGNOSIS[a.effect].clock
+                                 or DIAGNOSIS[a.effect].tension is not None)))]
+    cable = [a for a in one if a.cable is not None]
+    pairs = [(a, b) for i, a in enumerate(cable) for b in cable[i + 1:]]
+    return [(a,) for a in one] + pairs
+
+
+def _replace(prob: Problem, s: Selection, k: int, alt: tuple) -> Selection:
+    """The model with finding ``k`` replaced by the candidates ``alt`` (refitted)."""
+    old = s.accepted[k]
+    theta = s.theta.copy()
+    idx_old = prob.layout.candidate_indices(old.effect, old.cable)
+    theta[idx_old] = 0.0
+    new = set()
+    for a in alt:
+        new |= set(prob.layout.candidate_indices(a.effect, a.cable))
+    active = sorted((set(s.active_idx) - set(idx_old)) | new)
+    return refit(prob, s, theta=theta, active_idx=active)
+
+
+def _screen(prob: Problem, s: Selection, k: int, alts: list, n_keep: int = 3) -> list:
+    """The ``n_keep`` alternatives with the best linearised held-out RMS at ``s``."""
+    Z, y, n_model, C = linear_model(prob, s)
+    cols = finding_columns(s.accepted[k], prob.layout, list(s.active_idx), n_model)
+    rest = [j for j in range(Z.shape[2]) if j not in cols]
+    scored = []
+    for alt in alts:
+        idx = [i for a in alt for i in prob.layout.candidate_indices(a.effect, a.cable)]
+        Za = np.concatenate([Z[:, :, rest], C[:, :, idx] * prob.wrow[None, :, None]], axis=2)
+        scored.append((heldout_rms(prob, Za, y), alt))
+    scored.sort(key=lambda r: r[0])
+    return [a for _, a in scored[:n_keep]]
+
+
+def _losses(prob: Problem, Z, y) -> np.ndarray:
+    """Per-sample held-out squared error (weighted units, the 6 rows summed)."""
+    _, r = heldout_residuals(prob, Z, y)
+    return np.sum(r * r, axis=1)
+
+
+def _best_alternative(prob: Problem, s: Selection, k: int, candidates: list, extra: dict):
+    """The sensor-side alternative to finding ``k`` that predicts the held-out data best:
+    ``(rms, alternative, refitted model, per-sample held-out losses)``, or None. An
+    alternative whose refit is singular (its columns dependent on the model's) or implausible
+    is no account of the data."""
+    best = None
+    for alt in _screen(prob, s, k, sensor_alternatives(s.accepted[k], candidates, s.accepted)):
+        try:
+            t = _replace(prob, s, k, alt)
+        except np.linalg.LinAlgError:
+            continue
+        why = "".join(implausible(a.effect, vocab_params(a, t.theta, prob.layout, extra,
+                                                         t.th_cov)) for a in alt)
+        if why or model_implausible(prob, t, extra):
+            continue
+        Zt, yt, _, _ = linear_model(prob, t)
+        r = heldout_rms(prob, Zt, yt)
+        if best is None or r < best[0]:
+            best = (r, alt, t, _losses(prob, Zt, yt))
+    return best
+
+
+def restated(prob: Problem, t: Selection, alt: tuple, f: Finding, n_tests: int,
+             rms_after: float) -> tuple:
+    """The findings of the candidates ``alt`` that replaced ``f`` in the model ``t``, each with
+    its own test in ``t``: the HAC Wald statistic of its parameters given every other column
+    (Bonferroni over ``n_tests`` candidates, as the search's), and the held-out rms of ``t``
+    without it (linearised) before ``rms_after``; never the replaced finding's numbers."""
+    Z, y, n_model, _ = linear_model(prob, t)
+    out = []
+    for a in alt:
+        idx = [i for i in prob.layout.candidate_indices(a.effect, a.cable) if i in t.active_idx]
+        th = t.theta[idx]
+        V = t.th_cov[np.ix_(idx, idx)]
+        stat = float(th @ np.linalg.lstsq(V, th, rcond=None)[0]) if idx else 0.0
+        p = float(stats.chi2.sf(stat, max(len(idx), 1)))
+        cols = finding_columns(a, prob.layout, list(t.active_idx), n_model)
+        rest = [j for j in range(Z.shape[2]) if j not in cols]
+        out.append(dataclasses.replace(
+            f, effect=a.vocabulary_effect, aliases=sorted(set(f.aliases)),
+            heldout_rms_before=float(heldout_rms(prob, Z[:, :, rest], y)),
+            heldout_rms_after=float(rms_after), p_value=float(min(1.0, p * n_tests)),
+            statistic=stat))
+    return tuple(out)
+
+
+def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: float,
+                   extra: dict, say) -> tuple[Selection, list]:
+    """Geometry findings beyond the survey tolerance must beat every sensor-side alternative
+    on held-out prediction: by ``min_gain``, or significantly (one-sided Diebold-Mariano at
+    :data:`GEOMETRY_DM_LEVEL`); otherwise the best alternative replaces it (when it predicts
+    at least as well; its findings restated with their own tests, :func:`restated`) or it is
+    withdrawn and reported under ``unexplained``. Returns the model and the entries."""
+    tol = survey_tolerance_m(prob.d.robot)
+    out = []
+    k = 0
+    while k < len(s.accepted):
+        c = s.accepted[k]
+        if not DIAGNOSIS[c.effect].displacement or _displacement_m(c, s, prob) <= tol:
+            k += 1
+            continue
+        Z, y, _, _ = linear_model(prob, s)
+        rms_geo = heldout_rms(prob, Z, y)
+        best = _best_alternative(prob, s, k, candidates, extra)
+        p_worse = 0.0 if best is None else dm_p_worse(best[3], _losses(prob, Z, y), prob.lags)
+        if best is None or rms_geo < best[0] * (1 - min_gain) or p_worse < GEOMETRY_DM_LEVEL:
+            k += 1  # the geometry error beats every sensor-side alternative: named
+            continue
+        r, alt, t, _ = best
+        size, f = _displacement_m(c, s, prob), s.findings[k]
+        label = " + ".join(a.label for a in alt)
+        what = (f"acts like {c.vocabulary_effect} {f.parameters} ({100 * size:.3g} cm, beyond "
+                f"the survey tolerance {100 * tol:.3g} cm), but {label} predicts the held-out "
+                f"data {'as well' if r > rms_geo else 'better'} ({rms_geo:.4g} against "
+                f"{r:.4g}, weighted units; p = {p_worse:.2g} that it predicts worse)")
+        if r <= rms_geo:  # the sensor-side explanation predicts at least as well: named
+            say(f"geometry: {c.label} ({100 * size:.3g} cm) does not beat {label} on "
+                f"held-out prediction ({rms_geo:.4f} against {r:.4f}); replaced by it")
+            fs = restated(prob, t, alt, dataclasses.replace(
+                f, aliases=sorted(set(f.aliases) | {alias_label(c)})), len(candidates), r)
+            s = with_vocabulary(prob, dataclasses.replace(
+                t, accepted=s.accepted[:k] + tuple(alt) + s.accepted[k + 1:],
+                findings=s.findings[:k] + fs + s.findings[k + 1:]), extra)
+            k += len(alt)  # (the finding keeps the geometry error among its aliases)
+        else:  # within the gate: neither is named
+            say(f"geometry: {c.label} ({100 * size:.3g} cm) beats {label} by less than "
+                f"{100 * min_gain:g} % on held-out prediction, not significantly "
+                f"(p = {p_worse:.2g}); withdrawn")
+            out.append({"where": c.label, "size": effect_size_N(prob, s, c), "p_value": 1.0,
+                        "test": "geometry against sensor-side alternatives (held-out)",
+                        "withdrawn_finding": alias_label(c),
+                        "correlates_with": f"{what}: not named; a survey of the point would tell"})
+            s = withdraw(prob, s, k, extra)
+    return s, out
+
+
+__all__ = ["geometry_stage", "restated", "stability_stage", "survey_tolerance_m"]

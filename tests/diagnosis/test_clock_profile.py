@@ -1,0 +1,138 @@
+"""The clock offset profiled jointly with the other effects of every model (issue 37 item 1)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cdprid.diagnosis._profile import CHI2_95, GRID_S, profile_interval
+
+
+def test_profile_interval_of_a_quadratic_cost_is_the_wald_interval():
+    """cost = c* + h/2 (d - d*)^2 with the HAC variance var: the interval is d* +- 1.96 sd."""
+    d0, var, h = 0.0213, 2.5e-6, 4.0e7
+    cost = 100.0 + 0.5 * h * (GRID_S - d0) ** 2
+    lo, hi, open_ends = profile_interval(GRID_S, cost, d0, var)
+    z = math.sqrt(CHI2_95) * math.sqrt(var)
+    assert not open_ends
+    # the grid's linear interpolation of a parabola overestimates the width slightly
+    assert d0 - z - 2e-4 < lo <= d0 - z + 1e-12
+    assert d0 + z - 1e-12 <= hi < d0 + z + 2e-4
+
+
+def test_profile_interval_widens_on_a_flat_profile():
+    """A narrow dip at 38 ms on a plateau from 25 to 100 ms (friction aliasing the clock):
+    the Wald interval of the dip's curvature is +-6 ms, the profile's covers the plateau
+    (open at the grid's edge). The cost is in units of the noise variance (var = 2 / h)."""
+    d0, h = 0.038, 2e5
+    var = 2.0 / h
+    cost = 100.0 + np.minimum(0.5 * h * (GRID_S - d0) ** 2, 2.0) \
+        + 1e6 * np.clip(0.025 - GRID_S, 0, None) ** 2
+    lo, hi, open_ends = profile_interval(GRID_S, cost, d0, var)
+    assert 0.0225 < lo < 0.025 and hi >= GRID_S[-1] - 1e-12 and open_ends
+    wald = 1.96 * math.sqrt(var)
+    assert lo < d0 - 2 * wald
+
+
+@pytest.fixture(scope="module")
+def friction_and_clock(tmp_path_factory):
+    """Noise-free recording of a 6-cable robot with up-fed pulleys: a 22 ms clock offset and
+    2 N Coulomb friction on every pulley."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    from cdprid.diagnosis import base_fit, prepare, start
+    from cdprid.effects import Effect
+    from cdprid.io import read_dataset
+    from cdprid.model import SIX_SUSPENDED, preset, robot_from_dict
+    from cdprid.simulation import SensorNoise, simulate, write_simulation
+
+    d = dict(SIX_SUSPENDED, name="six-upfed")
+    d["cable"] = [dict(c, pulley_radius=0.04, pulley_axis=[0.0, 0.0, 1.0])
+                  for c in SIX_SUSPENDED["cable"]]
+    robot = robot_from_dict(d)
+    sim = simulate(robot, preset("rich", robot, duration=20.0), effects=[
+        Effect("time_delay", {"delay_s": 0.022}),
+        Effect("pulley_friction", {"cable": "all", "coulomb_N": 2.0, "viscous_Ns_per_m": 0.0})],
+        noise=SensorNoise.off(), seed=3)
+    ds = read_dataset(write_simulation(sim, tmp_path_factory.mktemp("fc") / "d"))
+    prob, base = base_fit(prepare(ds))
+    return prob, base, start(prob, base)
+
+
+def test_joint_profile_finds_the_clock_beside_friction(friction_and_clock):
+    """With friction on every pulley in the model, the delay profiled jointly is the true
+    22 ms (noise-free: to the friction form's approximation); the refit with both active
+    keeps it and its interval covers it."""
+    from cdprid.diagnosis._profile import clock_index, joint_delay
+    from cdprid.diagnosis._selection import refit
+
+    prob, _, s = friction_and_clock
+    di = clock_index(prob)
+    fric = prob.layout.candidate_indices("pulley_friction_all")
+    d_joint = joint_delay(prob, s.theta, s.x, s.rotational, [di, *fric])
+    assert abs(d_joint - 0.022) < 1e-3, d_joint
+    t = refit(prob, s, active_idx=sorted([di, *fric]))
+    assert abs(t.theta[di] - 0.022) < 1e-3
+    assert abs(t.theta[fric[0]] - 2.0) < 0.1  # coulomb_all, N
+
+
+def test_every_refit_profiles_the_clock_again(friction_and_clock):
+    """A clock offset accepted at a wrong value (the base-model profile's) is not kept: the
+    next refit with friction active starts from the joint profile."""
+    from cdprid.diagnosis._profile import clock_index
+    from cdprid.diagnosis._selection import refit
+
+    prob, _, s = friction_and_clock
+    di = clock_index(prob)
+    fric = prob.layout.candidate_indices("pulley_friction_all")
+    theta = s.theta.copy()
+    theta[di] = 0.0388  # 38.8 ms: what the base-model profile once named for 22 ms
+    t = refit(prob, s, theta=theta, active_idx=sorted([di, *fric]))
+    assert abs(t.theta[di] - 0.022) < 1e-3, t.theta[di]
+
+
+def test_clock_check_names_the_clock_once_friction_is_in_the_model(friction_and_clock):
+    """The check after a step: with friction on every pulley accepted, the clock offset is
+    refitted jointly and named at 22 ms with an interval from the joint profile covering it;
+    on the model that already holds it, nothing changes."""
+    from cdprid.diagnosis import candidate_list
+    from cdprid.diagnosis._clock import clock_check, clock_interval
+    from cdprid.diagnosis._selection import refit
+
+    prob, base, s = friction_and_clock
+    fric = prob.layout.candidate_indices("pulley_friction_all")
+    s1 = refit(prob, s, active_idx=fric)
+    cands = candidate_list(prob.m, False, prob.d.robot)
+    extra = {"base_mass_kg": float(base.x[0])}
+    t = clock_check(prob, s1, cands, 1e-5, 0.01, extra, lambda m: None, "test")
+    assert [c.effect for c in t.accepted] == ["time_delay"]
+    assert abs(t.findings[0].parameters["delay_s"] - 0.022) < 1e-3
+    t, info = clock_interval(prob, t, extra)
+    lo, hi = t.findings[0].interval["delay_s"]
+    assert lo <= t.findings[0].parameters["delay_s"] <= hi and hi - lo < 0.01
+    assert info["joint_interval_s"] == [lo, hi]
+    assert clock_check(prob, t, cands, 1e-5, 0.01, extra, lambda m: None, "test") is t
+
+
+def test_the_size_of_a_clock_not_named_leaves_the_final_models_linearisation(
+        friction_and_clock):
+    """``clock_size`` refits the final model with the delay added (22 ms found beside the
+    friction) and leaves the final model's linearisations in the cache (the later stages
+    would linearise it again: a speed fix)."""
+    from cdprid.diagnosis._candidates import Candidate
+    from cdprid.diagnosis._clock import clock_size
+    from cdprid.diagnosis._selection import linear_model, refit
+
+    prob, _, s = friction_and_clock
+    fric = prob.layout.candidate_indices("pulley_friction_all")
+    t = refit(prob, s, active_idx=sorted(fric))
+    linear_model(prob, t)
+    before = list(prob.cache["design"])
+    out = clock_size(prob, t, Candidate("time_delay"), {})
+    assert list(prob.cache["design"]) == before
+    assert abs(out["parameters"]["delay_s"] - 0.022) < 1e-3, out
+    lo, hi = out["interval"]["delay_s"]
+    assert lo <= out["parameters"]["delay_s"] <= hi

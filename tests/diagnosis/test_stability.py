@@ -1,0 +1,126 @@
+"""Every finding must be stable (issue 37 item 3): estimates on halves of the recording and on
+groups of cables agree, or the finding is withdrawn with what it resembled."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from cdprid.diagnosis._candidates import Candidate
+from cdprid.diagnosis._stability import _resembles, block_test, group_test, sensor_alternatives
+
+N, M = 3000, 8
+
+
+def _prob():
+    return SimpleNamespace(train=np.ones(N, bool), lags=3, wrow=np.ones(6), m=M)
+
+
+def _columns(rng):
+    """Four platform-like columns and per-cable columns of one common effect (n, 6, m, 1)."""
+    A = rng.normal(size=(N, 6, 4))
+    pc = rng.normal(size=(N, 6, M, 1))
+    return A, pc
+
+
+def test_a_parameter_that_changes_half_way_is_unstable(rng):
+    A, pc = _columns(rng)
+    col = pc.sum(2)
+    Z = np.concatenate([A, col], axis=2)
+    beta = np.array([1.0, 2.0, -1.0, 0.5])
+    base = np.einsum("nip,p->ni", A, beta) + 0.3 * rng.normal(size=(N, 6))
+    step = np.where(np.arange(N) < N // 2, 0.2, 0.1)[:, None]  # the "effect" halves
+    bad = block_test(_prob(), Z, base + step * col[:, :, 0], [4])
+    good = block_test(_prob(), Z, base + 0.15 * col[:, :, 0], [4])
+    assert bad["p"] < 1e-6 and good["p"] > 1e-3, (bad["p"], good["p"])
+    assert abs(good["first"][0] - 0.15) < 4 * good["std_first"][0]
+
+
+def test_an_effect_on_one_cable_is_not_a_common_effect(rng):
+    """A 'clock offset' that lives on cable 3 only: the groups of cables disagree and the
+    message says where it acts; a common effect passes."""
+    A, pc = _columns(rng)
+    col = pc.sum(2)
+    Z = np.concatenate([A, col], axis=2)
+    noise = 0.3 * rng.normal(size=(N, 6))
+    one = 0.025 * 8 * pc[:, :, 2, 0] + noise
+    common = 0.025 * col[:, :, 0] + noise
+    r_one = group_test(_prob(), Z, one, [4], pc)
+    r_common = group_test(_prob(), Z, common, [4], pc)
+    assert r_one["p"] < 1e-6 and r_common["p"] > 1e-3, (r_one["p"], r_common["p"])
+    text = _resembles(Candidate("time_delay"), SimpleNamespace(parameters={"delay_s": 0.025}),
+                      r_one)
+    assert "on cable 3 only" in text and "not a time_delay" in text, text
+    assert np.allclose(r_common["per_cable"][:, 0], 0.025, atol=5 * r_common["per_cable_std"][:, 0])
+
+
+def test_sensor_alternatives_of_a_geometry_error():
+    """On the geometry finding's cable: offset, drift, gain, friction and their pairs; in
+    common: the clock offset and friction on every pulley; never another geometry error."""
+    from cdprid.diagnosis import candidate_list
+
+    cands = candidate_list(M, False)
+    alts = sensor_alternatives(Candidate("exit_point_error", 3), cands, ())
+    singles = {a[0] for a in alts if len(a) == 1}
+    assert Candidate("tension_offset", 3) in singles and Candidate("tension_gain", 3) in singles
+    assert Candidate("time_delay") in singles and Candidate("pulley_friction_all") in singles
+    assert (Candidate("tension_offset", 3), Candidate("tension_gain", 3)) in alts
+    assert not any(a.cable not in (None, 3) for alt in alts for a in alt)
+    assert not any(a.effect in ("exit_point_error", "anchor_point_error") for alt in alts
+                   for a in alt)
+
+
+def test_the_survey_tolerance_is_robot_tomls_or_its_default():
+    from cdprid.diagnosis._stability import SURVEY_TOLERANCE_M, survey_tolerance_m
+    from cdprid.model import SIX_SUSPENDED, robot_from_dict
+
+    assert survey_tolerance_m(robot_from_dict(SIX_SUSPENDED)) == SURVEY_TOLERANCE_M == 0.02
+    assert survey_tolerance_m(robot_from_dict(dict(SIX_SUSPENDED, survey_tolerance=0.1))) == 0.1
+
+
+@pytest.fixture(scope="module")
+def offset_on_cable_2(tmp_path_factory):
+    """20 s of the 6-cable suspended robot with a 3 N offset on load cell 2 (sensor noise)."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    from cdprid.diagnosis import base_fit, prepare, start
+    from cdprid.effects import Effect
+    from cdprid.io import read_dataset
+    from cdprid.model import SIX_SUSPENDED, preset, robot_from_dict
+    from cdprid.simulation import SensorNoise, simulate, write_simulation
+
+    robot = robot_from_dict(SIX_SUSPENDED)
+    sim = simulate(robot, preset("rich", robot, duration=20.0),
+                   effects=[Effect("tension_offset", {"cable": 2, "offset_N": 3.0})],
+                   noise=SensorNoise(position_m=1e-4, tension_N=0.3), seed=4)
+    ds = read_dataset(write_simulation(sim, tmp_path_factory.mktemp("off") / "d"))
+    prob, base = base_fit(prepare(ds))
+    return prob, start(prob, base)
+
+
+@pytest.mark.slow
+def test_a_replacing_finding_carries_its_own_test_not_the_replaced_one(offset_on_cable_2):
+    """Issue 37: findings that replace a geometry error kept its p-value and statistic. The
+    restated finding of the true offset is significant with its own Wald statistic (theta^2 /
+    var from the refit's HAC covariance, Bonferroni over the candidates); an offset on a
+    cable without one is not; each held-out rms before is that of the model without it."""
+    from cdprid.diagnosis import Finding
+    from cdprid.diagnosis._selection import refit
+    from cdprid.diagnosis._stability import restated
+
+    prob, s = offset_on_cable_2
+    true, null = Candidate("tension_offset", 2), Candidate("tension_offset", 5)
+    idx = [prob.layout.candidate_indices(c.effect, c.cable)[0] for c in (true, null)]
+    t = refit(prob, s, active_idx=sorted(idx))
+    old = Finding("exit_point_error", {"cable": 2}, {}, ["x"], 1.0, 0.9, 0.5, 1.0, 1e-5)
+    f_true, f_null = restated(prob, t, (true, null), old, 40, 0.8)
+    stat = t.theta[idx[0]] ** 2 / t.th_cov[idx[0], idx[0]]
+    assert f_true.effect == "tension_offset" and f_true.statistic == pytest.approx(stat)
+    assert f_true.p_value < 1e-10 and f_true.statistic > 100
+    assert f_null.p_value > 1e-3, f_null  # 40 x a chi2(1) tail: no offset on cable 5
+    assert f_true.heldout_rms_after == f_null.heldout_rms_after == 0.8
+    assert f_true.heldout_rms_before > 1.5 * f_null.heldout_rms_before  # the true one matters
+    assert f_true.threshold == old.threshold and f_true.aliases == old.aliases
