@@ -1,8 +1,8 @@
 """Stage 1 of the diagnosis: the candidates (effect x cable) and their vocabulary form.
 
 Maps between the theta layout of :mod:`cdprid.diagnosis._model` and the effect vocabulary of
-:mod:`cdprid.effects._effects` (names and JSON parameters), plausibility bounds, and what would tell
-two effects apart — all read from the one table :data:`cdprid.effects.DIAGNOSIS`; this module
+:mod:`cdprid.effects` (its registry: names and JSON parameters), plausibility bounds,
+and what would tell two effects apart — all read from the one table :data:`cdprid.effects.DIAGNOSIS`; this module
 names no effect.
 """
 

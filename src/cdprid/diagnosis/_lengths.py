@@ -2,7 +2,7 @@
 
 A cdprid extension of spec 1.1 (``docs/lengths.md``): ``lengths.csv`` with columns
 ``t, l_1, ..., l_m`` (s, m), one column per ``[[cable]]``, the unstrained cable length the
-winch encoder measures. For an elastic cable (:mod:`cdprid.effects._effects`, ``cable_elasticity``)
+winch encoder measures. For an elastic cable (:mod:`cdprid.effects`, ``cable_elasticity``)
 ``l = L / (1 + tau / EA)`` with L the geometric length from the exit point to the
 attachment (:func:`cdprid.model.cable_lengths`) and tau the tension; the encoder zero is
 unknown, so each cable is fitted as ``l = c + L / (1 + tau k)`` with ``k = 1 / EA`` and an

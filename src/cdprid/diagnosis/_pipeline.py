@@ -41,7 +41,7 @@ from cdprid.diagnosis._selection import (
     swap_stage,
 )
 from cdprid.diagnosis._sizes import not_named_sizes
-from cdprid.diagnosis._stability import geometry_stage, stability_stage
+from cdprid.diagnosis._stability import geometry_stage, plausibility_stage, stability_stage
 from cdprid.diagnosis._testing import wald
 from cdprid.diagnosis._unexplained import (
     finding_floor_N,
@@ -49,7 +49,7 @@ from cdprid.diagnosis._unexplained import (
     unexplained_stage,
 )
 from cdprid.diagnosis._verdict import verdict
-from cdprid.episodes import find_episodes
+from cdprid.episodes import find_episodes, winch_lengths
 from cdprid.io import Dataset, align
 from cdprid.model import PARAMETER_NAMES
 
@@ -154,7 +154,8 @@ def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say
                    clock=sub.clock if sub is not None else None)
     sig = _split_at_joins(align(ds), sub.joins if sub is not None else ())
     notes.extend(n for n in sig.notes if n not in notes)
-    eps = find_episodes(ds.robot, sig, cutoff_hz, trim=trim, use=prob.use)
+    eps = find_episodes(ds.robot, sig, cutoff_hz, trim=trim, use=prob.use,
+                        lengths=winch_lengths(ds, sig.t))
     if sub is not None:  # report the recording's own times, not the joined axis
         eps = eps.retimed(lambda x: float(sub.clock(np.array([x]))[0]) + t_first)
     for e in eps.episodes:
@@ -274,15 +275,18 @@ def _with_episodes(res: DiagnosisResult, eps, prob: Problem, prob_with: Problem,
 
 
 def _checks(prob, s, candidates, feats, alpha, min_gain, thr_first, extra, say, clock_info):
-    """The stages that may take a finding back: backward elimination, geometry beyond the
-    survey tolerance against the sensor-side alternatives, stability over halves of the
-    recording and groups of cables; then the clock's interval from the final model's joint
-    profile. Returns ``(selection, hints, withdrawn findings for unexplained, clock info)``."""
+    """The stages that may take a finding back: backward elimination, stability over halves
+    of the recording and groups of cables (an unstable geometry error is withdrawn before it
+    is weighed against the sensor side), geometry beyond the survey tolerance against the
+    sensor-side alternatives, and the plausibility of what remains; then the clock's
+    interval from the final model's joint profile. Returns ``(selection, hints, withdrawn
+    findings for unexplained, clock info)``."""
     s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
-    s, withdrawn = geometry_stage(prob, s, candidates, min_gain, extra, say)
     s, unstable = stability_stage(prob, s, extra, say)
+    s, withdrawn = geometry_stage(prob, s, candidates, min_gain, extra, say)
+    s, implausible_now = plausibility_stage(prob, s, extra, say)
     s, joint_clock = clock_interval(prob, s, extra)
-    return s, hints, withdrawn + unstable, {**clock_info, **joint_clock}
+    return s, hints, unstable + withdrawn + implausible_now, {**clock_info, **joint_clock}
 
 
 def _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say):

@@ -463,17 +463,24 @@ def backward_stage(prob: Problem, s: Selection, feats: dict, alpha: float, min_g
                 "of the residual but is not needed given the other findings and the "
                 "unexplained structure (" + ", ".join(sig_names) + ")",
                 "p_value": p_given})
-        theta, x = s.theta.copy(), s.x.copy()
-        rot, active = s.rotational, list(s.active_idx)
-        if extends_base(c):
-            rot = False
-            x[4:] = 0.0
-        else:
-            idx = prob.layout.candidate_indices(c.effect, c.cable)
-            theta[idx] = 0.0
-            active = [i for i in active if i not in idx]
-        t = refit(prob, s, theta=theta, active_idx=active, rotational=rot, x=x)
-        s = with_vocabulary(prob, dataclasses.replace(
-            t, accepted=s.accepted[:k] + s.accepted[k + 1:],
-            findings=s.findings[:k] + s.findings[k + 1:]), extra)
+        s = withdraw(prob, s, k, extra)
     return s, hints
+
+
+def withdraw(prob: Problem, s: Selection, k: int, extra: dict) -> Selection:
+    """The model refitted without its finding ``k`` (the backward, stability, geometry and
+    plausibility stages take findings back with it)."""
+    c = s.accepted[k]
+    theta, x = s.theta.copy(), s.x.copy()
+    rot, active = s.rotational, list(s.active_idx)
+    if extends_base(c):
+        rot = False
+        x[4:] = 0.0
+    else:
+        idx = prob.layout.candidate_indices(c.effect, c.cable)
+        theta[idx] = 0.0
+        active = [i for i in active if i not in idx]
+    t = refit(prob, s, theta=theta, active_idx=active, rotational=rot, x=x)
+    return with_vocabulary(prob, dataclasses.replace(
+        t, accepted=s.accepted[:k] + s.accepted[k + 1:],
+        findings=s.findings[:k] + s.findings[k + 1:]), extra)
