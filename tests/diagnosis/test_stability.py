@@ -189,5 +189,6 @@ def test_a_finding_left_implausible_is_withdrawn(offset_on_cable_2):
     said = []
     u, out = plausibility_stage(prob, t, {}, said.append)
     assert u.accepted == (off,) and gi not in u.active_idx
-    assert len(out) == 1 and out[0]["where"] == gain.label and "gain 3.5" in out[0]["correlates_with"]
+    assert len(out) == 1 and out[0]["where"] == gain.label
+    assert "gain 3.5" in out[0]["correlates_with"]
     assert abs(u.theta[oi] - 3.0) < 0.5, u.theta[oi]

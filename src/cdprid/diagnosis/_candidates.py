@@ -2,8 +2,8 @@
 
 Maps between the theta layout of :mod:`cdprid.diagnosis._model` and the effect vocabulary of
 :mod:`cdprid.effects` (its registry: names and JSON parameters), plausibility bounds,
-and what would tell two effects apart — all read from the one table :data:`cdprid.effects.DIAGNOSIS`; this module
-names no effect.
+and what would tell two effects apart — all read from the one table
+:data:`cdprid.effects.DIAGNOSIS`; this module names no effect.
 """
 
 from __future__ import annotations
