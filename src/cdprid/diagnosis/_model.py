@@ -52,9 +52,8 @@ class ThetaLayout:
         self.size = i
         #: theta indices of the scalar parameters that must be >= 0 (a form's ``nonneg``)
         self.nonneg = frozenset(
-            j for form in DIAGNOSIS.values()
-            for key, (name, size) in zip(form.keys, form.blocks, strict=False)
-            if size == 1 and key in form.nonneg for j in range(sl[name].start, sl[name].stop))
+            j for form in DIAGNOSIS.values() for name in form.nonneg_blocks
+            if self.block_shapes[name][1] == 1 for j in range(sl[name].start, sl[name].stop))
 
     def unpack(self, theta):
         """Theta as named blocks: per-cable blocks ``(m,)`` or ``(m, size)``, global scalars
