@@ -279,7 +279,8 @@ def _checks(prob, s, candidates, feats, alpha, min_gain, thr_first, extra, say, 
     of the recording and groups of cables (an unstable geometry error is withdrawn before it
     is weighed against the sensor side), geometry beyond the survey tolerance against the
     sensor-side alternatives, and the plausibility of what remains (and backward elimination
-    again after a withdrawal: a finding may only have been needed beside it); then the clock's
+    again after a withdrawal, given the model alone: a finding may only have been needed
+    beside it); then the clock's
     interval from the final model's joint profile. Returns ``(selection, hints, withdrawn
     findings for unexplained, clock info)``."""
     s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
@@ -287,8 +288,9 @@ def _checks(prob, s, candidates, feats, alpha, min_gain, thr_first, extra, say, 
     s, withdrawn = geometry_stage(prob, s, candidates, min_gain, extra, say)
     s, implausible_now = plausibility_stage(prob, s, extra, say)
     if unstable or withdrawn or implausible_now:  # what the others carried may not be needed
-        s, again = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
-        hints = hints + again
+        # (given the model alone: the unexplained structure's signals were weighed in the
+        # first pass; here a generic sign-of-velocity signal would displace friction)
+        s, _ = backward_stage(prob, s, {}, alpha, min_gain, thr_first, extra, say)
     s, joint_clock = clock_interval(prob, s, extra)
     return s, hints, unstable + withdrawn + implausible_now, {**clock_info, **joint_clock}
 
