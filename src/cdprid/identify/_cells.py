@@ -20,7 +20,7 @@ import numpy as np
 
 from cdprid.core import least_squares_blocks
 
-__all__ = ["CellCalibration", "calibrate_cells", "fit_cells"]
+__all__ = ["CellCalibration", "calibrate_cells", "calibrate_cells_wrench", "fit_cells"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,6 +127,12 @@ def cells_from_design(T, theta, cov_theta, tau_meas, against: str,
             continue
         J[:, :, k] = (_ols_cells(tau_hat + h[k] * T[:, :, k], tau_meas) - base) / h[k]
     cov = cov + np.einsum("jak,kl,jbl->jab", J, cov_theta, J)
+    return _calibration(x, cov, against)
+
+
+def _calibration(x, cov, against: str) -> CellCalibration:
+    """The calibration of (gain, offset) ``x`` (m, 2) with covariances ``cov`` (m, 2, 2), a
+    warning per cell whose gain differs from 1 or offset from 0 beyond its 95 % interval."""
     s = np.sqrt(np.clip(np.diagonal(cov, axis1=1, axis2=2), 0, None))
     warns = []
     for j in range(len(x)):
@@ -165,3 +171,60 @@ def calibrate_cells(reg, W, sig, wf, idx, theta, cov, chunk: int,
         T[i0:i1] = np.matmul(np.linalg.pinv(S[None, :, None] * W[i0:i1]), Z)
     meas = np.asarray(wf(np.asarray(sig.tension, float), np.ones(W.shape[2])))[idx]
     return cells_from_design(T, theta, cov, meas, "the free motion's dynamics", chunk)
+
+
+def calibrate_cells_wrench(reg, W_all, sig, wf, idx, theta, cov_theta, chunk: int,
+                           rho: float) -> CellCalibration:
+    """The load cells against the free motion's dynamics in the wrench space: on the kept
+    samples, every cell's gain ``g_j`` and offset ``o_j`` jointly from
+
+        F[S W (g o tau + o)] = S F[Z] theta,
+
+    all six rows (moments at the platform's radius), least squares with HAC covariance, the
+    estimate's covariance added by the delta method (the fit is linear in ``theta``: its
+    Jacobian ``(X^T X)^-1 X^T S F[Z]`` is exact). Unlike ``(S W)^+ S Z theta`` (a tension per
+    cable from the identified wrench), nothing is inverted: the 4-cable ``W``'s poorly
+    conditioned directions no longer amplify the wrench's error; the cells are read where
+    their forces are seen (the cable wrenches' span), the free directions only add residual.
+
+    Parameters
+    ----------
+    reg : the matched-filter regression of the kept samples (``wrench_block`` gives F[Z])
+    W_all : (n, 6, m) wrench matrices at every aligned sample
+    sig : AlignedSignals (its tensions, N, at the pose times)
+    wf : the matched filter (callable on (n, k) channels)
+    idx : (n_kept,) the kept samples in ``sig``
+    theta, cov_theta : the platform estimate and covariance (reference included)
+    chunk : int
+    rho : float
+        Platform radius, m.
+
+    Returns
+    -------
+    CellCalibration
+    """
+    S = np.array([1.0] * 3 + [1.0 / rho] * 3)
+    n, _, m = W_all.shape
+    SW = S[None, :, None] * np.asarray(W_all, float)
+    tau = np.asarray(sig.tension, float)
+    Xg = np.asarray(wf((SW * tau[:, None, :]).reshape(n, -1), np.ones(6 * m))).reshape(n, 6, m)
+    Xo = np.asarray(wf(SW.reshape(n, -1), np.ones(6 * m))).reshape(n, 6, m)
+    X = np.concatenate([Xg, Xo], axis=2)[idx]
+    q = len(theta)
+    T = np.empty((len(idx), 6, q))
+    for i0 in range(0, len(idx), chunk):
+        i1 = min(len(idx), i0 + chunk)
+        T[i0:i1] = S[None, :, None] * np.asarray(reg.wrench_block(i0, i1)[0])
+    y = T @ np.asarray(theta, float)
+    names = tuple(f"g_{j + 1}" for j in range(m)) + tuple(f"o_{j + 1}" for j in range(m))
+    res = least_squares_blocks(lambda i0, i1: (X[i0:i1], y[i0:i1]), len(idx), names,
+                               covariance="hac", chunk=chunk)
+    Xs, Ts = X.reshape(-1, 2 * m), T.reshape(-1, q)
+    J = np.linalg.solve(Xs.T @ Xs, Xs.T @ Ts)
+    C = res.cov + J @ cov_theta @ J.T
+    x = np.stack([res.x[:m], res.x[m:]], axis=1)
+    cov = np.empty((m, 2, 2))
+    for j in range(m):
+        k = [j, m + j]
+        cov[j] = C[np.ix_(k, k)]
+    return _calibration(x, cov, "the free motion's dynamics")
