@@ -105,3 +105,56 @@ def test_uacdpr_free_motion_reports_zG_and_cells(tmp_path):
     assert 0.1 < zG < 0.4 and rep.cells is not None
     assert len(rep.as_json()["load_cells"]) == 4
     print(os.linesep, f"z_G = {zG:.4f} m", rep.cells.table())
+
+
+@pytest.fixture(scope="module")
+def pushed_recording(tmp_path_factory):
+    """A 4-cable platform swinging on locked elastic cables (tests/identify/free_sim.py, an
+    independent simulator), pushed by hand twice, poses with noise, load cells with known
+    gains and offsets."""
+    from tests.identify.free_sim import FreePlatform, noisy
+
+    from cdprid.io import write_dataset
+
+    rng = np.random.default_rng(3)
+    pushes = [{"start_s": 3.0, "end_s": 5.8, "force_N": [1.5, -1.6, 2.3],
+               "moment_Nm": [0.36, 1.3, 0.95]},
+              {"start_s": 11.0, "end_s": 13.9, "force_N": [-8.4, -15.2, -2.2],
+               "moment_Nm": [-0.22, -1.25, -0.73]},
+              {"start_s": 19.4, "end_s": 21.0, "force_N": [-6.5, -3.8, 1.5],
+               "moment_Nm": [1.37, -0.67, 0.35]}]
+    plant = FreePlatform(A, B, MASS, SG, IG, [0.0, 0.0, 0.6])
+    t, P, Q, T = plant.run(28.0, pushes, p_start=[0.0, 0.0, 0.6], om_start=[0.6, -0.8, 0.3])
+    Pn, Qn = noisy(P, Q, rng)
+    gain, offset = np.array([0.9, 1.1, 1.0, 0.95]), np.array([2.0, -3.0, 0.0, 1.0])
+    cells = gain * T + offset + 0.5 * rng.standard_normal(T.shape)
+    rd = {"name": "sim4", "cable": [{"exit": a.tolist(), "anchor": b.tolist()}
+                                    for a, b in zip(A, B, strict=True)],
+          "platform": {"mass": MASS, "mass_uncertainty": 0.0}}
+    out = write_dataset(tmp_path_factory.mktemp("free") / "ds", robot_from_dict(rd), t, Pn, t,
+                        cells, quaternion=Qn)
+    return out, gain, offset
+
+
+@pytest.mark.slow
+def test_pushes_are_left_out_and_the_truth_recovered(pushed_recording):
+    """With the pushes kept, z_G is far off; the episodes stage (from the load cells) leaves
+    them out and z_G comes back within 3 std of the truth, closer than with them; every load
+    cell's gain and offset interval covers its truth. (At 6 Hz the stage misses part of the
+    third push: z_G is still covered, the cells are not: docs/drives.md.)"""
+    from cdprid.identify import identify_free_motion
+    from cdprid.io import read_dataset
+
+    out, gain, offset = pushed_recording
+    ds = read_dataset(out)
+    kw = dict(reference="mass", params={"cutoff_hz": 8.0}, check_cutoff=False)
+    kept = identify_free_motion(ds, keep_episodes=True, **kw)
+    zk = kept.theta[3] / kept.theta[0]
+    assert abs(zk / SG[2] - 1) > 0.2, zk
+    rep = identify_free_motion(ds, **kw)
+    zG, s = rep.theta[3] / rep.theta[0], rep.std[3] / rep.theta[0]
+    assert rep.episodes and rep.n_samples < kept.n_samples
+    assert abs(zG - SG[2]) < 3 * s and abs(zG - SG[2]) < abs(zk - SG[2]), (zG, s, zk)
+    c = rep.cells
+    assert np.all(np.abs(c.gain - gain) < 1.96 * c.gain_std), (c.gain, c.gain_std)
+    assert np.all(np.abs(c.offset - offset) < 1.96 * c.offset_std), (c.offset, c.offset_std)
