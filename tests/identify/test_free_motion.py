@@ -140,14 +140,14 @@ def pushed_recording(tmp_path_factory):
 def test_pushes_are_left_out_and_the_truth_recovered(pushed_recording):
     """With the pushes kept, z_G is far off; the episodes stage (from the load cells) leaves
     them out and z_G comes back within 3 std of the truth, closer than with them; every load
-    cell's gain and offset interval covers its truth. (At 6 Hz the stage misses part of the
-    third push: z_G is still covered, the cells are not: docs/drives.md.)"""
+    cell's gain and offset interval covers its truth. (At higher cutoffs the pose noise in the
+    regressor biases z_G beyond its std: the cutoff check warns, docs/drives.md.)"""
     from cdprid.identify import identify_free_motion
     from cdprid.io import read_dataset
 
     out, gain, offset = pushed_recording
     ds = read_dataset(out)
-    kw = dict(reference="mass", params={"cutoff_hz": 8.0}, check_cutoff=False)
+    kw = dict(reference="mass", params={"cutoff_hz": 4.0}, check_cutoff=False)
     kept = identify_free_motion(ds, keep_episodes=True, **kw)
     zk = kept.theta[3] / kept.theta[0]
     assert abs(zk / SG[2] - 1) > 0.2, zk
@@ -158,3 +158,22 @@ def test_pushes_are_left_out_and_the_truth_recovered(pushed_recording):
     c = rep.cells
     assert np.all(np.abs(c.gain - gain) < 1.96 * c.gain_std), (c.gain, c.gain_std)
     assert np.all(np.abs(c.offset - offset) < 1.96 * c.offset_std), (c.offset, c.offset_std)
+
+
+@pytest.mark.slow
+def test_pushes_are_located_without_load_cells(pushed_recording):
+    """Poses alone: the free directions' residual scan locates the pushes; z_G within 3 std
+    of the truth and within 5 %, and the command says that no load cell helped."""
+    import dataclasses
+
+    from cdprid.identify import identify_free_motion
+    from cdprid.io import read_dataset
+
+    out, _, _ = pushed_recording
+    ds = dataclasses.replace(read_dataset(out), tension=None, tension_t=None)
+    rep = identify_free_motion(ds, reference="mass", params={"cutoff_hz": 4.0},
+                               check_cutoff=False)
+    zG, s = rep.theta[3] / rep.theta[0], rep.std[3] / rep.theta[0]
+    assert len(rep.episodes) >= 3 and rep.cells is None
+    assert abs(zG - SG[2]) < 3 * s and abs(zG / SG[2] - 1) < 0.05, (zG, s)
+    assert any("no load cells" in w for w in rep.warnings)

@@ -176,16 +176,21 @@ def calibrate_cells(reg, W, sig, wf, idx, theta, cov, chunk: int,
 def calibrate_cells_wrench(reg, W_all, sig, wf, idx, theta, cov_theta, chunk: int,
                            rho: float) -> CellCalibration:
     """The load cells against the free motion's dynamics in the wrench space: on the kept
-    samples, every cell's gain ``g_j`` and offset ``o_j`` jointly from
+    samples, the forces each cell's reading stands for, ``tau_j = a_j tau_meas_j + b_j``,
+    jointly from
 
-        F[S W (g o tau + o)] = S F[Z] theta,
+        F[S W (a o tau_meas + b)] = S F[Z] theta,
 
     all six rows (moments at the platform's radius), least squares with HAC covariance, the
     estimate's covariance added by the delta method (the fit is linear in ``theta``: its
-    Jacobian ``(X^T X)^-1 X^T S F[Z]`` is exact). Unlike ``(S W)^+ S Z theta`` (a tension per
-    cable from the identified wrench), nothing is inverted: the 4-cable ``W``'s poorly
-    conditioned directions no longer amplify the wrench's error; the cells are read where
-    their forces are seen (the cable wrenches' span), the free directions only add residual.
+    Jacobian ``(X^T X)^-1 X^T S F[Z]`` is exact); reported as the cells' gain ``g = 1 / a`` and
+    offset ``o = -b / a`` (``tau_meas = g tau + o``, as :func:`cells_from_design`), first-order
+    propagated. The reading sits in the regressor; its noise after the matched filter is far
+    below the swing's tension changes (errors in variables of second order). Unlike
+    ``(S W)^+ S Z theta`` (a tension per cable from the identified wrench), nothing is
+    inverted: the 4-cable ``W``'s poorly conditioned directions no longer amplify the wrench's
+    error; the cells are read where their forces are seen (the cable wrenches' span), the free
+    directions only add residual.
 
     Parameters
     ----------
@@ -222,9 +227,10 @@ def calibrate_cells_wrench(reg, W_all, sig, wf, idx, theta, cov_theta, chunk: in
     Xs, Ts = X.reshape(-1, 2 * m), T.reshape(-1, q)
     J = np.linalg.solve(Xs.T @ Xs, Xs.T @ Ts)
     C = res.cov + J @ cov_theta @ J.T
-    x = np.stack([res.x[:m], res.x[m:]], axis=1)
-    cov = np.empty((m, 2, 2))
-    for j in range(m):
-        k = [j, m + j]
-        cov[j] = C[np.ix_(k, k)]
+    x, cov = np.empty((m, 2)), np.empty((m, 2, 2))
+    for j in range(m):  # tau = a tau_meas + b  ->  tau_meas = g tau + o: g = 1/a, o = -b/a
+        a, b = res.x[j], res.x[m + j]
+        x[j] = 1.0 / a, -b / a
+        D = np.array([[-1.0 / a ** 2, 0.0], [b / a ** 2, -1.0 / a]])
+        cov[j] = D @ C[np.ix_([j, m + j], [j, m + j])] @ D.T
     return _calibration(x, cov, "the free motion's dynamics")

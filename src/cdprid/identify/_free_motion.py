@@ -29,11 +29,12 @@ from cdprid.core import (
     segment_mask,
     wrench_matrices,
 )
-from cdprid.episodes import FAR_PER_HOUR, find_episodes, winch_lengths
+from cdprid.episodes import FAR_PER_HOUR
 from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
 from cdprid.identify._cells import CellCalibration, calibrate_cells_wrench
 from cdprid.identify._episodes import _trimmed
+from cdprid.identify._free_pushes import left_out
 from cdprid.identify._free_rows import (
     fit_rows,
     free_directions,
@@ -182,8 +183,8 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
     ref_i = ref.index(len(names))
     P = projected_filtered_rows(ds.robot, sig, motion, model, params, rho, int(chunk))
     use = segment_mask(motion.t, motion.segments, trim) & _trimmed(motion.t, trim, ds.path)
-    excl, eps, extra = _left_out(ds, sig, params, trim, far_per_hour, keep_episodes, use,
-                                 len(names))
+    excl, eps, extra = _left_out(ds, sig, P, ref, ref_i, names, params, trim, far_per_hour,
+                                 keep_episodes, use, chunk)
     res = fit_rows(P, idx := np.flatnonzero(use & ~excl), ref_i, names, chunk)
     theta, cov = scaled_estimate(res.x, res.cov, ref, ref_i)
     _, cov_iid = scaled_estimate(res.x, res.cov_iid, ref, ref_i)
@@ -217,41 +218,38 @@ _METHOD_NOTE = ("free motion: the Newton-Euler equations projected on the {} fre
                 "not corrected)")
 
 
-def _left_out(ds, sig, params, trim, far_per_hour, keep_episodes, use, p: int):
-    """The episodes stage's exclusion (when tensions are recorded): ``(excluded, episodes,
-    (notes, warnings))``."""
-    excl, eps, margin = np.zeros(len(sig.t), bool), (), 0.0
-    if keep_episodes is not None and ds.tension is not None:
-        found = find_episodes(ds.robot, sig, cutoff_hz=float(params["cutoff_hz"]), trim=trim,
-                              far_per_hour=far_per_hour, lengths=winch_lengths(ds, sig.t))
-        eps, margin = found.episodes, float(found.margin_s)
-        if not keep_episodes and (use & ~found.excluded).sum() >= 10 * p:
-            excl = found.excluded
-    notes = _episode_notes(eps, excl, keep_episodes, ds.tension is not None, margin)
-    warns = []
-    if keep_episodes is not None and ds.tension is None:
-        warns.append("pushes not located: the episodes stage needs the load cells' tensions; "
-                     "a push by hand acts in the free directions and biases every parameter "
-                     "(on simulated recordings z_G by up to a factor 2): fit a push-free "
-                     "window (--t-start/--t-end)")
+def _left_out(ds, sig, P, ref, ref_i, names, params, trim, far_per_hour, keep_episodes, use,
+              chunk):
+    """The pushes located (:func:`cdprid.identify._free_pushes.left_out`) and the samples
+    left out: ``(excluded, episodes, (notes, warnings))``."""
+    if keep_episodes is None:
+        return np.zeros(len(sig.t), bool), (), (["pushes not located (keep_episodes=None)"], [])
+    excl, eps, caveat, margin_s = left_out(ds, sig, P, ref_i, ref.value, names,
+                                           float(params["cutoff_hz"]), trim, far_per_hour, use,
+                                           chunk)
+    notes = _episode_notes(eps, excl, keep_episodes, ds.tension is not None, margin_s)
+    if keep_episodes:
+        excl = np.zeros_like(excl)
+    warns = [caveat] if caveat else []
+    if ds.tension is None:
+        warns.append("no load cells: pushes were located in the free directions' residual "
+                     "alone (the energy balance and the cable wrench residual need tensions); "
+                     "a push that the scan misses biases every parameter (on simulated "
+                     "recordings z_G by up to a factor 2)")
     return excl, eps, (notes, warns)
 
 
 def _episode_notes(eps, excl, keep_episodes, has_tension: bool, margin_s: float) -> list:
-    """The sentence on the pushes located (or why none were)."""
-    if keep_episodes is None:
-        return ["pushes not located (keep_episodes=None)"]
-    if not has_tension:
-        return []
+    """The sentence on the pushes located (or none)."""
+    how = ("the episodes stage (cable wrench residual, energy balance) and the free "
+           "directions' residual scan" if has_tension else "the free directions' residual scan")
     if not eps:
-        return ["the episodes stage (load-cell tensions and energy balance) located no push"]
+        return [f"{how} located no push"]
     spans = ", ".join(f"{e.kind} {e.start_s:.2f}-{e.end_s:.2f} s" for e in eps)
     if keep_episodes:
-        return [f"{len(eps)} episode(s) located by the episodes stage and kept "
-                f"(--keep-episodes): {spans}"]
-    return [f"{len(eps)} episode(s) located by the episodes stage (the load cells' wrench "
-            f"residual and the energy balance of the locked platform) and left out: {spans}; "
-            f"{int(excl.sum())} samples, {margin_s:g} s of filter transient on each side"]
+        return [f"{len(eps)} episode(s) located by {how} and kept (--keep-episodes): {spans}"]
+    return [f"{len(eps)} episode(s) located by {how} and left out: {spans}; "
+            f"{int(excl.sum())} samples, {margin_s:.2g} s of filter transient on each side"]
 
 
 def _cells(ds, sig, motion, model, diff, params, idx, theta, cov, chunk, rho, notes, warns):

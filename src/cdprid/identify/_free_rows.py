@@ -181,7 +181,7 @@ def window_disagreement(P, idx, ref_i: int, names, chunk: int, t, value: float) 
     name = fits[0].names[k]
     return [f"the estimate depends on the time window: {name} is {value * fits[i].x[k]:.4g} "
             f"over {win[i]} and {value * fits[j].x[k]:.4g} over {win[j]} ({zmax:.1f} "
-            "combined std): outside forces the energy test does not locate (a push that only "
+            "combined std): outside forces no test located (a push that only "
             "slows a swing, contact, drag) or a drift bias the fit; the stds do not cover "
             "that. Use a push-free release, or --t-start/--t-end on a window you trust."]
 
