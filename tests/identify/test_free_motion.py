@@ -91,7 +91,7 @@ def test_free_motion_needs_few_cables_and_a_mass():
 def test_uacdpr_free_motion_reports_zG_and_cells(tmp_path):
     """The real UACDPR recording (../shared): z_G from the poses alone, the load cells'
     gains and offsets with intervals. Measured, not asserted at the issue's 10 %: see
-    docs/drives.md (the estimate depends on the cutoff; 0.21-0.31 m against 0.173 m)."""
+    docs/drives.md and results/free-motion-uacdpr.md (0.190-0.200 m against 0.173 m)."""
     from cdprid.identify import identify_free_motion, import_calibrated_uacdpr
     from cdprid.io import read_dataset
     from conftest import shared_dataset
@@ -177,3 +177,41 @@ def test_pushes_are_located_without_load_cells(pushed_recording):
     assert len(rep.episodes) >= 3 and rep.cells is None
     assert abs(zG - SG[2]) < 3 * s and abs(zG / SG[2] - 1) < 0.05, (zG, s)
     assert any("no load cells" in w for w in rep.warnings)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured 21 of 32 covered: the platform estimate's "
+                   "error on small swings (pose noise in the regressor, not corrected) is not "
+                   "covered by its HAC std and reaches the cells (docs/drives.md, Not done)")
+def test_load_cell_intervals_cover_the_truth_monte_carlo(tmp_path):
+    """Small Monte Carlo (4 seeds, independent simulator, two pushes each, random gains
+    0.85-1.15 and offsets -5..5 N): the cells' 95 % intervals cover the truth in at least 28
+    of the 32 gains and offsets (binomial: 30.4 expected; 28 or fewer has probability 0.04
+    if the intervals are right)."""
+    from tests.identify.free_sim import FreePlatform, noisy
+
+    from cdprid.identify import identify_free_motion
+    from cdprid.io import read_dataset, write_dataset
+
+    rd = {"name": "sim4", "cable": [{"exit": a.tolist(), "anchor": b.tolist()}
+                                    for a, b in zip(A, B, strict=True)],
+          "platform": {"mass": MASS, "mass_uncertainty": 0.0}}
+    covered, total = 0, 0
+    for seed in range(4):
+        rng = np.random.default_rng(100 + seed)
+        pushes = [{"start_s": t0, "end_s": t0 + rng.uniform(1.5, 2.5),
+                   "force_N": (rng.normal(0, 10, 3) * [1, 1, 0.3]).tolist(),
+                   "moment_Nm": rng.normal(0, 1.0, 3).tolist()} for t0 in (3.0, 11.0)]
+        plant = FreePlatform(A, B, MASS, SG, IG, [0.0, 0.0, 0.6])
+        t, P, Q, T = plant.run(20.0, pushes, p_start=[0.0, 0.0, 0.6],
+                               om_start=rng.normal(0, 0.5, 3))
+        Pn, Qn = noisy(P, Q, rng)
+        g, o = rng.uniform(0.85, 1.15, 4), rng.uniform(-5, 5, 4)
+        out = write_dataset(tmp_path / f"s{seed}", robot_from_dict(rd), t, Pn, t,
+                            g * T + o + 0.5 * rng.standard_normal(T.shape), quaternion=Qn)
+        c = identify_free_motion(read_dataset(out), reference="mass",
+                                 params={"cutoff_hz": 4.0}, check_cutoff=False).cells
+        covered += int(np.sum(np.abs(c.gain - g) < 1.96 * c.gain_std))
+        covered += int(np.sum(np.abs(c.offset - o) < 1.96 * c.offset_std))
+        total += 8
+    assert covered >= 28, (covered, total)

@@ -186,12 +186,12 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
     excl, eps, extra = _left_out(ds, sig, P, ref, ref_i, names, params, trim, far_per_hour,
                                  keep_episodes, use, chunk)
     res = fit_rows(P, idx := np.flatnonzero(use & ~excl), ref_i, names, chunk)
-    theta, cov = scaled_estimate(res.x, res.cov, ref, ref_i)
-    _, cov_iid = scaled_estimate(res.x, res.cov_iid, ref, ref_i)
     notes += [_METHOD_NOTE.format(6 - m, diff)] + (["cutoff chosen from the data"] if fix
                                                     else []) + extra[0]
     warns += extra[1]
-    warns += window_disagreement(P, idx, ref_i, names, chunk, sig.t, ref.value)
+    res = _window_scaled(P, idx, ref_i, names, chunk, sig.t, ref.value, res, notes, warns)
+    theta, cov = scaled_estimate(res.x, res.cov, ref, ref_i)
+    _, cov_iid = scaled_estimate(res.x, res.cov_iid, ref, ref_i)
     cells = None
     if ds.tension is not None:
         notes += [f"tension clock shifted by {float(tension_lag):+g} s before the load cells' "
@@ -216,6 +216,17 @@ _METHOD_NOTE = ("free motion: the Newton-Euler equations projected on the {} fre
                 "{} zero-phase low-pass (projected, then filtered: exact for any cutoff); "
                 "ordinary least squares with HAC std (the pose noise inside the regressor is "
                 "not corrected)")
+
+
+def _window_scaled(P, idx, ref_i, names, chunk, t, value, res, notes, warns):
+    """The fit with its covariances multiplied by the time thirds' Birge ratio when above 1
+    (:func:`cdprid.identify._free_rows.window_disagreement`; its warning and a note added)."""
+    w2, r2 = window_disagreement(P, idx, ref_i, names, chunk, t, value)
+    warns += w2
+    if r2 <= 1.0:
+        return res
+    notes.append(f"covariance scaled by {r2:.3g}: the time thirds' spread (Birge ratio)")
+    return dataclasses.replace(res, cov=r2 * res.cov, cov_iid=r2 * res.cov_iid)
 
 
 def _left_out(ds, sig, P, ref, ref_i, names, params, trim, far_per_hour, keep_episodes, use,

@@ -142,9 +142,14 @@ def fit_rows(P, idx, ref_i: int, names, chunk: int):
                                 covariance="hac", chunk=int(chunk))
 
 
-def window_disagreement(P, idx, ref_i: int, names, chunk: int, t, value: float) -> list:
-    """One warning when the kept samples' thirds (in time) give estimates that differ by more
-    than :data:`WINDOW_Z` combined std in some parameter (pushes not located, a drift).
+def window_disagreement(P, idx, ref_i: int, names, chunk: int, t,
+                        value: float) -> tuple[list, float]:
+    """How far the kept samples' thirds (in time) disagree: one warning when two differ by more
+    than :data:`WINDOW_Z` combined std in some parameter (pushes not located, a drift), and
+    the Birge ratio ``R2`` (>= 1): the thirds' chi-squared about their inverse-variance mean,
+    per degree of freedom, over the parameters. The caller multiplies the covariance by it,
+    so that the std covers the spread the thirds show (unmodelled forces vary in time; noise
+    alone gives ``R2`` near 1).
 
     Parameters
     ----------
@@ -155,33 +160,35 @@ def window_disagreement(P, idx, ref_i: int, names, chunk: int, t, value: float) 
 
     Returns
     -------
-    list of str (empty or one sentence)
+    list of str (empty or one sentence), float R2
     """
     parts = np.array_split(idx, 3)
     if min(len(p) for p in parts) < 20 * P.shape[2]:
-        return []
+        return [], 1.0
     fits = []
     for part in parts:
         try:
             fits.append(fit_rows(P, part, ref_i, names, chunk))
         except InputError:
-            return []
+            return [], 1.0
+    x = np.array([f.x for f in fits])
+    v = np.array([np.diag(f.cov) for f in fits]) + 1e-300
+    mean = np.sum(x / v, 0) / np.sum(1.0 / v, 0)
+    r2 = max(1.0, float(np.mean(np.sum((x - mean) ** 2 / v, 0) / 2.0)))
     worst = (0.0, 0, 0, 0)
     for i in range(3):
         for j in range(i + 1, 3):
-            s = np.sqrt(np.diag(fits[i].cov) + np.diag(fits[j].cov)) + 1e-300
-            z = np.abs(fits[i].x - fits[j].x) / s
+            z = np.abs(x[i] - x[j]) / np.sqrt(v[i] + v[j])
             k = int(np.argmax(z))
             if z[k] > worst[0]:
                 worst = (float(z[k]), i, j, k)
     zmax, i, j, k = worst
     if zmax <= WINDOW_Z:
-        return []
+        return [], r2
     win = [f"{t[p[0]]:.1f}-{t[p[-1]]:.1f} s" for p in parts]
-    name = fits[0].names[k]
-    return [f"the estimate depends on the time window: {name} is {value * fits[i].x[k]:.4g} "
-            f"over {win[i]} and {value * fits[j].x[k]:.4g} over {win[j]} ({zmax:.1f} "
-            "combined std): outside forces no test located (a push that only "
-            "slows a swing, contact, drag) or a drift bias the fit; the stds do not cover "
-            "that. Use a push-free release, or --t-start/--t-end on a window you trust."]
-
+    return [f"the estimate depends on the time window: {fits[0].names[k]} is "
+            f"{value * x[i, k]:.4g} over {win[i]} and {value * x[j, k]:.4g} over {win[j]} "
+            f"({zmax:.1f} combined std): outside forces no test located (a push that only "
+            "slows a swing, contact, drag) or a drift bias the fit; the covariance is scaled "
+            f"by the thirds' spread (x {r2:.2g}), which may still not cover a bias they share. "
+            "Use a push-free release, or --t-start/--t-end on a window you trust."], r2
