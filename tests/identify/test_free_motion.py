@@ -215,3 +215,42 @@ def test_load_cell_intervals_cover_the_truth_monte_carlo(tmp_path):
         covered += int(np.sum(np.abs(c.offset - o) < 1.96 * c.offset_std))
         total += 8
     assert covered >= 28, (covered, total)
+
+
+def test_cells_wrench_fit_recovers_gains_and_offsets():
+    """Noise-free oracle of the wrench-space calibration: readings ``g tau + o`` of tensions
+    whose cable wrench is the 'identified' one give back ``g`` and ``o`` to 1e-9; with
+    reading noise the 95 % intervals hold them."""
+    import types
+
+    from cdprid.identify._cells import calibrate_cells_wrench
+    from cdprid.signal import zero_phase_filter
+
+    rng = np.random.default_rng(5)
+    n, dt = 1500, 0.01
+    t = np.arange(n) * dt
+    p = np.stack([0.1 * np.sin(0.9 * t), 0.08 * np.cos(1.3 * t), 0.6 + 0.02 * np.sin(2.1 * t)], 1)
+    R = np.array([winch_sim._expm(v) for v in np.stack([0.1 * np.sin(1.1 * t),
+                                                        0.08 * np.sin(0.7 * t + 1),
+                                                        0.05 * np.sin(1.7 * t)], 1)])
+    W = winch_sim.wrench_matrix(A, B, p, R)
+    tau = 40 + 10 * np.sin(np.outer(t, [1.0, 1.4, 0.8, 2.0]) + [0, 1, 2, 3])
+    g, o = np.array([0.9, 1.1, 1.0, 1.2]), np.array([3.0, -2.0, 0.0, 5.0])
+
+    def wf(y, scale=None):
+        return zero_phase_filter(y, dt, 4.0, 2)
+
+    idx = np.arange(100, n - 100)
+    wrench = wf(np.einsum("nam,nm->na", W, tau))[idx]  # the regression holds the kept samples
+    reg = types.SimpleNamespace(wrench_block=lambda i0, i1: (wrench[i0:i1, :, None],))
+    for noise in (0.0, 0.5):
+        meas = g * tau + o + noise * rng.standard_normal(tau.shape)
+        c = calibrate_cells_wrench(reg, W, types.SimpleNamespace(tension=meas), wf, idx,
+                                   np.array([1.0]), np.zeros((1, 1)), 4096, 0.3)
+        if noise == 0.0:
+            np.testing.assert_allclose(c.gain, g, atol=1e-9)
+            np.testing.assert_allclose(c.offset, o, atol=1e-7)
+        else:
+            assert np.all(np.abs(c.gain - g) < 1.96 * c.gain_std), (c.gain, c.gain_std)
+            assert np.all(np.abs(c.offset - o) < 1.96 * c.offset_std)
+            assert np.all(c.gain_std < 0.05)
