@@ -20,7 +20,7 @@ import numpy as np
 
 from cdprid.core import least_squares_blocks
 
-__all__ = ["CellCalibration", "calibrate_cells", "calibrate_cells_wrench", "fit_cells"]
+__all__ = ["CellCalibration", "calibrate_cells_wrench", "cells_from_design", "fit_cells"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -142,35 +142,6 @@ def _calibration(x, cov, against: str) -> CellCalibration:
                          f"{1.96 * s[j, 0]:.4f}, offset {o:+.3g} +- {1.96 * s[j, 1]:.3g} N "
                          "(95 %): recalibrate the cell or check its wiring and zero.")
     return CellCalibration(x[:, 0], x[:, 1], s[:, 0], s[:, 1], against, tuple(warns))
-
-
-def calibrate_cells(reg, W, sig, wf, idx, theta, cov, chunk: int,
-                    rho: float) -> CellCalibration:
-    """The load cells against the free motion's dynamics: ``tau_hat_n = (S W_n)^+ S Z_n x``
-    (the tensions that best produce the identified platform wrench), the readings through the
-    matched filter.
-
-    Parameters
-    ----------
-    reg : the platform regression (``wrench_block``) of the kept samples
-    W : (n, 6, m) wrench matrices of the kept samples
-    sig : AlignedSignals (its tensions: the readings at the pose times)
-    wf : the matched filter
-    idx : (n,) the kept samples' indices in ``sig``
-    theta, cov : the platform estimate and covariance
-    chunk : int
-    rho : float
-        Platform radius (m): moments weighed as forces at that radius.
-    """
-    S = np.array([1.0] * 3 + [1.0 / rho] * 3)
-    n = len(idx)
-    T = np.empty((n, W.shape[2], len(theta)))
-    for i0 in range(0, n, chunk):
-        i1 = min(n, i0 + chunk)
-        Z = S[None, :, None] * reg.wrench_block(i0, i1)[0]
-        T[i0:i1] = np.matmul(np.linalg.pinv(S[None, :, None] * W[i0:i1]), Z)
-    meas = np.asarray(wf(np.asarray(sig.tension, float), np.ones(W.shape[2])))[idx]
-    return cells_from_design(T, theta, cov, meas, "the free motion's dynamics", chunk)
 
 
 def calibrate_cells_wrench(reg, W_all, sig, wf, idx, theta, cov_theta, chunk: int,

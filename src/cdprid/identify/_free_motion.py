@@ -5,14 +5,15 @@ unknown but act only along ``range(W)``. Projected on the free directions (an or
 basis ``N_n`` of the null space of ``W_n^T``, forces and moments scaled alike by the platform
 radius) the Newton-Euler equations lose the tensions,
 
-    N_n^T Z_n x = 0,
+    N_n^T S Z_n x = 0,
 
 homogeneous in the platform parameters: the mass (a weighed mass or a stated static weight,
-:mod:`cdprid.identify._scale`) fixes the scale. ``Z`` is the matched-filter regressor of the
-tension path (zero tensions); the projection is exact for the instantaneous equations and
-second order in the pose change within the filter's window. HAC covariance, the reference's
-uncertainty propagated. Where load cells are present, each is calibrated against the
-identified dynamics (:mod:`cdprid.identify._cells`).
+:mod:`cdprid.identify._scale`) fixes the scale. The rows are projected at the measured poses
+and then filtered (:mod:`cdprid.identify._free_rows`: exact for any cutoff); pushes by hand
+are located and left out (:mod:`cdprid.identify._free_pushes`); the fit is checked on its
+time thirds and at twice the cutoff. HAC covariance, the reference's uncertainty propagated.
+Where load cells are present, each is calibrated against the identified dynamics in the
+wrench space (:func:`cdprid.identify._cells.calibrate_cells_wrench`).
 """
 
 from __future__ import annotations
