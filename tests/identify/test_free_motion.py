@@ -91,7 +91,7 @@ def test_free_motion_needs_few_cables_and_a_mass():
 def test_uacdpr_free_motion_reports_zG_and_cells(tmp_path):
     """The real UACDPR recording (../shared): z_G from the poses alone, the load cells'
     gains and offsets with intervals. Measured, not asserted at the issue's 10 %: see
-    docs/drives.md (the estimate depends on the cutoff; 0.21-0.31 m against 0.173 m)."""
+    docs/drives.md and results/free-motion-uacdpr.md (0.190-0.200 m against 0.173 m)."""
     from cdprid.identify import identify_free_motion, import_calibrated_uacdpr
     from cdprid.io import read_dataset
     from conftest import shared_dataset
@@ -105,3 +105,152 @@ def test_uacdpr_free_motion_reports_zG_and_cells(tmp_path):
     assert 0.1 < zG < 0.4 and rep.cells is not None
     assert len(rep.as_json()["load_cells"]) == 4
     print(os.linesep, f"z_G = {zG:.4f} m", rep.cells.table())
+
+
+@pytest.fixture(scope="module")
+def pushed_recording(tmp_path_factory):
+    """A 4-cable platform swinging on locked elastic cables (tests/identify/free_sim.py, an
+    independent simulator), pushed by hand twice, poses with noise, load cells with known
+    gains and offsets."""
+    from tests.identify.free_sim import FreePlatform, noisy
+
+    from cdprid.io import write_dataset
+
+    rng = np.random.default_rng(3)
+    pushes = [{"start_s": 3.0, "end_s": 5.8, "force_N": [1.5, -1.6, 2.3],
+               "moment_Nm": [0.36, 1.3, 0.95]},
+              {"start_s": 11.0, "end_s": 13.9, "force_N": [-8.4, -15.2, -2.2],
+               "moment_Nm": [-0.22, -1.25, -0.73]},
+              {"start_s": 19.4, "end_s": 21.0, "force_N": [-6.5, -3.8, 1.5],
+               "moment_Nm": [1.37, -0.67, 0.35]}]
+    plant = FreePlatform(A, B, MASS, SG, IG, [0.0, 0.0, 0.6])
+    t, P, Q, T = plant.run(28.0, pushes, p_start=[0.0, 0.0, 0.6], om_start=[0.6, -0.8, 0.3])
+    Pn, Qn = noisy(P, Q, rng)
+    gain, offset = np.array([0.9, 1.1, 1.0, 0.95]), np.array([2.0, -3.0, 0.0, 1.0])
+    cells = gain * T + offset + 0.5 * rng.standard_normal(T.shape)
+    rd = {"name": "sim4", "cable": [{"exit": a.tolist(), "anchor": b.tolist()}
+                                    for a, b in zip(A, B, strict=True)],
+          "platform": {"mass": MASS, "mass_uncertainty": 0.0}}
+    out = write_dataset(tmp_path_factory.mktemp("free") / "ds", robot_from_dict(rd), t, Pn, t,
+                        cells, quaternion=Qn)
+    return out, gain, offset
+
+
+@pytest.mark.slow
+def test_pushes_are_left_out_and_the_truth_recovered(pushed_recording):
+    """With the pushes kept, z_G is far off; the episodes stage (from the load cells) leaves
+    them out and z_G comes back within 3 std of the truth, closer than with them; every load
+    cell's gain and offset interval covers its truth. (At higher cutoffs the pose noise in the
+    regressor biases z_G beyond its std: the cutoff check warns, docs/drives.md.)"""
+    from cdprid.identify import identify_free_motion
+    from cdprid.io import read_dataset
+
+    out, gain, offset = pushed_recording
+    ds = read_dataset(out)
+    kw = dict(reference="mass", params={"cutoff_hz": 4.0}, check_cutoff=False)
+    kept = identify_free_motion(ds, keep_episodes=True, **kw)
+    zk = kept.theta[3] / kept.theta[0]
+    assert abs(zk / SG[2] - 1) > 0.2, zk
+    rep = identify_free_motion(ds, **kw)
+    zG, s = rep.theta[3] / rep.theta[0], rep.std[3] / rep.theta[0]
+    assert rep.episodes and rep.n_samples < kept.n_samples
+    assert abs(zG - SG[2]) < 3 * s and abs(zG - SG[2]) < abs(zk - SG[2]), (zG, s, zk)
+    c = rep.cells
+    assert np.all(np.abs(c.gain - gain) < 1.96 * c.gain_std), (c.gain, c.gain_std)
+    assert np.all(np.abs(c.offset - offset) < 1.96 * c.offset_std), (c.offset, c.offset_std)
+
+
+@pytest.mark.slow
+def test_pushes_are_located_without_load_cells(pushed_recording):
+    """Poses alone: the free directions' residual scan locates the pushes; z_G within 3 std
+    of the truth and within 5 %, and the command says that no load cell helped."""
+    import dataclasses
+
+    from cdprid.identify import identify_free_motion
+    from cdprid.io import read_dataset
+
+    out, _, _ = pushed_recording
+    ds = dataclasses.replace(read_dataset(out), tension=None, tension_t=None)
+    rep = identify_free_motion(ds, reference="mass", params={"cutoff_hz": 4.0},
+                               check_cutoff=False)
+    zG, s = rep.theta[3] / rep.theta[0], rep.std[3] / rep.theta[0]
+    assert len(rep.episodes) >= 3 and rep.cells is None
+    assert abs(zG - SG[2]) < 3 * s and abs(zG / SG[2] - 1) < 0.05, (zG, s)
+    assert any("no load cells" in w for w in rep.warnings)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured 21 of 32 covered: the platform estimate's "
+                   "error on small swings (pose noise in the regressor, not corrected) is not "
+                   "covered by its HAC std and reaches the cells (docs/drives.md, Not done)")
+def test_load_cell_intervals_cover_the_truth_monte_carlo(tmp_path):
+    """Small Monte Carlo (4 seeds, independent simulator, two pushes each, random gains
+    0.85-1.15 and offsets -5..5 N): the cells' 95 % intervals cover the truth in at least 28
+    of the 32 gains and offsets (binomial: 30.4 expected; 28 or fewer has probability 0.04
+    if the intervals are right)."""
+    from tests.identify.free_sim import FreePlatform, noisy
+
+    from cdprid.identify import identify_free_motion
+    from cdprid.io import read_dataset, write_dataset
+
+    rd = {"name": "sim4", "cable": [{"exit": a.tolist(), "anchor": b.tolist()}
+                                    for a, b in zip(A, B, strict=True)],
+          "platform": {"mass": MASS, "mass_uncertainty": 0.0}}
+    covered, total = 0, 0
+    for seed in range(4):
+        rng = np.random.default_rng(100 + seed)
+        pushes = [{"start_s": t0, "end_s": t0 + rng.uniform(1.5, 2.5),
+                   "force_N": (rng.normal(0, 10, 3) * [1, 1, 0.3]).tolist(),
+                   "moment_Nm": rng.normal(0, 1.0, 3).tolist()} for t0 in (3.0, 11.0)]
+        plant = FreePlatform(A, B, MASS, SG, IG, [0.0, 0.0, 0.6])
+        t, P, Q, T = plant.run(20.0, pushes, p_start=[0.0, 0.0, 0.6],
+                               om_start=rng.normal(0, 0.5, 3))
+        Pn, Qn = noisy(P, Q, rng)
+        g, o = rng.uniform(0.85, 1.15, 4), rng.uniform(-5, 5, 4)
+        out = write_dataset(tmp_path / f"s{seed}", robot_from_dict(rd), t, Pn, t,
+                            g * T + o + 0.5 * rng.standard_normal(T.shape), quaternion=Qn)
+        c = identify_free_motion(read_dataset(out), reference="mass",
+                                 params={"cutoff_hz": 4.0}, check_cutoff=False).cells
+        covered += int(np.sum(np.abs(c.gain - g) < 1.96 * c.gain_std))
+        covered += int(np.sum(np.abs(c.offset - o) < 1.96 * c.offset_std))
+        total += 8
+    assert covered >= 28, (covered, total)
+
+
+def test_cells_wrench_fit_recovers_gains_and_offsets():
+    """Noise-free oracle of the wrench-space calibration: readings ``g tau + o`` of tensions
+    whose cable wrench is the 'identified' one give back ``g`` and ``o`` to 1e-9; with
+    reading noise the 95 % intervals hold them."""
+    import types
+
+    from cdprid.identify._cells import calibrate_cells_wrench
+    from cdprid.signal import zero_phase_filter
+
+    rng = np.random.default_rng(5)
+    n, dt = 1500, 0.01
+    t = np.arange(n) * dt
+    p = np.stack([0.1 * np.sin(0.9 * t), 0.08 * np.cos(1.3 * t), 0.6 + 0.02 * np.sin(2.1 * t)], 1)
+    R = np.array([winch_sim._expm(v) for v in np.stack([0.1 * np.sin(1.1 * t),
+                                                        0.08 * np.sin(0.7 * t + 1),
+                                                        0.05 * np.sin(1.7 * t)], 1)])
+    W = winch_sim.wrench_matrix(A, B, p, R)
+    tau = 40 + 10 * np.sin(np.outer(t, [1.0, 1.4, 0.8, 2.0]) + [0, 1, 2, 3])
+    g, o = np.array([0.9, 1.1, 1.0, 1.2]), np.array([3.0, -2.0, 0.0, 5.0])
+
+    def wf(y, scale=None):
+        return zero_phase_filter(y, dt, 4.0, 2)
+
+    idx = np.arange(100, n - 100)
+    wrench = wf(np.einsum("nam,nm->na", W, tau))[idx]  # the regression holds the kept samples
+    reg = types.SimpleNamespace(wrench_block=lambda i0, i1: (wrench[i0:i1, :, None],))
+    for noise in (0.0, 0.5):
+        meas = g * tau + o + noise * rng.standard_normal(tau.shape)
+        c = calibrate_cells_wrench(reg, W, types.SimpleNamespace(tension=meas), wf, idx,
+                                   np.array([1.0]), np.zeros((1, 1)), 4096, 0.3)
+        if noise == 0.0:
+            np.testing.assert_allclose(c.gain, g, atol=1e-9)
+            np.testing.assert_allclose(c.offset, o, atol=1e-7)
+        else:
+            assert np.all(np.abs(c.gain - g) < 1.96 * c.gain_std), (c.gain, c.gain_std)
+            assert np.all(np.abs(c.offset - o) < 1.96 * c.offset_std)
+            assert np.all(c.gain_std < 0.05)

@@ -20,7 +20,7 @@ import numpy as np
 
 from cdprid.core import least_squares_blocks
 
-__all__ = ["CellCalibration", "calibrate_cells", "fit_cells"]
+__all__ = ["CellCalibration", "calibrate_cells_wrench", "cells_from_design", "fit_cells"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,6 +127,12 @@ def cells_from_design(T, theta, cov_theta, tau_meas, against: str,
             continue
         J[:, :, k] = (_ols_cells(tau_hat + h[k] * T[:, :, k], tau_meas) - base) / h[k]
     cov = cov + np.einsum("jak,kl,jbl->jab", J, cov_theta, J)
+    return _calibration(x, cov, against)
+
+
+def _calibration(x, cov, against: str) -> CellCalibration:
+    """The calibration of (gain, offset) ``x`` (m, 2) with covariances ``cov`` (m, 2, 2), a
+    warning per cell whose gain differs from 1 or offset from 0 beyond its 95 % interval."""
     s = np.sqrt(np.clip(np.diagonal(cov, axis1=1, axis2=2), 0, None))
     warns = []
     for j in range(len(x)):
@@ -138,30 +144,64 @@ def cells_from_design(T, theta, cov_theta, tau_meas, against: str,
     return CellCalibration(x[:, 0], x[:, 1], s[:, 0], s[:, 1], against, tuple(warns))
 
 
-def calibrate_cells(reg, W, sig, wf, idx, theta, cov, chunk: int,
-                    rho: float) -> CellCalibration:
-    """The load cells against the free motion's dynamics: ``tau_hat_n = (S W_n)^+ S Z_n x``
-    (the tensions that best produce the identified platform wrench), the readings through the
-    matched filter.
+def calibrate_cells_wrench(reg, W_all, sig, wf, idx, theta, cov_theta, chunk: int,
+                           rho: float) -> CellCalibration:
+    """The load cells against the free motion's dynamics in the wrench space: on the kept
+    samples, the forces each cell's reading stands for, ``tau_j = a_j tau_meas_j + b_j``,
+    jointly from
+
+        F[S W (a o tau_meas + b)] = S F[Z] theta,
+
+    all six rows (moments at the platform's radius), least squares with HAC covariance, the
+    estimate's covariance added by the delta method (the fit is linear in ``theta``: its
+    Jacobian ``(X^T X)^-1 X^T S F[Z]`` is exact); reported as the cells' gain ``g = 1 / a`` and
+    offset ``o = -b / a`` (``tau_meas = g tau + o``, as :func:`cells_from_design`), first-order
+    propagated. The reading sits in the regressor; its noise after the matched filter is far
+    below the swing's tension changes (errors in variables of second order). Unlike
+    ``(S W)^+ S Z theta`` (a tension per cable from the identified wrench), nothing is
+    inverted: the 4-cable ``W``'s poorly conditioned directions no longer amplify the wrench's
+    error; the cells are read where their forces are seen (the cable wrenches' span), the free
+    directions only add residual.
 
     Parameters
     ----------
-    reg : the platform regression (``wrench_block``) of the kept samples
-    W : (n, 6, m) wrench matrices of the kept samples
-    sig : AlignedSignals (its tensions: the readings at the pose times)
-    wf : the matched filter
-    idx : (n,) the kept samples' indices in ``sig``
-    theta, cov : the platform estimate and covariance
+    reg : the matched-filter regression of the kept samples (``wrench_block`` gives F[Z])
+    W_all : (n, 6, m) wrench matrices at every aligned sample
+    sig : AlignedSignals (its tensions, N, at the pose times)
+    wf : the matched filter (callable on (n, k) channels)
+    idx : (n_kept,) the kept samples in ``sig``
+    theta, cov_theta : the platform estimate and covariance (reference included)
     chunk : int
     rho : float
-        Platform radius (m): moments weighed as forces at that radius.
+        Platform radius, m.
+
+    Returns
+    -------
+    CellCalibration
     """
     S = np.array([1.0] * 3 + [1.0 / rho] * 3)
-    n = len(idx)
-    T = np.empty((n, W.shape[2], len(theta)))
-    for i0 in range(0, n, chunk):
-        i1 = min(n, i0 + chunk)
-        Z = S[None, :, None] * reg.wrench_block(i0, i1)[0]
-        T[i0:i1] = np.matmul(np.linalg.pinv(S[None, :, None] * W[i0:i1]), Z)
-    meas = np.asarray(wf(np.asarray(sig.tension, float), np.ones(W.shape[2])))[idx]
-    return cells_from_design(T, theta, cov, meas, "the free motion's dynamics", chunk)
+    n, _, m = W_all.shape
+    SW = S[None, :, None] * np.asarray(W_all, float)
+    tau = np.asarray(sig.tension, float)
+    Xg = np.asarray(wf((SW * tau[:, None, :]).reshape(n, -1), np.ones(6 * m))).reshape(n, 6, m)
+    Xo = np.asarray(wf(SW.reshape(n, -1), np.ones(6 * m))).reshape(n, 6, m)
+    X = np.concatenate([Xg, Xo], axis=2)[idx]
+    q = len(theta)
+    T = np.empty((len(idx), 6, q))
+    for i0 in range(0, len(idx), chunk):
+        i1 = min(len(idx), i0 + chunk)
+        T[i0:i1] = S[None, :, None] * np.asarray(reg.wrench_block(i0, i1)[0])
+    y = T @ np.asarray(theta, float)
+    names = tuple(f"g_{j + 1}" for j in range(m)) + tuple(f"o_{j + 1}" for j in range(m))
+    res = least_squares_blocks(lambda i0, i1: (X[i0:i1], y[i0:i1]), len(idx), names,
+                               covariance="hac", chunk=chunk)
+    Xs, Ts = X.reshape(-1, 2 * m), T.reshape(-1, q)
+    J = np.linalg.solve(Xs.T @ Xs, Xs.T @ Ts)
+    C = res.cov + J @ cov_theta @ J.T
+    x, cov = np.empty((m, 2)), np.empty((m, 2, 2))
+    for j in range(m):  # tau = a tau_meas + b  ->  tau_meas = g tau + o: g = 1/a, o = -b/a
+        a, b = res.x[j], res.x[m + j]
+        x[j] = 1.0 / a, -b / a
+        D = np.array([[-1.0 / a ** 2, 0.0], [b / a ** 2, -1.0 / a]])
+        cov[j] = D @ C[np.ix_([j, m + j], [j, m + j])] @ D.T
+    return _calibration(x, cov, "the free motion's dynamics")

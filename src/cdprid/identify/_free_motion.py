@@ -5,14 +5,15 @@ unknown but act only along ``range(W)``. Projected on the free directions (an or
 basis ``N_n`` of the null space of ``W_n^T``, forces and moments scaled alike by the platform
 radius) the Newton-Euler equations lose the tensions,
 
-    N_n^T Z_n x = 0,
+    N_n^T S Z_n x = 0,
 
 homogeneous in the platform parameters: the mass (a weighed mass or a stated static weight,
-:mod:`cdprid.identify._scale`) fixes the scale. ``Z`` is the matched-filter regressor of the
-tension path (zero tensions); the projection is exact for the instantaneous equations and
-second order in the pose change within the filter's window. HAC covariance, the reference's
-uncertainty propagated. Where load cells are present, each is calibrated against the
-identified dynamics (:mod:`cdprid.identify._cells`).
+:mod:`cdprid.identify._scale`) fixes the scale. The rows are projected at the measured poses
+and then filtered (:mod:`cdprid.identify._free_rows`: exact for any cutoff); pushes by hand
+are located and left out (:mod:`cdprid.identify._free_pushes`); the fit is checked on its
+time thirds and at twice the cutoff. HAC covariance, the reference's uncertainty propagated.
+Where load cells are present, each is calibrated against the identified dynamics in the
+wrench space (:func:`cdprid.identify._cells.calibrate_cells_wrench`).
 """
 
 from __future__ import annotations
@@ -25,19 +26,28 @@ from cdprid.base import TRIM_S, InputError
 from cdprid.core import (
     CHUNK,
     estimate_motion,
-    least_squares_blocks,
     platform_radius,
+    segment_mask,
     wrench_matrices,
 )
+from cdprid.episodes import FAR_PER_HOUR
 from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
-from cdprid.identify._cells import CellCalibration, calibrate_cells
+from cdprid.identify._cells import CellCalibration, calibrate_cells_wrench
 from cdprid.identify._episodes import _trimmed
+from cdprid.identify._free_pushes import left_out
+from cdprid.identify._free_rows import (
+    fit_rows,
+    free_directions,
+    projected_filtered_rows,
+    projected_regressor,
+    window_disagreement,
+)
 from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate
 from cdprid.io import align
 from cdprid.model import PARAMETER_NAMES
 
-__all__ = ["FreeMotionReport", "identify_free_motion"]
+__all__ = ["FreeMotionReport", "free_directions", "identify_free_motion", "projected_regressor"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,6 +67,8 @@ class FreeMotionReport:
     cells : CellCalibration or None
         The load cells' gains and offsets against the identified dynamics.
     notes, warnings : tuple of str
+    episodes : tuple of Episode
+        The pushes the energy balance located (left out unless kept).
     """
 
     model: str
@@ -73,6 +85,7 @@ class FreeMotionReport:
     params: dict
     notes: tuple = ()
     warnings: tuple = ()
+    episodes: tuple = ()
 
     @property
     def std(self) -> np.ndarray:
@@ -104,6 +117,7 @@ class FreeMotionReport:
                 "hac_bandwidth_samples": self.hac_bandwidth, "wrench_filter": "matched",
                 "scale_reference": self.reference.as_json(),
                 "load_cells": None if self.cells is None else self.cells.as_json(),
+                "episodes": [e.as_json() for e in self.episodes],
                 "warnings": list(self.warnings), "notes": list(self.notes)}
 
 
@@ -116,40 +130,13 @@ def _placeholder_tensions(ds):
                                tension=np.ones((len(ds.pose_t), ds.robot.n_cables)))
 
 
-def free_directions(W, radius: float) -> np.ndarray:
-    """Orthonormal bases ``N`` (n, 6, 6 - m) of the null space of ``S W`` transposed, with
-    ``S = diag(1, 1, 1, 1/radius, ...)`` (moments in newtons at the platform's radius), so
-    that ``N^T S W = 0``.
-
-    Parameters
-    ----------
-    W : (n, 6, m) wrench matrices, m < 6
-    radius : float
-        Platform radius, m.
-    """
-    S = np.array([1.0] * 3 + [1.0 / radius] * 3)
-    U = np.linalg.svd(S[None, :, None] * np.asarray(W), full_matrices=True)[0]
-    return U[:, :, W.shape[2]:]
-
-
-def projected_regressor(Z, W, radius: float) -> np.ndarray:
-    """``N^T S Z`` (n, 6 - m, p): the regressor on the free directions (:func:`free_directions`).
-
-    Parameters
-    ----------
-    Z : (n, 6, p) the Newton-Euler regressor (``W tau = Z x``)
-    W : (n, 6, m) wrench matrices
-    radius : float
-        Platform radius, m.
-    """
-    S = np.array([1.0] * 3 + [1.0 / radius] * 3)
-    return np.matmul(free_directions(W, radius).transpose(0, 2, 1), S[None, :, None] * Z)
-
-
 def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
                          params: dict | None = None, t_start: float | None = None,
                          t_end: float | None = None, trim: float = TRIM_S,
-                         chunk: int = CHUNK, check_cutoff: bool = True) -> FreeMotionReport:
+                         chunk: int = CHUNK, check_cutoff: bool = True,
+                         keep_episodes: bool | None = False,
+                         far_per_hour: float = FAR_PER_HOUR,
+                         tension_lag: float = 0.0) -> FreeMotionReport:
     """Identify the platform from its free motion with locked winches (poses alone).
 
     Parameters
@@ -169,62 +156,126 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
         Samples per block.
     check_cutoff : bool
         Fit again at twice the cutoff; warn when an estimate moves by > 3 combined std.
+    keep_episodes : bool or None
+        Report the episodes (pushes) located but keep their samples; None: do not locate.
+    far_per_hour : float
+        False-alarm rate of the episodes stage, episodes per hour of push-free recording.
+    tension_lag : float
+        Seconds added to the tension clock before the load cells are calibrated (their clock
+        offset: positive when the tension log leads the poses; UACDPR: about 0.025 s).
 
     Returns
     -------
     FreeMotionReport
     """
-    m = ds.robot.n_cables
-    if m >= 6:
+    if (m := ds.robot.n_cables) >= 6:
         raise InputError(f"--source free-motion needs fewer than 6 cables (this robot has {m}): "
                          "locked cables leave the platform no free direction to swing in.")
     ref = choose_reference(reference, ds.robot, None, allow_drive=False)
-    dsa = _placeholder_tensions(ds)
-    sig = align(dsa, t_start, t_end)
+    if ds.tension is not None and tension_lag:
+        ds = dataclasses.replace(ds, tension_t=np.asarray(ds.tension_t) + float(tension_lag))
+    dsa, diff = _placeholder_tensions(ds), "euler-filtfilt"
+    sig, fix = align(dsa, t_start, t_end), cutoff_from_data(diff, params)
     notes = list(sig.notes) if ds.tension is not None else []
-    diff = "euler-filtfilt"
-    fix = cutoff_from_data(diff, params)
     params, w0 = resolve_params(dsa, sig, diff, params, notes)
     model, _, warns = _choose_model(model, sig, ds.path, w0)
     motion = estimate_motion(sig, diff, params, angular=(model == "full"))
-    wf, note, _ = _wrench_filter(ds.robot, diff, params, sig.dt, "matched")
-    keep = _trimmed(motion.t, trim, ds.path)
-    sig0 = dataclasses.replace(sig, tension=np.zeros_like(sig.tension))
-    reg, wf, keep = _regression(dsa, sig0, motion, model, diff, "matched", wf, keep, trim,
-                                int(chunk), notes, warns)
-    idx = np.flatnonzero(keep)
-    rho = platform_radius(ds.robot)
-    W = np.asarray(wrench_matrices(ds.robot, motion.position[idx], motion.B_R_P[idx]))
-    ref_i = ref.index(len(PARAMETER_NAMES[model]))
-    names = PARAMETER_NAMES[model]
-    o = np.delete(np.arange(len(names)), ref_i)
-
-    def rows(i0, i1):
-        Z = projected_regressor(reg.wrench_block(i0, i1)[0], W[i0:i1], rho)
-        return Z[:, :, o], -Z[:, :, ref_i]
-
-    res = least_squares_blocks(rows, len(idx), tuple(names[k] for k in o), covariance="hac",
-                               chunk=int(chunk))
+    rho, names = platform_radius(ds.robot), PARAMETER_NAMES[model]
+    ref_i = ref.index(len(names))
+    P = projected_filtered_rows(ds.robot, sig, motion, model, params, rho, int(chunk))
+    use = segment_mask(motion.t, motion.segments, trim) & _trimmed(motion.t, trim, ds.path)
+    excl, eps, extra = _left_out(ds, sig, P, ref, ref_i, names, params, trim, far_per_hour,
+                                 keep_episodes, use, chunk)
+    res = fit_rows(P, idx := np.flatnonzero(use & ~excl), ref_i, names, chunk)
+    notes += [_METHOD_NOTE.format(6 - m, diff)] + (["cutoff chosen from the data"] if fix
+                                                    else []) + extra[0]
+    warns += extra[1]
+    res = _window_scaled(P, idx, ref_i, names, chunk, sig.t, ref.value, res, notes, warns)
     theta, cov = scaled_estimate(res.x, res.cov, ref, ref_i)
     _, cov_iid = scaled_estimate(res.x, res.cov_iid, ref, ref_i)
-    notes += [note, f"free motion: the Newton-Euler equations projected on the {6 - m} free "
-              "directions of the locked cables at each pose (null space of W^T); ordinary "
-              "least squares with HAC std (the pose noise inside the regressor is not "
-              "corrected)"] + (["cutoff chosen from the data"] if fix else [])
     cells = None
     if ds.tension is not None:
-        cells = calibrate_cells(reg, W, sig, wf, idx, theta, cov, int(chunk), rho)
-        warns += list(cells.warnings)
+        notes += [f"tension clock shifted by {float(tension_lag):+g} s before the load cells' "
+                  "calibration (tension_lag)"] if tension_lag else []
+        cells = _cells(ds, sig, motion, model, diff, params, idx, theta, cov, chunk, rho,
+                       notes, warns)
     rep = FreeMotionReport(model, tuple(names), theta, cov, cov_iid, ref, len(idx),
                            float(ref.value * res.sigma_rho), float(res.hac_bandwidth), cells,
-                           diff, params, tuple(notes), tuple(warns))
+                           diff, params, tuple(notes), tuple(warns), tuple(eps))
     if not check_cutoff:
         return rep
-    c2 = min(2.0 * float(params["cutoff_hz"]), 0.4 / sig.dt)
+    c2 = min(2.0 * float(params["cutoff_hz"]), 0.4 / sig.dt)  # the same fit at twice the cutoff
     other = identify_free_motion(ds, reference, model, dict(params, cutoff_hz=c2), t_start,
-                                 t_end, trim, chunk, check_cutoff=False)
+                                 t_end, trim, chunk, check_cutoff=False,
+                                 keep_episodes=keep_episodes, far_per_hour=far_per_hour)
     return dataclasses.replace(rep, warnings=rep.warnings + tuple(_cutoff_warning(rep, other,
                                                                                  c2)))
+
+
+_METHOD_NOTE = ("free motion: the Newton-Euler equations projected on the {} free directions of "
+                "the locked cables at each measured pose (null space of W^T), then through the "
+                "{} zero-phase low-pass (projected, then filtered: exact for any cutoff); "
+                "ordinary least squares with HAC std (the pose noise inside the regressor is "
+                "not corrected)")
+
+
+def _window_scaled(P, idx, ref_i, names, chunk, t, value, res, notes, warns):
+    """The fit with its covariances multiplied by the time thirds' Birge ratio when above 1
+    (:func:`cdprid.identify._free_rows.window_disagreement`; its warning and a note added)."""
+    w2, r2 = window_disagreement(P, idx, ref_i, names, chunk, t, value)
+    warns += w2
+    if r2 <= 1.0:
+        return res
+    notes.append(f"covariance scaled by {r2:.3g}: the time thirds' spread (Birge ratio)")
+    return dataclasses.replace(res, cov=r2 * res.cov, cov_iid=r2 * res.cov_iid)
+
+
+def _left_out(ds, sig, P, ref, ref_i, names, params, trim, far_per_hour, keep_episodes, use,
+              chunk):
+    """The pushes located (:func:`cdprid.identify._free_pushes.left_out`) and the samples
+    left out: ``(excluded, episodes, (notes, warnings))``."""
+    if keep_episodes is None:
+        return np.zeros(len(sig.t), bool), (), (["pushes not located (keep_episodes=None)"], [])
+    excl, eps, caveat, margin_s = left_out(ds, sig, P, ref_i, ref.value, names,
+                                           float(params["cutoff_hz"]), trim, far_per_hour, use,
+                                           chunk)
+    notes = _episode_notes(eps, excl, keep_episodes, ds.tension is not None, margin_s)
+    if keep_episodes:
+        excl = np.zeros_like(excl)
+    warns = [caveat] if caveat else []
+    if ds.tension is None:
+        warns.append("no load cells: pushes were located in the free directions' residual "
+                     "alone (the energy balance and the cable wrench residual need tensions); "
+                     "a push that the scan misses biases every parameter (on simulated "
+                     "recordings z_G by up to a factor 2)")
+    return excl, eps, (notes, warns)
+
+
+def _episode_notes(eps, excl, keep_episodes, has_tension: bool, margin_s: float) -> list:
+    """The sentence on the pushes located (or none)."""
+    how = ("the episodes stage (cable wrench residual, energy balance) and the free "
+           "directions' residual scan" if has_tension else "the free directions' residual scan")
+    if not eps:
+        return [f"{how} located no push"]
+    spans = ", ".join(f"{e.kind} {e.start_s:.2f}-{e.end_s:.2f} s" for e in eps)
+    if keep_episodes:
+        return [f"{len(eps)} episode(s) located by {how} and kept (--keep-episodes): {spans}"]
+    return [f"{len(eps)} episode(s) located by {how} and left out: {spans}; "
+            f"{int(excl.sum())} samples, {margin_s:.2g} s of filter transient on each side"]
+
+
+def _cells(ds, sig, motion, model, diff, params, idx, theta, cov, chunk, rho, notes, warns):
+    """The load cells against the identified dynamics on the kept samples."""
+    wf, _, _ = _wrench_filter(ds.robot, diff, params, sig.dt, "matched")
+    keep = np.zeros(len(sig.t), bool)
+    keep[idx] = True
+    reg, wf, keep2 = _regression(ds, sig, motion, model, diff, "matched", wf, keep, 0.0,
+                                 int(chunk), [""], [])
+    W = np.asarray(wrench_matrices(ds.robot, motion.position, motion.B_R_P))
+    cells = calibrate_cells_wrench(reg, W, sig, wf, np.flatnonzero(keep2), theta, cov,
+                                   int(chunk), rho)
+    warns += list(cells.warnings)
+    return cells
 
 
 def _cutoff_warning(rep: FreeMotionReport, other: FreeMotionReport, c2: float) -> list:

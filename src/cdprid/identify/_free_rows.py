@@ -1,0 +1,194 @@
+"""The free motion's regression rows, its pushes located by the energy balance, and its
+consistency over time (``identify --source free-motion``).
+
+**Rows: project, then filter.** The locked cables' tensions act only along ``range(W)``; at
+every sample ``N_n^T S Z_n x = 0`` holds exactly (``N_n`` the free directions,
+:func:`cdprid.identify._free_motion.free_directions`). The rows are built from accurate rates
+(central differences, :func:`cdprid.core.reference_rates`) at the measured poses, projected,
+and only then passed through the differentiator's zero-phase low-pass ``F``:
+``F[N^T S Z] x = F[0] = 0``, exact for any filter. The earlier rows projected the
+matched-filtered regressor, ``N^T F[S Z] x = N^T F[S W tau]``, which is not zero (``F`` does not
+commute with the pose-dependent ``N`` and ``W``): a bias that grows as the cutoff falls
+(``docs/drives.md``, "Measured").
+
+**Pushes.** A hand pushing the platform acts in the free directions, exactly what the fit
+reads (on simulated recordings a push-laden fit doubled z_G). The episodes stage
+(:func:`cdprid.episodes.find_episodes`, the load cells' wrench residual and the energy balance)
+locates them when tensions are recorded; the caller leaves them out. (Tried and dropped: the
+energy test on the free motion's own estimate, without tensions, flagged 80 % of a simulated
+recording even from a good estimate.)
+
+**Consistency.** :func:`window_disagreement` fits the kept samples' thirds apart: a push no
+test located (one that only slows a swing, or any recording without tensions) makes them
+disagree.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cdprid.base import InputError
+from cdprid.core import (
+    least_squares_blocks,
+    reference_rates,
+    regressors,
+    wrench_matrices,
+)
+from cdprid.signal import acceleration_filter
+
+__all__ = ["free_directions", "projected_regressor", "projected_filtered_rows", "fit_rows",
+           "window_disagreement"]
+
+#: window disagreement (combined std) beyond which the command warns
+WINDOW_Z = 3.0
+
+
+def free_directions(W, radius: float) -> np.ndarray:
+    """Orthonormal bases ``N`` (n, 6, 6 - m) of the null space of ``S W`` transposed, with
+    ``S = diag(1, 1, 1, 1/radius, ...)`` (moments in newtons at the platform's radius), so
+    that ``N^T S W = 0``.
+
+    Parameters
+    ----------
+    W : (n, 6, m) wrench matrices, m < 6
+    radius : float
+        Platform radius, m.
+    """
+    S = np.array([1.0] * 3 + [1.0 / radius] * 3)
+    U = np.linalg.svd(S[None, :, None] * np.asarray(W), full_matrices=True)[0]
+    return U[:, :, W.shape[2]:]
+
+
+def projected_regressor(Z, W, radius: float) -> np.ndarray:
+    """``N^T S Z`` (n, 6 - m, p): the regressor on the free directions (:func:`free_directions`).
+
+    Parameters
+    ----------
+    Z : (n, 6, p) the Newton-Euler regressor (``W tau = Z x``)
+    W : (n, 6, m) wrench matrices
+    radius : float
+        Platform radius, m.
+    """
+    S = np.array([1.0] * 3 + [1.0 / radius] * 3)
+    return np.matmul(free_directions(W, radius).transpose(0, 2, 1), S[None, :, None] * Z)
+
+
+def projected_filtered_rows(robot, sig, motion, model: str, params: dict, rho: float,
+                            chunk: int) -> np.ndarray:
+    """``F[N^T S Z]`` (n, 6 - m, p) at every aligned sample (see the module docstring).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    sig : AlignedSignals
+        Its positions and quaternions (the measured poses).
+    motion : Motion
+        The differentiator's motion (its segments; rates come from central differences).
+    model : {"translation", "full"}
+    params : dict
+        The euler-filtfilt parameters (``cutoff_hz``, ``order``).
+    rho : float
+        Platform radius, m (moments weighed as forces at that radius).
+    chunk : int
+        Samples per block.
+
+    Returns
+    -------
+    ndarray (n, 6 - m, p)
+    """
+    a, om, al = reference_rates(motion, sig.quaternion)
+    if model != "full":
+        om, al = np.zeros_like(om), np.zeros_like(al)
+    n, g = len(sig.t), np.asarray(robot.gravity, float)
+    out = None
+    for i0 in range(0, n, chunk):
+        i1 = min(n, i0 + chunk)
+        R = motion.B_R_P[i0:i1]
+        Z = np.asarray(regressors(model, R, a[i0:i1], om[i0:i1], al[i0:i1], g))
+        W = np.asarray(wrench_matrices(robot, sig.position[i0:i1], R))
+        P = projected_regressor(Z, W, rho)
+        if out is None:
+            out = np.empty((n,) + P.shape[1:])
+        out[i0:i1] = P
+    flat = out.reshape(n, -1)
+    for s0, s1 in motion.segments:
+        flat[s0:s1] = acceleration_filter(flat[s0:s1], sig.dt, "euler-filtfilt", **params)
+    return flat.reshape(out.shape)
+
+
+def fit_rows(P, idx, ref_i: int, names, chunk: int):
+    """Least squares with HAC covariance of ``P[idx] x = 0`` with ``x[ref_i] = 1``.
+
+    Parameters
+    ----------
+    P : (n, k, p) rows
+    idx : (n_kept,) the samples fitted
+    ref_i : int
+        The reference parameter's index.
+    names : tuple of str
+    chunk : int
+
+    Returns
+    -------
+    LSResult (without the reference parameter)
+    """
+    o = np.delete(np.arange(P.shape[2]), ref_i)
+
+    def rows(i0, i1):
+        Z = P[idx[i0:i1]]
+        return Z[:, :, o], -Z[:, :, ref_i]
+
+    return least_squares_blocks(rows, len(idx), tuple(names[k] for k in o),
+                                covariance="hac", chunk=int(chunk))
+
+
+def window_disagreement(P, idx, ref_i: int, names, chunk: int, t,
+                        value: float) -> tuple[list, float]:
+    """How far the kept samples' thirds (in time) disagree: one warning when two differ by more
+    than :data:`WINDOW_Z` combined std in some parameter (pushes not located, a drift), and
+    the Birge ratio ``R2`` (>= 1): the thirds' chi-squared about their inverse-variance mean,
+    per degree of freedom, over the parameters. The caller multiplies the covariance by it,
+    so that the std covers the spread the thirds show (unmodelled forces vary in time; noise
+    alone gives ``R2`` near 1).
+
+    Parameters
+    ----------
+    P, idx, ref_i, names, chunk : as in :func:`fit_rows`
+    t : (n,) times, s
+    value : float
+        The reference's value (the estimates are scaled by it).
+
+    Returns
+    -------
+    list of str (empty or one sentence), float R2
+    """
+    parts = np.array_split(idx, 3)
+    if min(len(p) for p in parts) < 20 * P.shape[2]:
+        return [], 1.0
+    fits = []
+    for part in parts:
+        try:
+            fits.append(fit_rows(P, part, ref_i, names, chunk))
+        except InputError:
+            return [], 1.0
+    x = np.array([f.x for f in fits])
+    v = np.array([np.diag(f.cov) for f in fits]) + 1e-300
+    mean = np.sum(x / v, 0) / np.sum(1.0 / v, 0)
+    r2 = max(1.0, float(np.mean(np.sum((x - mean) ** 2 / v, 0) / 2.0)))
+    worst = (0.0, 0, 0, 0)
+    for i in range(3):
+        for j in range(i + 1, 3):
+            z = np.abs(x[i] - x[j]) / np.sqrt(v[i] + v[j])
+            k = int(np.argmax(z))
+            if z[k] > worst[0]:
+                worst = (float(z[k]), i, j, k)
+    zmax, i, j, k = worst
+    if zmax <= WINDOW_Z:
+        return [], r2
+    win = [f"{t[p[0]]:.1f}-{t[p[-1]]:.1f} s" for p in parts]
+    return [f"the estimate depends on the time window: {fits[0].names[k]} is "
+            f"{value * x[i, k]:.4g} over {win[i]} and {value * x[j, k]:.4g} over {win[j]} "
+            f"({zmax:.1f} combined std): outside forces no test located (a push that only "
+            "slows a swing, contact, drag) or a drift bias the fit; the covariance is scaled "
+            f"by the thirds' spread (x {r2:.2g}), which may still not cover a bias they share. "
+            "Use a push-free release, or --t-start/--t-end on a window you trust."], r2
