@@ -52,8 +52,11 @@ from cdprid.identify._online_types import OnlineState as OnlineState
 from cdprid.identify._online_types import RLSResult as RLSResult
 from cdprid.identify._payload import identify_currents_payload as identify_currents_payload
 from cdprid.identify._payload import parse_payload as parse_payload
+from cdprid.identify._real import ExtensionStep as ExtensionStep
 from cdprid.identify._real import RealData as RealData
 from cdprid.identify._real import RealResult as RealResult
+from cdprid.identify._real import ResidualRms as ResidualRms
+from cdprid.identify._real import RestWeight as RestWeight
 from cdprid.identify._real import compare_extensions as compare_extensions
 from cdprid.identify._real import identify_real as identify_real
 from cdprid.identify._real import jax_zero_phase_filter as jax_zero_phase_filter
