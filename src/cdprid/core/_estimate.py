@@ -88,11 +88,15 @@ class Estimate:
         """``std / crb_std`` (1 is the best possible), None without a bound."""
         return None if self.crb_std is None else self.std / self.crb_std
 
-    def as_json(self) -> dict:
+    def as_json(self, bound: bool = True) -> dict:
         """``{"value", "std", "rel_std_percent", "std_iid", "crb_std", "efficiency"}`` (one
-        entry of the ``parameters`` object of ``cdprid identify --json``)."""
-        return {"value": self.value, "std": self.std, "rel_std_percent": self.rel_std_percent,
-                "std_iid": self.std_iid, "crb_std": self.crb_std, "efficiency": self.efficiency}
+        entry of the ``parameters`` object of ``cdprid identify --json``); ``bound=False``
+        leaves out the last two (``identify --online``, which computes no bound)."""
+        out = {"value": self.value, "std": self.std, "rel_std_percent": self.rel_std_percent,
+               "std_iid": self.std_iid}
+        if bound:
+            out.update(crb_std=self.crb_std, efficiency=self.efficiency)
+        return out
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -176,6 +180,7 @@ class Estimates:
     def __contains__(self, name: object) -> bool:
         return name in self.names
 
-    def as_json(self) -> dict:
-        """``{name: Estimate.as_json()}`` in order (the ``parameters`` object of the JSON)."""
-        return {e.name: e.as_json() for e in self.items}
+    def as_json(self, bound: bool = True) -> dict:
+        """``{name: Estimate.as_json(bound)}`` in order (the ``parameters`` object of the
+        JSON)."""
+        return {e.name: e.as_json(bound) for e in self.items}
