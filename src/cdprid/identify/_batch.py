@@ -460,8 +460,26 @@ def recording_bound(ds: Dataset, sig: AlignedSignals, motion: Motion, keep, mode
                     x) -> tuple[CRBResult | None, str]:
     """The Cramer-Rao bound of the samples ``keep`` with noise levels from the data.
 
-    Noise levels from :func:`noise_levels`. Returns ``(bound, '')`` or ``(None, why)`` when
-    it cannot be computed.
+    Parameters
+    ----------
+    ds : Dataset
+        The recording (robot; raw streams for :func:`cdprid.core.noise_levels`).
+    sig : AlignedSignals
+        Its aligned streams (tensions at the pose times, N).
+    motion : Motion
+        The differentiated motion.
+    keep : array of bool (n,)
+        Samples used by the fit.
+    model : {"translation", "full"}
+        The model identified.
+    x : array (p,)
+        The estimate at which the bound is evaluated (SI units).
+
+    Returns
+    -------
+    (CRBResult, "") or (None, str)
+        The bound (its ``noise`` says the levels used), or None and the reason it could not be
+        computed.
     """
     s_tau, per_pose, s_pos, s_rot = noise_levels(ds, sig)
     k = np.asarray(keep, bool)
@@ -485,6 +503,22 @@ def physical_report(rep: IdentificationReport) -> IdentificationReport:
 
     Uses :func:`cdprid.core.physical_fit` on the LS estimate and its covariance; equal to the
     LS estimate when that is already realisable. The i.i.d. covariance is propagated the same way.
+
+    Parameters
+    ----------
+    rep : IdentificationReport
+        A full-model report.
+
+    Returns
+    -------
+    IdentificationReport
+        The same report with the constrained estimate, its covariances and residual, a note
+        saying whether the constraint is active, and the "physically impossible" warning gone.
+
+    Raises
+    ------
+    cdprid.base.InputError
+        The report is not of the full model.
     """
     if rep.model != "full":
         raise InputError("--physical constrains the full model's inertia: use --model full (or "

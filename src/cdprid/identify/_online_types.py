@@ -380,6 +380,13 @@ class OnlineResult:
 
         ``std`` is the HAC standard deviation of the final estimate; ``std_iid`` the RLS's
         eq. 20 value.
+
+        Returns
+        -------
+        dict
+            ``model``, ``parameters`` (``{name: {"value", "std", "rel_std_percent",
+            "std_iid"}}``), ``sigma_rho``, ``cond``, ``cond_scaled``, ``n_samples``,
+            ``covariance`` ("hac"), ``hac_bandwidth_samples``.
         """
         est, bw = self._final_estimates()
         return {

@@ -328,7 +328,15 @@ class RealResult:
     options: dict
 
     def summary(self) -> dict:
-        """Plain-Python summary (JSON / TOML)."""
+        """Plain-Python summary (JSON / TOML).
+
+        Returns
+        -------
+        dict
+            ``model``, ``parameters`` (``{name: {"value", "std"}}``), ``train_rms`` and
+            ``heldout_rms`` (``{"force_N", "moment_Nm"}``), ``n_train``, ``n_test``,
+            ``hac_bandwidth`` (samples), ``options``.
+        """
         return {
             "model": self.model,
             "parameters": {n: {"value": self.values[n], "std": self.std[n]} for n in self.names},

@@ -92,8 +92,16 @@ class IdentificationReport:
                 else "G (centre of mass), platform frame")
 
     def estimates(self) -> tuple[tuple, np.ndarray, np.ndarray, np.ndarray]:
-        """``(names, x, cov, cov_iid)`` with the inertia about the chosen point (the untyped
-        view; :meth:`parameters` gives the typed one)."""
+        """The untyped view of the estimates (:meth:`parameters` gives the typed one).
+
+        Returns
+        -------
+        names : tuple of str
+        x : ndarray (p,)
+            Estimates, SI units, the inertia about the chosen point.
+        cov, cov_iid : ndarray (p, p)
+            Covariance as chosen (HAC or eq. 20) and the i.i.d. one, moved the same way.
+        """
         r = self.result
         cov_iid = r.cov if r.cov_iid is None else r.cov_iid
         if self.model != "full" or self.inertia_about == "P":
@@ -102,7 +110,13 @@ class IdentificationReport:
         return r.names, x, J @ r.cov @ J.T, J @ cov_iid @ J.T
 
     def crb_std(self) -> np.ndarray | None:
-        """The Cramer-Rao bound's std per parameter (inertia about the chosen point)."""
+        """The Cramer-Rao bound's std per parameter (inertia about the chosen point).
+
+        Returns
+        -------
+        ndarray (p,) or None
+            SI units of each parameter; None when the bound was not computed.
+        """
         if self.crb is None:
             return None
         cov = self.crb.cov
@@ -130,7 +144,18 @@ class IdentificationReport:
                 else "eiv" if EIV_NOTE in self.notes else "none")
 
     def as_json(self) -> dict:
-        """The JSON contract of ``cdprid identify --json``."""
+        """The JSON contract of ``cdprid identify --json``.
+
+        Returns
+        -------
+        dict
+            ``model``, ``parameters`` (:meth:`cdprid.core.Estimates.as_json`), ``sigma_rho``,
+            ``cond``, ``cond_scaled``, ``n_samples``, ``differentiator``,
+            ``differentiator_params``, ``weighting``, ``covariance``,
+            ``hac_bandwidth_samples``, ``wrench_filter``, ``rotation_deg``, ``crb_std``,
+            ``efficiency``, ``crb``, ``warnings``, ``notes``, ``episodes`` and, for the full
+            model, ``inertia_about`` (docs/formats.md).
+        """
         r = self.result
         est = self.parameters()
         out = {
