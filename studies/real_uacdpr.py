@@ -115,7 +115,7 @@ def main() -> int:
             if cfg == "IRMA4U_Mar25":
                 steps = compare_extensions(data, train_until=TRAIN_UNTIL)
                 results[cfg] = (data, steps, cal)
-                final = next(s["result"] for s in steps if "final" in s["step"])
+                final = next(s.result for s in steps if "final" in s.step)
             else:
                 final = identify_real(data, model="full", gains=True, offsets=False, delay=True,
                                       train_until=TRAIN_UNTIL)
@@ -123,7 +123,7 @@ def main() -> int:
             cfg_rows.append((cfg, cal["rms_after"], final, zG, _inertia_G(final)))
             print(f"{cfg}: done at {time.perf_counter() - t0:.0f} s")
     data, steps, cal = results["IRMA4U_Mar25"]
-    final = next(s["result"] for s in steps if "final" in s["step"])
+    final = next(s.result for s in steps if "final" in s.step)
     rest = weight_at_rest(data, gain=final.gain)
     lines += ["## Geometric calibration (IRMA4U_Mar25, inside the importer)", "",
               f"- RMS after: lengths {1e3 * cal['rms_after']['length_m']:.3f} mm, swivel "
@@ -136,19 +136,19 @@ def main() -> int:
               f"{np.round(1e3 * np.array(cal['sigma']['M_p_P']), 1).tolist()}",
               f"- lengths = {np.round(cal['lengths'], 4).tolist()} m; swivel offsets = "
               f"{np.round(cal['swivel_offset'], 3).tolist()} rad", ""]
-    base = steps[0]["result"]
+    base = steps[0].result
     lines += ["## Extensions, cumulative (same taut mask)", "",
               "| step | train force rms, N | held-out force rms, N | held-out moment rms, N m | "
               "m, kg | delay, ms |", "|---|---|---|---|---|---|"]
     for s in steps:
-        r = s["result"]
-        lines.append(f"| {s['step']} | {r.train_rms['force_N']:.2f} | "
-                     f"{r.heldout_rms['force_N']:.2f} | {r.heldout_rms['moment_Nm']:.3f} | "
+        r = s.result
+        lines.append(f"| {s.step} | {r.train_rms.force_N:.2f} | "
+                     f"{r.heldout_rms.force_N:.2f} | {r.heldout_rms.moment_Nm:.3f} | "
                      f"{r.values['m']:.3f} +- {r.std['m']:.3f} | "
                      f"{1e3 * r.delay:.1f} +- {1e3 * r.std['delay']:.1f} |")
-    ratio = final.heldout_rms["force_N"] / base.heldout_rms["force_N"]
-    lines += ["", f"Final / paper held-out force RMS (taut): {final.heldout_rms['force_N']:.2f} / "
-              f"{base.heldout_rms['force_N']:.2f} N = {ratio:.2f}. Training taut samples "
+    ratio = final.heldout_rms.force_N / base.heldout_rms.force_N
+    lines += ["", f"Final / paper held-out force RMS (taut): {final.heldout_rms.force_N:.2f} / "
+              f"{base.heldout_rms.force_N:.2f} N = {ratio:.2f}. Training taut samples "
               f"{final.n_train}, held-out {final.n_test}; std: "
               f"HAC (Bartlett bandwidth {final.bandwidth:.0f} samples).", ""]
     lines += ["## Final model (full, delay, relative gains): parameters", "",
@@ -158,17 +158,17 @@ def main() -> int:
     mm = final.values["m"]
     lines += ["", "## Mass, centre of mass, inertia", "",
               f"- mass from the motion (final model): {mm:.3f} +- {final.std['m']:.3f} kg",
-              f"- weight at rest (t in {rest['windows']}, sum of vertical cable forces / g, same "
-              f"gains): {rest['mass']:.3f} kg; gap {100 * (mm / rest['mass'] - 1):+.1f} %",
+              f"- weight at rest (t in {rest.windows}, sum of vertical cable forces / g, same "
+              f"gains): {rest.mass:.3f} kg; gap {100 * (mm / rest.mass - 1):+.1f} %",
               f"- configuration: {NOMINAL['m']} kg: the load cells' weight reading is "
-              f"{100 * (rest['mass'] / NOMINAL['m'] - 1):+.1f} % off it. A common gain of all "
+              f"{100 * (rest.mass / NOMINAL['m'] - 1):+.1f} % off it. A common gain of all "
               "cells is indistinguishable from the mass; it is NOT tuned away here.", ""]
     lines += ["| config | calib. lengths mm / swivel mrad | held-out force N | m | z_G, m | "
               "z_G vs 0.173 | I_G diag (kg m^2) | ratios to config |",
               "|---|---|---|---|---|---|---|---|"]
     for cfg, rms, r, zG, IG in cfg_rows:
         lines.append(f"| {cfg} | {1e3 * rms['length_m']:.3f} / {1e3 * rms['swivel_rad']:.2f} | "
-                     f"{r.heldout_rms['force_N']:.2f} | {r.values['m']:.3f} | {zG:.4f} | "
+                     f"{r.heldout_rms.force_N:.2f} | {r.values['m']:.3f} | {zG:.4f} | "
                      f"{100 * (zG / NOMINAL['zG'] - 1):+.1f} % | {np.round(IG, 3).tolist()} | "
                      f"{np.round(IG / NOMINAL['I'], 2).tolist()} |")
     lines += ["", "Inertia ratios also shown scaled by 12.992 / m (if the mass gap is a common "

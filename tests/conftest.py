@@ -131,6 +131,20 @@ def craft_orbits(tmp_path_factory):
     return write_simulation(res, tmp_path_factory.mktemp("craft") / "craft-sim-orbits")
 
 
+@pytest.fixture(scope="session")
+def two_orbits():
+    """Two tilted orbits of the CRAFT-like robot's workspace (an ``orbit_sequence`` with rest at
+    both ends; about 12 s): the trajectory of tests/model/test_trajectories.py and
+    tests/simulation/test_simulate.py, built once per session."""
+    from cdprid.model import Orbit, orbit_sequence
+
+    orbits = [
+        Orbit(0.3, 0.4, 5.0, azimuth=0.3, tilt=1.0, phase=0.2, ramp=1.5),
+        Orbit(0.2, 0.6, 4.0, azimuth=1.2, tilt=0.4, ramp=1.0, centre=(0.1, -0.1, 1.3)),
+    ]
+    return orbit_sequence(orbits, [0.0, 0.0, 1.2], 0.3, 0.4, 0.3, name="test")
+
+
 @pytest.fixture
 def rng():
     """A seeded numpy generator (no global random state)."""

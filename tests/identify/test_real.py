@@ -56,11 +56,11 @@ def test_mass_from_motion_matches_weight_at_rest(calibrated):
     r = identify_real(data, model="full", offsets=False, gains=False, delay=True,
                       train_until=25.0)
     rest = weight_at_rest(data)
-    assert rest["windows"] and rest["windows"][0][0] < 6.0
-    assert abs(r.values["m"] / rest["mass"] - 1) < 0.02, (r.values["m"], rest["mass"])
+    assert rest.windows and rest.windows[0][0] < 6.0
+    assert abs(r.values["m"] / rest.mass - 1) < 0.02, (r.values["m"], rest.mass)
     # the tension log leads the pose by a few tens of ms (same sign as the swivel residuals)
     assert -0.05 < r.delay < -0.005
-    assert r.heldout_rms["force_N"] < 20.0
+    assert r.heldout_rms.force_N < 20.0
 
 
 @pytest.mark.slow

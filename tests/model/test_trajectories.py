@@ -21,19 +21,10 @@ from cdprid.model import (  # noqa: E402  # noqa: E402
 )
 
 
-@pytest.fixture(scope="module")
-def traj():
-    orbits = [
-        Orbit(0.3, 0.4, 5.0, azimuth=0.3, tilt=1.0, phase=0.2, ramp=1.5),
-        Orbit(0.2, 0.6, 4.0, azimuth=1.2, tilt=0.4, ramp=1.0, centre=(0.1, -0.1, 1.3)),
-    ]
-    return orbit_sequence(orbits, [0.0, 0.0, 1.2], 0.3, 0.4, 0.3, name="test")
-
-
-def test_derivatives_match_autodiff_of_position(traj):
-    t = np.linspace(0.0, traj.duration, 97)
-    s = traj.evaluate(t)
-    d1 = jax.jacfwd(traj.position)
+def test_derivatives_match_autodiff_of_position(two_orbits):
+    t = np.linspace(0.0, two_orbits.duration, 97)
+    s = two_orbits.evaluate(t)
+    d1 = jax.jacfwd(two_orbits.position)
     d2 = jax.jacfwd(d1)
     d3 = jax.jacfwd(d2)
     v, a, j = jax.jit(jax.vmap(lambda x: (d1(x), d2(x), d3(x))))(jnp.asarray(t))
@@ -42,26 +33,26 @@ def test_derivatives_match_autodiff_of_position(traj):
     np.testing.assert_allclose(s.j, j, atol=1e-10)
 
 
-def test_derivatives_match_finite_differences(traj):
-    t = np.linspace(0.05, traj.duration - 0.05, 211) + 1e-3  # off the ramp boundaries
+def test_derivatives_match_finite_differences(two_orbits):
+    t = np.linspace(0.05, two_orbits.duration - 0.05, 211) + 1e-3  # off the ramp boundaries
     h = 1e-5
-    s, sp, sm = traj.evaluate(t), traj.evaluate(t + h), traj.evaluate(t - h)
+    s, sp, sm = two_orbits.evaluate(t), two_orbits.evaluate(t + h), two_orbits.evaluate(t - h)
     np.testing.assert_allclose((sp.p - sm.p) / (2 * h), s.v, atol=1e-8)
     np.testing.assert_allclose((sp.v - sm.v) / (2 * h), s.a, atol=1e-7)
     np.testing.assert_allclose((sp.a - sm.a) / (2 * h), s.j, atol=1e-6)
 
 
-def test_motion_vanishes_at_both_ends(traj):
-    s = traj.evaluate([0.0, 0.3, traj.duration - 0.3, traj.duration])
+def test_motion_vanishes_at_both_ends(two_orbits):
+    s = two_orbits.evaluate([0.0, 0.3, two_orbits.duration - 0.3, two_orbits.duration])
     np.testing.assert_allclose(s.p, np.tile([0.0, 0.0, 1.2], (4, 1)), atol=1e-15)
     for x in (s.v, s.a, s.j):
         np.testing.assert_allclose(x, 0.0, atol=1e-11)
-    mid = traj.evaluate([3.0])
+    mid = two_orbits.evaluate([3.0])
     assert np.linalg.norm(mid.v) > 0.1
 
 
-def test_rotation_rates_match_quaternion_finite_differences(traj):
-    tr = with_rotation(traj, 0.05)
+def test_rotation_rates_match_quaternion_finite_differences(two_orbits):
+    tr = with_rotation(two_orbits, 0.05)
     assert tr.has_rotation
     t = np.linspace(1.0, tr.duration - 1.0, 53)
     h = 1e-5
@@ -79,9 +70,9 @@ def test_rotation_rates_match_quaternion_finite_differences(traj):
     assert np.max(np.abs(np.asarray(s.q)[:, 1:])) > 0.01
 
 
-def test_csv_round_trip_exact_at_samples_and_close_between(tmp_path, traj):
-    tr = with_rotation(traj, 0.05)
-    path = save_trajectory_csv(tr, tmp_path / "traj.csv", rate_hz=100.0)
+def test_csv_round_trip_exact_at_samples_and_close_between(tmp_path, two_orbits):
+    tr = with_rotation(two_orbits, 0.05)
+    path = save_trajectory_csv(tr, tmp_path / "two_orbits.csv", rate_hz=100.0)
     with pytest.raises(FileExistsError):
         save_trajectory_csv(tr, path)
     loaded = load_trajectory_csv(path)

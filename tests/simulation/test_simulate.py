@@ -14,11 +14,9 @@ from cdprid.model import (  # noqa: E402  # noqa: E402  # noqa: E402  # noqa: E4
     CRAFT_LIKE,
     InertialParameters,
     InfeasibleTensionsError,  # noqa: E402
-    Orbit,
     craft_like_robot,
     craft_like_truth,
     leave_points,
-    orbit_sequence,
     platform_wrench,
     preset,
     quat_to_matrix,  # noqa: E402
@@ -35,23 +33,13 @@ def robot():
     return craft_like_robot()
 
 
-@pytest.fixture(scope="module")
-def traj():
-    # the same two orbits as tests/model/test_trajectories.py (shares compilations)
-    orbits = [
-        Orbit(0.3, 0.4, 5.0, azimuth=0.3, tilt=1.0, phase=0.2, ramp=1.5),
-        Orbit(0.2, 0.6, 4.0, azimuth=1.2, tilt=0.4, ramp=1.0, centre=(0.1, -0.1, 1.3)),
-    ]
-    return orbit_sequence(orbits, [0.0, 0.0, 1.2], 0.3, 0.4, 0.3, name="test")
-
-
-def run(robot, traj, effects=(), noise=OFF, **kw):
-    return simulate(robot, traj, effects=effects, noise=noise, **kw)
+def run(robot, two_orbits, effects=(), noise=OFF, **kw):
+    return simulate(robot, two_orbits, effects=effects, noise=noise, **kw)
 
 
 @pytest.fixture(scope="module")
-def clean(robot, traj):
-    return run(robot, traj)
+def clean(robot, two_orbits):
+    return run(robot, two_orbits)
 
 
 @jax.jit
@@ -83,8 +71,8 @@ def test_noise_free_data_satisfy_newton_euler(robot, clean):
     assert 1.0 - 1e-9 <= clean.tension.min() and clean.tension.max() < 60.0  # robot limits 1..150 N
 
 
-def test_rotational_dynamics_rotates_and_inertia_acts(robot, traj, clean):
-    res = run(robot, traj, [Effect("rotational_dynamics", {"amplitude_rad": 0.05})])
+def test_rotational_dynamics_rotates_and_inertia_acts(robot, two_orbits, clean):
+    res = run(robot, two_orbits, [Effect("rotational_dynamics", {"amplitude_rad": 0.05})])
     assert res.quaternion is not None
     angle = 2 * np.arccos(np.clip(res.quaternion[:, 0], -1, 1))
     assert 0.03 < angle.max() < 0.05 * np.sqrt(3) + 1e-9
@@ -95,12 +83,12 @@ def test_rotational_dynamics_rotates_and_inertia_acts(robot, traj, clean):
     assert np.max(np.abs(newton_euler_residual(robot, no_inertia, res))) > 1e-3
 
 
-def test_time_delay_is_a_fractional_delay(robot, traj, clean):
+def test_time_delay_is_a_fractional_delay(robot, two_orbits, clean):
     from scipy.interpolate import CubicSpline
     from scipy.optimize import minimize_scalar
 
     d = 0.0237
-    res = run(robot, traj, [Effect("time_delay", {"delay_s": d})])
+    res = run(robot, two_orbits, [Effect("time_delay", {"delay_s": d})])
     np.testing.assert_array_equal(res.pose_t, clean.pose_t)
     spline = CubicSpline(clean.tension_t, clean.tension, axis=0)
     sl = slice(50, -50)
@@ -112,10 +100,10 @@ def test_time_delay_is_a_fractional_delay(robot, traj, clean):
     assert abs(est - d) < 0.02 * 0.01  # 2 % of a sample period
 
 
-def test_tension_offset_and_gain(robot, traj, clean):
+def test_tension_offset_and_gain(robot, two_orbits, clean):
     res = run(
         robot,
-        traj,
+        two_orbits,
         [
             Effect("tension_offset", {"cable": 2, "offset_N": 1.5}),
             Effect("tension_gain", {"cable": 5, "gain": 1.05}),
@@ -128,9 +116,9 @@ def test_tension_offset_and_gain(robot, traj, clean):
     np.testing.assert_array_equal(diff[:, others], 0.0)
 
 
-def test_pulley_friction_reads_on_the_winch_side(robot, traj, clean):
+def test_pulley_friction_reads_on_the_winch_side(robot, two_orbits, clean):
     e = Effect("pulley_friction", {"cable": 2, "coulomb_N": 1.5, "viscous_Ns_per_m": 4.0})
-    res = run(robot, traj, [e, Effect("tension_gain", {"cable": 2, "gain": 1.1})])
+    res = run(robot, two_orbits, [e, Effect("tension_gain", {"cable": 2, "gain": 1.1})])
     W = np.asarray(res.W_true)
     mt = res.motion_tension
     ldot = -np.einsum("nim,ni->nm", W, np.concatenate([np.asarray(mt.v), np.asarray(mt.omega)],
@@ -141,9 +129,9 @@ def test_pulley_friction_reads_on_the_winch_side(robot, traj, clean):
 
 
 @pytest.mark.parametrize("name,field", [("exit_point_error", "B_A"), ("anchor_point_error", "P_b")])
-def test_geometry_errors_use_the_true_geometry(robot, traj, name, field):
+def test_geometry_errors_use_the_true_geometry(robot, two_orbits, name, field):
     dx = np.array([0.01, 0.0, -0.02])
-    res = run(robot, traj, [Effect(name, {"cable": 3, "displacement_m": "0.01,0,-0.02"})])
+    res = run(robot, two_orbits, [Effect(name, {"cable": 3, "displacement_m": "0.01,0,-0.02"})])
     true_pts = np.array(getattr(robot, field))
     true_pts[2] += dx
     robot_true = robot.replace(**{field: true_pts})
@@ -152,9 +140,9 @@ def test_geometry_errors_use_the_true_geometry(robot, traj, name, field):
     np.testing.assert_array_equal(np.asarray(res.robot.B_A), np.asarray(robot.B_A))
 
 
-def test_viscous_drag_force_residual_is_minus_c_v(robot, traj):
+def test_viscous_drag_force_residual_is_minus_c_v(robot, two_orbits):
     c = 3.0
-    res = run(robot, traj, [Effect("viscous_drag", {"coefficient_Ns_per_m": c})])
+    res = run(robot, two_orbits, [Effect("viscous_drag", {"coefficient_Ns_per_m": c})])
     r = newton_euler_residual(robot, craft_like_truth(), res)
     v = np.asarray(res.motion_tension.v)[::7]
     # W tau + (-c v) = m (a - g): the cable force exceeds the model by c v
@@ -163,9 +151,9 @@ def test_viscous_drag_force_residual_is_minus_c_v(robot, traj):
     np.testing.assert_allclose(r[:, 3:], 0.0, atol=1e-9)
 
 
-def test_frame_tilt_changes_the_gravity_direction(robot, traj):
+def test_frame_tilt_changes_the_gravity_direction(robot, two_orbits):
     rx, ry = 0.01, -0.02
-    res = run(robot, traj, [Effect("frame_tilt", {"tilt_rad": [rx, ry]})])
+    res = run(robot, two_orbits, [Effect("frame_tilt", {"tilt_rad": [rx, ry]})])
     m = craft_like_truth().mass
     W = res.W_true
     F = np.einsum("nij,nj->ni", W, res.tension)[:, :3]
@@ -183,9 +171,9 @@ def test_frame_tilt_changes_the_gravity_direction(robot, traj):
     )
 
 
-def test_pulley_moves_the_leave_points(robot, traj, clean):
+def test_pulley_moves_the_leave_points(robot, two_orbits, clean):
     r = 0.05
-    res = run(robot, traj, [Effect("pulley", {"radius_m": r})])
+    res = run(robot, two_orbits, [Effect("pulley", {"radius_m": r})])
     assert float(res.robot.pulley_radius.max()) == 0.0  # robot.toml omits the pulleys
     robot_true = robot.replace(pulley_radius=np.full(8, r))
     np.testing.assert_allclose(
@@ -200,9 +188,9 @@ def test_pulley_moves_the_leave_points(robot, traj, clean):
     assert np.max(np.abs(newton_euler_residual(robot, craft_like_truth(), res))) > 1e-3
 
 
-def test_cable_mass_adds_half_the_cable_weight(robot, traj):
+def test_cable_mass_adds_half_the_cable_weight(robot, two_orbits):
     rho = 0.1
-    res = run(robot, traj, [Effect("cable_mass", {"linear_density_kg_per_m": rho})])
+    res = run(robot, two_orbits, [Effect("cable_mass", {"linear_density_kg_per_m": rho})])
     k = np.arange(0, len(res.tension_t), 11)
     p = np.asarray(res.motion_tension.p)[k]
     B = p[:, None, :] + np.asarray(robot.P_b)[None]  # no rotation
@@ -213,12 +201,12 @@ def test_cable_mass_adds_half_the_cable_weight(robot, traj):
     np.testing.assert_allclose(F[:, :2] - model[:, :2], 0.0, atol=1e-9)
 
 
-def test_noise_and_rates_and_seed(robot, traj, clean):
+def test_noise_and_rates_and_seed(robot, two_orbits, clean):
     noise = SensorNoise(
         position_m=2e-4, orientation_rad=1e-3, tension_N=0.5, tension_quantum_N=0.01
     )
-    a = run(robot, traj, noise=noise, rate_pose=100.0, rate_tension=80.0, seed=3)
-    b = run(robot, traj, noise=noise, rate_pose=100.0, rate_tension=80.0, seed=3)
+    a = run(robot, two_orbits, noise=noise, rate_pose=100.0, rate_tension=80.0, seed=3)
+    b = run(robot, two_orbits, noise=noise, rate_pose=100.0, rate_tension=80.0, seed=3)
     np.testing.assert_array_equal(a.tension, b.tension)
     assert a.tension_t.size != a.pose_t.size
     assert np.std(a.position - a.motion.p) == pytest.approx(2e-4, rel=0.1)
@@ -228,29 +216,29 @@ def test_noise_and_rates_and_seed(robot, traj, clean):
     assert a.quaternion is not None and np.max(np.abs(a.quaternion[:, 1:])) > 1e-4
 
 
-def test_infeasible_request_raises(robot, traj):
+def test_infeasible_request_raises(robot, two_orbits):
     with pytest.raises(
         InfeasibleTensionsError, match=r"^tension distribution infeasible at \d+ of \d+ samples"
     ):
-        run(robot, traj, tension_max=5.0)
+        run(robot, two_orbits, tension_max=5.0)
 
 
-def test_unknown_effects_and_parameters_are_rejected(robot, traj):
+def test_unknown_effects_and_parameters_are_rejected(robot, two_orbits):
     with pytest.raises(ValueError, match="valid effects: none, time_delay"):
         Effect("delay", {})
     with pytest.raises(ValueError, match="valid parameters: cable, gain"):
         Effect("tension_gain", {"cable": 1, "gian": 1.0})
     with pytest.raises(ValueError, match="has 8 cables"):
-        run(robot, traj, [Effect("tension_offset", {"cable": 9, "offset_N": 1.0})])
+        run(robot, two_orbits, [Effect("tension_offset", {"cable": 9, "offset_N": 1.0})])
 
 
-def test_written_dataset_reads_back(tmp_path, robot, traj):
+def test_written_dataset_reads_back(tmp_path, robot, two_orbits):
     effects = [
         Effect("time_delay", {"delay_s": 0.02}),
         Effect("tension_gain", {"cable": 3, "gain": 1.05}),
         Effect("rotational_dynamics", {"amplitude_rad": 0.03}),
     ]
-    res = run(robot, traj, effects, noise=SensorNoise())
+    res = run(robot, two_orbits, effects, noise=SensorNoise())
     out = write_simulation(res, tmp_path / "ds")
     with pytest.raises(FileExistsError):
         write_simulation(res, tmp_path / "ds")
@@ -361,11 +349,11 @@ def test_cli_infeasible_exits_2_with_one_line(tmp_path, capsys):
     assert not (tmp_path / "o" / "pose.csv").exists()
 
 
-def test_cli_trajectory_file(tmp_path, robot, traj):
+def test_cli_trajectory_file(tmp_path, robot, two_orbits):
     from cdprid.cli import main
     from cdprid.io import save_trajectory_csv
 
-    f = save_trajectory_csv(traj, tmp_path / "t.csv", rate_hz=100.0)
+    f = save_trajectory_csv(two_orbits, tmp_path / "t.csv", rate_hz=100.0)
     assert (
         main(
             [
@@ -383,13 +371,13 @@ def test_cli_trajectory_file(tmp_path, robot, traj):
         == 0
     )
     ds = read_dataset(tmp_path / "d")
-    np.testing.assert_allclose(ds.position, np.asarray(traj.evaluate(ds.pose_t).p), atol=1e-9)
+    np.testing.assert_allclose(ds.position, np.asarray(two_orbits.evaluate(ds.pose_t).p), atol=1e-9)
 
 
-def test_cable_elasticity_writes_the_encoder_stream(tmp_path, robot, traj, clean):
+def test_cable_elasticity_writes_the_encoder_stream(tmp_path, robot, two_orbits, clean):
     """lengths.csv: l = L / (1 + tau / EA) on the elastic cable, L on the others; no force."""
     e = Effect("cable_elasticity", {"cable": 3, "EA_N": 5e4})
-    res = run(robot, traj, [e])
+    res = run(robot, two_orbits, [e])
     np.testing.assert_array_equal(res.tension, clean.tension)  # no force changes
     assert clean.lengths is None
     mt = res.motion_tension
@@ -406,6 +394,6 @@ def test_cable_elasticity_writes_the_encoder_stream(tmp_path, robot, traj, clean
     np.testing.assert_allclose(vals[:, 1:], res.lengths, atol=1e-9)
     np.testing.assert_allclose(vals[:, 0], res.tension_t)
     # on request without the effect; encoder noise as stated
-    noisy = run(robot, traj, lengths=True, noise=SensorNoise(0.0, 0.0, 0.0, length_m=1e-4))
+    noisy = run(robot, two_orbits, lengths=True, noise=SensorNoise(0.0, 0.0, 0.0, length_m=1e-4))
     d = noisy.lengths - L
     assert abs(d.std() - 1e-4) < 5e-6 and abs(d.mean()) < 5e-6

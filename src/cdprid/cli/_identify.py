@@ -116,8 +116,7 @@ def _with_guards(ds, rep):
     from cdprid.core import input_warnings, result_warnings
     from cdprid.identify import swapped_columns_warning
 
-    names, x, _, _ = rep.estimates()
-    if not np.all(np.isfinite(np.asarray(x, float))):
+    if not np.all(np.isfinite(rep.parameters().values)):
         raise UserError("the identification gave non-finite estimates: the data do not "
                         "determine the parameters (check the geometry, the excitation and "
                         "--model).")

@@ -24,15 +24,14 @@ __all__ = ["format_online_table", "run_online_cli", "write_online_csv"]
 
 def format_online_table(res: OnlineResult) -> str:
     """Plain-text table of the final online estimate (like the paper's Table 1)."""
-    j = res.as_json()
     lines = [
         f"model: {res.model}   online RLS, lambda = {res.forgetting:g}   wrench filter: "
         f"{res.wrench_filter}   samples: {res.n_samples}",
         f"{'parameter':<10} {'estimate':>14} {'sigma':>12} {'%sigma':>9}",
     ]
-    for n, d in j["parameters"].items():
-        lines.append(f"{n:<10} {d['value']:>14.6g} {d['std']:>12.4g} {d['rel_std_percent']:>9.3g}")
-    lines.append(f"sigma_rho = {j['sigma_rho']:.4g}   cond(W_ID) = {res.cond:.4g}   "
+    for e in res.parameters():
+        lines.append(f"{e.name:<10} {e.value:>14.6g} {e.std:>12.4g} {e.rel_std_percent:>9.3g}")
+    lines.append(f"sigma_rho = {float(res.sigma_rho[-1]):.4g}   cond(W_ID) = {res.cond:.4g}   "
                  f"cond scaled = {res.cond_scaled:.4g}   exciting at the end: "
                  f"{'yes' if res.excitation_ok[-1] else 'no'} "
                  f"({100 * res.excitation_ok[res.used].mean() if res.used.any() else 0:.0f} % "

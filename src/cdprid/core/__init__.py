@@ -31,6 +31,11 @@ from cdprid.core._eiv import input_covariance as input_covariance
 from cdprid.core._eiv import noise_gains as noise_gains
 from cdprid.core._eiv import noise_levels as noise_levels
 from cdprid.core._eiv import whitening as whitening
+from cdprid.core._estimate import PARAMETER_UNITS as PARAMETER_UNITS
+from cdprid.core._estimate import Z_95 as Z_95
+from cdprid.core._estimate import Estimate as Estimate
+from cdprid.core._estimate import Estimates as Estimates
+from cdprid.core._estimate import parameter_unit as parameter_unit
 from cdprid.core._guards import REFUSAL_KEYS as REFUSAL_KEYS
 from cdprid.core._guards import SWAP_CHECK_MAX_SAMPLES as SWAP_CHECK_MAX_SAMPLES
 from cdprid.core._guards import check_geometry as check_geometry

@@ -18,9 +18,7 @@ from cdprid.identify._batch import MODELS as MODELS
 from cdprid.identify._batch import ROTATION_WARN_DEG as ROTATION_WARN_DEG
 from cdprid.identify._batch import WRENCH_FILTERS as WRENCH_FILTERS
 from cdprid.identify._batch import ZERO_COLUMN_REL as ZERO_COLUMN_REL
-from cdprid.identify._batch import IdentificationReport as IdentificationReport
 from cdprid.identify._batch import excitation_warnings as excitation_warnings
-from cdprid.identify._batch import format_table as format_table
 from cdprid.identify._batch import identify_dataset as identify_dataset
 from cdprid.identify._batch import physical_report as physical_report
 from cdprid.identify._batch import rotation_angle_deg as rotation_angle_deg
@@ -54,8 +52,11 @@ from cdprid.identify._online_types import OnlineState as OnlineState
 from cdprid.identify._online_types import RLSResult as RLSResult
 from cdprid.identify._payload import identify_currents_payload as identify_currents_payload
 from cdprid.identify._payload import parse_payload as parse_payload
+from cdprid.identify._real import ExtensionStep as ExtensionStep
 from cdprid.identify._real import RealData as RealData
 from cdprid.identify._real import RealResult as RealResult
+from cdprid.identify._real import ResidualRms as ResidualRms
+from cdprid.identify._real import RestWeight as RestWeight
 from cdprid.identify._real import compare_extensions as compare_extensions
 from cdprid.identify._real import identify_real as identify_real
 from cdprid.identify._real import jax_zero_phase_filter as jax_zero_phase_filter
@@ -64,6 +65,8 @@ from cdprid.identify._real import prepare_real as prepare_real
 from cdprid.identify._real import rest_windows as rest_windows
 from cdprid.identify._real import taut_mask as taut_mask
 from cdprid.identify._real import weight_at_rest as weight_at_rest
+from cdprid.identify._report import IdentificationReport as IdentificationReport
+from cdprid.identify._report import format_table as format_table
 from cdprid.identify._rls import recursive_least_squares as recursive_least_squares
 from cdprid.identify._scale import ScaleReference as ScaleReference
 from cdprid.identify._scale import choose_reference as choose_reference

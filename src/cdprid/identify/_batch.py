@@ -38,7 +38,6 @@ from cdprid.core import (
     crb,
     eiv_fit,
     estimate_motion,
-    inertia_about_com,
     least_squares_blocks,
     linear_match_regression,
     noise_gains,
@@ -56,9 +55,9 @@ from cdprid.core import (
     uses_zero_phase_match,
     zero_phase_matched_regression,
 )
-from cdprid.episodes import Episodes
 from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._episodes import without_episodes
+from cdprid.identify._report import IdentificationReport, format_table
 from cdprid.io import AlignedSignals, Dataset, align
 from cdprid.model import PARAMETER_NAMES, quat_to_matrix
 from cdprid.signal import METHODS, acceleration_filter
@@ -66,6 +65,8 @@ from cdprid.signal import METHODS, acceleration_filter
 __all__ = [
     "COND_WARN",
     "DEFAULT_TRIM_S",
+    "FitInputs",
+    "FitSettings",
     "IdentificationReport",
     "MODELS",
     "ROTATION_WARN_DEG",
@@ -94,126 +95,64 @@ ZERO_COLUMN_REL = 1.0e-6
 
 
 @dataclasses.dataclass(frozen=True)
-class IdentificationReport:
-    """Everything an identification produced.
+class FitSettings:
+    """How a batch regression is fitted (the options of :func:`identify_dataset` that reach
+    the least squares).
 
     Attributes
     ----------
-    result : LSResult
-    model : str
-        The model used ("translation" or "full"; "auto" resolved).
+    model : {"translation", "full"}
+        The model ("auto" resolved).
     differentiator : str
+        Method of :func:`cdprid.differentiate` that gave the motion.
     params : dict
-    n_samples : int
-        Time samples used (each gives 6 equations).
-    signals : AlignedSignals
-    motion : Motion
-    regression : Regression or StreamedRegression
-        The samples used (after trimming); the pipeline's regressor is streamed (evaluated
-        block by block, ``.A`` / ``.W_ID`` materialise it on demand).
-    notes : tuple of str
-    warnings : tuple of str
-        One sentence per guard that fired (model mismatch, lag, physics, excitation).
-    inertia_about : {"P", "G"}
-        Reference point of the inertia in the output (platform frame either way).
-    wrench_filter : str
-    rotation_deg : float
-        99th percentile of the rotation angle from the mean orientation (0 without quaternions).
+        Its parameters (cutoff resolved).
+    weighting : {"eiv", "none", "groups"}
+        Row weighting (:data:`WEIGHTINGS`).
+    covariance : {"hac", "iid"}
+        Covariance reported as ``cov``.
+    chunk : int
+        Time samples per block of the streamed regressor.
+    bias_fix : bool
+        Apply the errors-in-variables second-order bias correction (a cutoff chosen from the
+        data).
     """
 
-    result: LSResult
     model: str
     differentiator: str
     params: dict
-    n_samples: int
+    weighting: str = "eiv"
+    covariance: str = "hac"
+    chunk: int = CHUNK
+    bias_fix: bool = False
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class FitInputs:
+    """The data a batch fit works on.
+
+    Attributes
+    ----------
+    dataset : Dataset
+        The recording (robot and raw streams: noise levels).
+    signals : AlignedSignals
+        The aligned streams.
+    motion : Motion
+        Differentiated motion.
+    keep : ndarray of bool (n,)
+        Samples used.
+    regression : Regression or StreamedRegression
+        The kept samples' regression.
+    wrench_filter : callable or None
+        The matched filter of ``W tau`` (a linear match has ``taps``).
+    """
+
+    dataset: Dataset
     signals: AlignedSignals
     motion: Motion
+    keep: np.ndarray
     regression: Regression | StreamedRegression
-    notes: tuple = ()
-    warnings: tuple = ()
-    inertia_about: str = "P"
-    wrench_filter: str = "matched"
-    rotation_deg: float = 0.0
-    #: the Cramer-Rao bound of this recording (:func:`cdprid.core.crb`), None when not
-    #: computed or not computable
-    crb: CRBResult | None = None
-    #: what :func:`cdprid.episodes.find_episodes` located (None when not run)
-    episodes: Episodes | None = None
-
-    @property
-    def inertia_about_text(self) -> str:
-        """``"P, platform frame"`` or ``"G (centre of mass), platform frame"``."""
-        return ("P, platform frame" if self.inertia_about == "P"
-                else "G (centre of mass), platform frame")
-
-    def estimates(self) -> tuple[tuple, np.ndarray, np.ndarray, np.ndarray]:
-        """``(names, x, cov, cov_iid)`` with the inertia about the chosen point."""
-        r = self.result
-        cov_iid = r.cov if r.cov_iid is None else r.cov_iid
-        if self.model != "full" or self.inertia_about == "P":
-            return r.names, r.x, r.cov, cov_iid
-        x, J = inertia_about_com(r.x)
-        return r.names, x, J @ r.cov @ J.T, J @ cov_iid @ J.T
-
-    def crb_std(self) -> np.ndarray | None:
-        """The Cramer-Rao bound's std per parameter (inertia about the chosen point)."""
-        if self.crb is None:
-            return None
-        cov = self.crb.cov
-        if self.model == "full" and self.inertia_about == "G":
-            _, J = inertia_about_com(self.result.x)
-            cov = J @ cov @ J.T
-        return np.sqrt(np.clip(np.diag(cov), 0, None))
-
-    def parameters(self) -> dict:
-        """``{name: {"value", "std", "rel_std_percent", "std_iid", "crb_std", "efficiency"}}``
-        (JSON ``parameters``; the last two null when the bound was not computed)."""
-        names, x, cov, cov_iid = self.estimates()
-        s = np.sqrt(np.clip(np.diag(cov), 0, None))
-        si = np.sqrt(np.clip(np.diag(cov_iid), 0, None))
-        cs = self.crb_std()
-        with np.errstate(divide="ignore"):
-            rel = 100.0 * s / np.abs(x)
-        out = {}
-        for k, (n, v, a, c, b) in enumerate(zip(names, x, s, rel, si, strict=True)):
-            out[n] = {"value": float(v), "std": float(a), "rel_std_percent": float(c),
-                      "std_iid": float(b), "crb_std": None, "efficiency": None}
-            if cs is not None and cs[k] > 0:
-                out[n]["crb_std"] = float(cs[k])
-                out[n]["efficiency"] = float(a / cs[k])
-        return out
-
-    def as_json(self) -> dict:
-        """The JSON contract of ``cdprid identify --json``."""
-        r = self.result
-        params = self.parameters()
-        out = {
-            "model": self.model,
-            "parameters": params,
-            "sigma_rho": r.sigma_rho,
-            "cond": r.cond,
-            "cond_scaled": r.cond_scaled,
-            "n_samples": self.n_samples,
-            "differentiator": self.differentiator,
-            "differentiator_params": self.params,
-            "weighting": ("groups" if r.weights is not None
-                          else "eiv" if EIV_NOTE in self.notes else "none"),
-            "covariance": r.covariance,
-            "hac_bandwidth_samples": r.hac_bandwidth if r.covariance == "hac" else None,
-            "wrench_filter": self.wrench_filter,
-            "rotation_deg": self.rotation_deg,
-            "crb_std": {k: v["crb_std"] for k, v in params.items()},
-            "efficiency": {k: v["efficiency"] for k, v in params.items()},
-            "crb": None if self.crb is None else {
-                "note": self.crb.note, "knot_spacing_s": self.crb.knot_spacing_s,
-                "noise": self.crb.noise},
-            "warnings": list(self.warnings),
-            "notes": list(self.notes),
-            "episodes": [] if self.episodes is None else self.episodes.as_json(),
-        }
-        if self.model == "full":
-            out["inertia_about"] = self.inertia_about_text
-        return out
+    wrench_filter: object = None
 
 
 def _choose_model(model: str, sig: AlignedSignals, path, warns0=()) -> tuple[str, float, list]:
@@ -371,6 +310,7 @@ def identify_dataset(
     Parameters
     ----------
     ds : Dataset
+        The recording (spec v1: robot, poses, tensions).
     model : {"auto", "translation", "full"}
         The paper's 4-parameter model, the 10-parameter model with inertia, or ``auto``
         (default): full when the quaternions show more than :data:`ROTATION_WARN_DEG` of
@@ -384,10 +324,9 @@ def identify_dataset(
     trim : float
         Seconds dropped at each end of the window after differentiation.
     weighting : {"eiv", "none", "groups"}
-        ``eiv`` (default): errors-in-variables GLS (:mod:`cdprid.core._eiv`), each sample
-        whitened by its residual covariance (noise levels from the data), and the pose noise's
-        second-order bias removed when the cutoff is chosen from the data; ``none``: the
-        paper's OLS; ``groups``: separate force and moment row weights.
+        ``eiv`` (default): errors-in-variables GLS (:func:`cdprid.core.eiv_fit`), each sample
+        whitened by its residual covariance, the pose noise's second-order bias removed when
+        the cutoff is chosen from the data; ``none``: OLS; ``groups``: force/moment row weights.
     matched_filter : bool, optional
         Older switch for ``wrench_filter`` (True = "matched", False = "none").
     covariance : {"hac", "iid"}
@@ -398,9 +337,8 @@ def identify_dataset(
     inertia_about : {"P", "G"}
         Reference point of the inertia in the output (platform frame).
     chunk : int
-        Time samples per block: the regressor is evaluated and reduced block by block
-        (:func:`cdprid.core.least_squares_blocks`), so memory does not grow with
-        ``n x 6 x p``; the result does not depend on it (to rounding).
+        Time samples per block of the streamed regressor (:func:`cdprid.core.least_squares_blocks`):
+        memory does not grow with ``n x 6 x p``; the result does not depend on it (to rounding).
     bound : bool
         Compute the recording's Cramer-Rao bound (:func:`cdprid.core.crb`, noise levels
         estimated from the data) for ``crb_std`` and ``efficiency``.
@@ -410,6 +348,7 @@ def identify_dataset(
     Returns
     -------
     IdentificationReport
+        Typed estimates (``.parameters()``), fit, notes, warnings; ``.as_json()`` is the JSON.
     """
     wrench_filter = _check_options(model, differentiator, weighting, wrench_filter,
                                    matched_filter, inertia_about)
@@ -423,12 +362,12 @@ def identify_dataset(
     keep, eps = without_episodes(ds, sig, params, trim, keep_episodes, notes)
     reg, wf, keep = _regression(ds, sig, motion, model, differentiator, wrench_filter, wf,
                                 keep, trim, int(chunk), notes, warns)
-    res = _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weighting,
-               covariance, int(chunk), notes, fix)
+    res = _fit(FitInputs(ds, sig, motion, keep, reg, wf), FitSettings(
+        model, differentiator, params, weighting, covariance, int(chunk), bias_fix=fix), notes)
     warns, notes, bnd = _checks(ds, sig, motion, keep, model, res, warns, notes, bound)
     return IdentificationReport(res, model, differentiator, params, int(keep.sum()), sig, motion,
                                 reg, tuple(notes), tuple(warns), inertia_about, wrench_filter,
-                                rot, bnd, eps)
+                                rotation_deg=rot, crb=bnd, episodes=eps)
 
 
 def _regression(ds, sig, motion, model, differentiator, wrench_filter, wf, keep, trim, chunk,
@@ -487,41 +426,60 @@ def _check_options(model, differentiator, weighting, wrench_filter, matched_filt
     return wrench_filter
 
 
-def _fit(ds, sig, motion, keep, reg, model, differentiator, params, wf, weighting, covariance,
-         chunk, notes: list, bias_fix: bool = False) -> LSResult:
+def _fit(inputs: FitInputs, settings: FitSettings, notes: list) -> LSResult:
     """The regression's least-squares fit with the chosen weighting (:data:`WEIGHTINGS`).
 
-    ``bias_fix``: the errors-in-variables estimate gets the second-order bias correction
-    (:func:`cdprid.core._eiv.bias_correction`): only with a cutoff chosen from the data,
+    ``settings.bias_fix``: the errors-in-variables estimate gets the second-order bias
+    correction (:func:`cdprid.core.bias_correction`): only with a cutoff chosen from the data,
     whose noise budget keeps the first-order correction accurate (at a fixed 4 Hz or with a
     causal differentiator it raised the median RMSE / CRB by 5-17 % on 10 recordings per robot
-    in ``benchmarks/efficiency.py``)."""
+    in ``benchmarks/efficiency.py``). The notes of the weighting are appended to ``notes``."""
+    wf, reg, s = inputs.wrench_filter, inputs.regression, settings
     mb = float(len(wf.taps)) if hasattr(wf, "taps") else 1.0  # the linear match's memory
-    if weighting == "eiv":
+    if s.weighting == "eiv":
         notes += [EIV_NOTE] + (["errors-in-variables bias correction: the pose noise's "
-                                "second-order bias removed"] if bias_fix else [])
-        return _eiv_result(ds, sig, motion, keep, reg, model, differentiator, params, wf,
-                           covariance, chunk, mb, bias_fix)
-    return least_squares_blocks(reg.wrench_block, len(reg.t), PARAMETER_NAMES[model],
-                                groups=reg.groups if weighting == "groups" else None,
-                                covariance=covariance, chunk=chunk, min_bandwidth=mb)
+                                "second-order bias removed"] if s.bias_fix else [])
+        return _eiv_result(inputs, s, mb)
+    return least_squares_blocks(reg.wrench_block, len(reg.t), PARAMETER_NAMES[s.model],
+                                groups=reg.groups if s.weighting == "groups" else None,
+                                covariance=s.covariance, chunk=s.chunk, min_bandwidth=mb)
 
 
-def _eiv_result(ds, sig, motion, keep, reg, model, differentiator, params, wf, covariance,
-                chunk, min_bandwidth=1.0, bias_fix=False) -> LSResult:  # --weighting eiv
+def _eiv_result(inputs: FitInputs, settings: FitSettings,
+                min_bandwidth: float = 1.0) -> LSResult:  # --weighting eiv
+    ds, sig, s = inputs.dataset, inputs.signals, settings
     s_tau, _, s_pos, s_rot = noise_levels(ds, sig)
-    C = noise_gains(differentiator, params, sig.dt, wf)
-    return eiv_fit(reg, ds.robot, model, motion, sig.tension, np.flatnonzero(keep),
-                   (s_tau, max(s_pos, 1e-12), s_rot), C, PARAMETER_NAMES[model], covariance,
-                   chunk, min_bandwidth, bias_correct=bias_fix)
+    C = noise_gains(s.differentiator, s.params, sig.dt, inputs.wrench_filter)
+    return eiv_fit(inputs.regression, ds.robot, s.model, inputs.motion, sig.tension,
+                   np.flatnonzero(inputs.keep), (s_tau, max(s_pos, 1e-12), s_rot), C,
+                   PARAMETER_NAMES[s.model], s.covariance, s.chunk, min_bandwidth,
+                   bias_correct=s.bias_fix)
 
 
 def recording_bound(ds: Dataset, sig: AlignedSignals, motion: Motion, keep, model: str,
                     x) -> tuple[CRBResult | None, str]:
     """The Cramer-Rao bound of the samples ``keep`` with noise levels from the data.
 
-    Noise levels from :func:`noise_levels`. Returns ``(bound, '')`` or ``(None, why)`` when
-    it cannot be computed.
+    Parameters
+    ----------
+    ds : Dataset
+        The recording (robot; raw streams for :func:`cdprid.core.noise_levels`).
+    sig : AlignedSignals
+        Its aligned streams (tensions at the pose times, N).
+    motion : Motion
+        The differentiated motion.
+    keep : array of bool (n,)
+        Samples used by the fit.
+    model : {"translation", "full"}
+        The model identified.
+    x : array (p,)
+        The estimate at which the bound is evaluated (SI units).
+
+    Returns
+    -------
+    (CRBResult, "") or (None, str)
+        The bound (its ``noise`` says the levels used), or None and the reason it could not be
+        computed.
     """
     s_tau, per_pose, s_pos, s_rot = noise_levels(ds, sig)
     k = np.asarray(keep, bool)
@@ -545,6 +503,22 @@ def physical_report(rep: IdentificationReport) -> IdentificationReport:
 
     Uses :func:`cdprid.core.physical_fit` on the LS estimate and its covariance; equal to the
     LS estimate when that is already realisable. The i.i.d. covariance is propagated the same way.
+
+    Parameters
+    ----------
+    rep : IdentificationReport
+        A full-model report.
+
+    Returns
+    -------
+    IdentificationReport
+        The same report with the constrained estimate, its covariances and residual, a note
+        saying whether the constraint is active, and the "physically impossible" warning gone.
+
+    Raises
+    ------
+    cdprid.base.InputError
+        The report is not of the full model.
     """
     if rep.model != "full":
         raise InputError("--physical constrains the full model's inertia: use --model full (or "
@@ -563,32 +537,3 @@ def physical_report(rep: IdentificationReport) -> IdentificationReport:
                                   ", equal to least squares (already realisable)"))
     warns = tuple(w for w in rep.warnings if not w.startswith("physically impossible"))
     return dataclasses.replace(rep, result=res, notes=notes, warnings=warns)
-
-
-def format_table(rep: IdentificationReport) -> str:
-    """A plain-text table like the paper's Table 1 (std as chosen: HAC or eq. 20)."""
-    r = rep.result
-    names, x, cov, _ = rep.estimates()
-    std = np.sqrt(np.clip(np.diag(cov), 0, None))
-    with np.errstate(divide="ignore"):
-        rel = 100.0 * std / np.abs(x)
-    kind = "HAC" if r.covariance == "hac" else "iid, eq. 20"
-    lines = [
-        f"model: {rep.model}   differentiator: {rep.differentiator}   samples: {rep.n_samples}",
-        f"{'parameter':<10} {'estimate':>14} {'sigma':>12} {'%sigma':>9} {'CRB':>11} "
-        f"{'sigma/CRB':>9}   (sigma: {kind}; CRB: the recording's Cramer-Rao bound)",
-    ]
-    cs = rep.crb_std()
-    for k, (n, v, s, p) in enumerate(zip(names, x, std, rel, strict=True)):
-        b = (f" {cs[k]:>11.4g} {s / cs[k]:>9.3g}" if cs is not None and cs[k] > 0
-             else f" {'-':>11} {'-':>9}")
-        lines.append(f"{n:<10} {v:>14.6g} {s:>12.4g} {p:>9.3g}{b}")
-    lines.append(f"sigma_rho = {r.sigma_rho:.4g}   cond(W_ID) = {r.cond:.4g}   "
-                 f"cond scaled = {r.cond_scaled:.4g}")
-    if rep.model == "full":
-        lines.append(f"inertia about {rep.inertia_about_text}")
-    for note in rep.notes:
-        lines.append(f"note: {note}")
-    for w in rep.warnings:
-        lines.append(f"warning: {w}")
-    return "\n".join(lines)

@@ -10,7 +10,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core import hac_covariance, std_from_cov
+from cdprid.core import Estimate, Estimates, hac_covariance, parameter_unit, std_from_cov
 from cdprid.model import PARAMETER_NAMES, CableRobot
 
 WRENCH_FILTERS = ("matched", "delay", "none")
@@ -356,24 +356,42 @@ class OnlineResult:
         cov, bw = hac_covariance(A * w[:, :, None], e, min_bandwidth=mb)
         return cov, bw
 
+    def _final_estimates(self) -> tuple[Estimates, float]:
+        """The final estimates (std: HAC; ``std_iid``: the RLS's eq. 20) and the HAC bandwidth."""
+        x, si = self.x_final, self.std_final
+        cov, bw = self.hac_cov_final()
+        s = std_from_cov(cov)
+        items = tuple(Estimate(n, float(v), float(e), float(b), parameter_unit(n))
+                      for n, v, e, b in zip(self.names, x, s, si, strict=True))
+        return Estimates(items, cov, np.diag(np.asarray(si, float) ** 2)), bw
+
+    def parameters(self) -> Estimates:
+        """The final estimate, typed (value, HAC std, ``std_iid``, unit, 95 % interval per
+        parameter; no Cramer-Rao bound online).
+
+        Returns
+        -------
+        cdprid.core.Estimates
+        """
+        return self._final_estimates()[0]
+
     def as_json(self) -> dict:
         """The JSON contract of ``cdprid identify --json`` for the final estimate.
 
         ``std`` is the HAC standard deviation of the final estimate; ``std_iid`` the RLS's
         eq. 20 value.
+
+        Returns
+        -------
+        dict
+            ``model``, ``parameters`` (``{name: {"value", "std", "rel_std_percent",
+            "std_iid"}}``), ``sigma_rho``, ``cond``, ``cond_scaled``, ``n_samples``,
+            ``covariance`` ("hac"), ``hac_bandwidth_samples``.
         """
-        x, si = self.x_final, self.std_final
-        cov, bw = self.hac_cov_final()
-        s = std_from_cov(cov)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rel = 100.0 * s / np.abs(x)
+        est, bw = self._final_estimates()
         return {
             "model": self.model,
-            "parameters": {
-                n: {"value": float(v), "std": float(e), "rel_std_percent": float(r),
-                    "std_iid": float(b)}
-                for n, v, e, r, b in zip(self.names, x, s, rel, si, strict=True)
-            },
+            "parameters": est.as_json(bound=False),
             "sigma_rho": float(self.sigma_rho[-1]),
             "cond": self.cond,
             "cond_scaled": self.cond_scaled,

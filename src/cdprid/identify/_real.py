@@ -52,8 +52,11 @@ from cdprid.model import PARAMETER_NAMES, CableRobot
 from cdprid.signal import make_zero_phase_filter
 
 __all__ = [
+    "ExtensionStep",
     "RealData",
     "RealResult",
+    "ResidualRms",
+    "RestWeight",
     "prepare_real",
     "taut_mask",
     "weight_at_rest",
@@ -194,7 +197,33 @@ def rest_windows(data: RealData, min_duration_s: float | None = None) -> list[tu
     return mask_windows(data.t, rest_mask(data.t, np.linalg.norm(data.v, axis=1), **kw))
 
 
-def weight_at_rest(data: RealData, offset=None, gain=None, windows=None) -> dict:
+@dataclasses.dataclass(frozen=True)
+class RestWeight:
+    """The mass measured as the weight at rest (:func:`weight_at_rest`).
+
+    Attributes
+    ----------
+    mass : float
+        kg: the mean over every rest sample.
+    std : float
+        kg: the spread of the per-window means / sqrt(number of windows), or over the samples
+        with one window (a rough figure).
+    n : int
+        Rest samples used.
+    windows : list of (t_first, t_last)
+        The rest windows, s.
+    per_window : list of float
+        Mean mass per window that had samples, kg.
+    """
+
+    mass: float
+    std: float
+    n: int
+    windows: list
+    per_window: list
+
+
+def weight_at_rest(data: RealData, offset=None, gain=None, windows=None) -> RestWeight:
     """Mass from the weight measured at rest: ``-g . sum_i k_i (tau_i - o_i) u_i / |g|^2``.
 
     Parameters
@@ -207,9 +236,8 @@ def weight_at_rest(data: RealData, offset=None, gain=None, windows=None) -> dict
 
     Returns
     -------
-    dict
-        ``{"mass", "std", "n", "windows", "per_window"}`` (std: spread over windows /
-        sqrt(number of windows), or over samples with one window: a rough figure).
+    RestWeight
+        ``mass``, ``std`` (kg), ``n``, ``windows``, ``per_window``.
 
     Raises
     ------
@@ -233,12 +261,28 @@ def weight_at_rest(data: RealData, offset=None, gain=None, windows=None) -> dict
         per.append(float(mm.mean()))
         allm.append(mm)
     allm = np.concatenate(allm)
-    return {"mass": float(allm.mean()), "std": float(np.std(per) / math.sqrt(len(per)))
-            if len(per) > 1 else float(allm.std()), "n": int(allm.size), "windows": windows,
-            "per_window": per}
+    std = float(np.std(per) / math.sqrt(len(per))) if len(per) > 1 else float(allm.std())
+    return RestWeight(mass=float(allm.mean()), std=std, n=int(allm.size), windows=windows,
+                      per_window=per)
 
 
 # --------------------------------------------------------------------------- identification
+
+
+@dataclasses.dataclass(frozen=True)
+class ResidualRms:
+    """Root mean square of a force/moment residual over a set of samples (NaN when empty).
+
+    Attributes
+    ----------
+    force_N : float
+        Over the three force components, N.
+    moment_Nm : float
+        Over the three moment components, N m.
+    """
+
+    force_N: float
+    moment_Nm: float
 
 
 @dataclasses.dataclass(frozen=True)
@@ -253,7 +297,7 @@ class RealResult:
     x : ndarray, the dynamic parameter vector
     offset, gain : ndarray (m,)
     delay : float, s
-    train_rms, heldout_rms : dict ``{"force_N", "moment_Nm"}`` (taut samples only)
+    train_rms, heldout_rms : ResidualRms (taut samples only)
     n_train, n_test : int
     bandwidth : float
         Bartlett bandwidth of the HAC covariance, samples.
@@ -271,8 +315,8 @@ class RealResult:
     offset: np.ndarray
     gain: np.ndarray
     delay: float
-    train_rms: dict
-    heldout_rms: dict
+    train_rms: ResidualRms
+    heldout_rms: ResidualRms
     n_train: int
     n_test: int
     bandwidth: float
@@ -284,21 +328,30 @@ class RealResult:
     options: dict
 
     def summary(self) -> dict:
-        """Plain-Python summary (JSON / TOML)."""
+        """Plain-Python summary (JSON / TOML).
+
+        Returns
+        -------
+        dict
+            ``model``, ``parameters`` (``{name: {"value", "std"}}``), ``train_rms`` and
+            ``heldout_rms`` (``{"force_N", "moment_Nm"}``), ``n_train``, ``n_test``,
+            ``hac_bandwidth`` (samples), ``options``.
+        """
         return {
             "model": self.model,
             "parameters": {n: {"value": self.values[n], "std": self.std[n]} for n in self.names},
-            "train_rms": self.train_rms, "heldout_rms": self.heldout_rms,
+            "train_rms": dataclasses.asdict(self.train_rms),
+            "heldout_rms": dataclasses.asdict(self.heldout_rms),
             "n_train": self.n_train, "n_test": self.n_test, "hac_bandwidth": self.bandwidth,
             "options": self.options,
         }
 
 
-def _rms(e: np.ndarray, mask: np.ndarray) -> dict:
+def _rms(e: np.ndarray, mask: np.ndarray) -> ResidualRms:
     if not mask.any():
-        return {"force_N": float("nan"), "moment_Nm": float("nan")}
-    return {"force_N": float(np.sqrt(np.mean(e[mask][:, :3] ** 2))),
-            "moment_Nm": float(np.sqrt(np.mean(e[mask][:, 3:] ** 2)))}
+        return ResidualRms(float("nan"), float("nan"))
+    return ResidualRms(force_N=float(np.sqrt(np.mean(e[mask][:, :3] ** 2))),
+                       moment_Nm=float(np.sqrt(np.mean(e[mask][:, 3:] ** 2))))
 
 
 def _named(names_x, fit, spec: NuisanceSpec) -> tuple[list, dict, dict]:
@@ -412,8 +465,25 @@ def identify_real(
     )
 
 
+@dataclasses.dataclass(frozen=True)
+class ExtensionStep:
+    """One step of :func:`compare_extensions`.
+
+    Attributes
+    ----------
+    step : str
+        What the step adds (``"+ time delay"``; the final one's label contains ``final``).
+    result : RealResult
+        Its joint fit (held-out residuals in ``result.heldout_rms``).
+    """
+
+    step: str
+    result: RealResult
+
+
 def compare_extensions(data: RealData, train_until: float = 25.0, test_until: float | None = None,
-                       taut_threshold_N: float = TAUT_THRESHOLD_N, steps=None, **kw) -> list[dict]:
+                       taut_threshold_N: float = TAUT_THRESHOLD_N, steps=None,
+                       **kw) -> list[ExtensionStep]:
     """The paper's model, then one extension added at a time (cumulative), with the held-out
     taut residuals of each step.
 
@@ -421,6 +491,25 @@ def compare_extensions(data: RealData, train_until: float = 25.0, test_until: fl
     exit points) -> + time delay -> + rotational dynamics (full model) -> + relative load-cell
     gains (final) ; and, as alternatives to the final step, zero-sum offsets and free offsets.
     Every step uses the same taut mask (raw tensions), so held-out figures are comparable.
+
+    Parameters
+    ----------
+    data : RealData
+        The prepared recording (:func:`prepare_real`).
+    train_until, test_until : float
+        End of the training window and of the held-out window, s (None: the end).
+    taut_threshold_N : float
+        A sample is used when every cable carries more than this, N.
+    steps : list of (label, geometry, options), optional
+        ``geometry`` ``"np"`` (pulleys removed) or ``"p"``; ``options`` of
+        :func:`identify_real`. Default: the steps above.
+    **kw
+        Further options of :func:`identify_real`, common to every step.
+
+    Returns
+    -------
+    list of ExtensionStep
+        One per step, in order.
     """
     no_pulley = data.with_robot(data.robot.replace(pulley_radius=np.zeros(data.W.shape[2])))
     common = dict(train_until=train_until, test_until=test_until,
@@ -444,7 +533,7 @@ def compare_extensions(data: RealData, train_until: float = 25.0, test_until: fl
     out = []
     for label, geo, opt in steps:
         r = identify_real(no_pulley if geo == "np" else data, **opt, **common)
-        out.append({"step": label, "result": r})
+        out.append(ExtensionStep(step=label, result=r))
     return out
 
 
@@ -462,7 +551,8 @@ def nuisance_summary(data: RealData) -> dict:
     Returns
     -------
     dict
-        ``note``, ``offset_N``, ``offset_std_N``, ``delay_s``, ``delay_std_s``,
+        The table as written to meta.toml (a serialisation, hence plain): ``note``,
+        ``offset_N``, ``offset_std_N``, ``delay_s``, ``delay_std_s``,
         ``mass_from_motion_kg``, ``mass_from_motion_std_kg``, ``force_residual_rms_N``,
         ``n_taut_samples``, and ``mass_at_rest_kg`` / ``rest_windows_s`` when at rest.
     """
@@ -479,12 +569,12 @@ def nuisance_summary(data: RealData) -> dict:
         "delay_std_s": r.std["delay"],
         "mass_from_motion_kg": r.values["m"],
         "mass_from_motion_std_kg": r.std["m"],
-        "force_residual_rms_N": r.train_rms["force_N"],
+        "force_residual_rms_N": r.train_rms.force_N,
         "n_taut_samples": r.n_train,
     }
     windows = rest_windows(data)
     if windows:
         w = weight_at_rest(data, offset=r.offset, windows=windows)
-        out["mass_at_rest_kg"] = w["mass"]
-        out["rest_windows_s"] = [list(x) for x in w["windows"]]
+        out["mass_at_rest_kg"] = w.mass
+        out["rest_windows_s"] = [list(x) for x in w.windows]
     return out

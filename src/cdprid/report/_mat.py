@@ -61,7 +61,8 @@ def identify_variables(rep, data: dict, made_by: dict) -> dict:
         [] without a bound), ``t`` (n x 1, s), ``residual`` (n x 6: N, N m; ``Y_ID - W_ID x``
         unweighted), ``episodes``, ``json``, ``made_by``.
     """
-    names, x, cov, cov_iid = rep.estimates()
+    est = rep.parameters()
+    names, cov, cov_iid = est.names, est.cov, est.cov_iid
     crb = rep.crb_std()
     crb_cov = None
     if rep.crb is not None:
@@ -74,9 +75,9 @@ def identify_variables(rep, data: dict, made_by: dict) -> dict:
     eps = episodes_of(rep) or episodes_of(data)
     return {
         "parameter_names": list(names),
-        "estimates": np.asarray(x, float).reshape(-1, 1),
-        "std": np.sqrt(np.clip(np.diag(cov), 0, None)).reshape(-1, 1),
-        "std_iid": np.sqrt(np.clip(np.diag(cov_iid), 0, None)).reshape(-1, 1),
+        "estimates": est.values.reshape(-1, 1),
+        "std": est.std.reshape(-1, 1),
+        "std_iid": np.array([e.std_iid for e in est], float).reshape(-1, 1),
         "crb_std": (np.full(len(names), np.nan) if crb is None else crb).reshape(-1, 1),
         "covariance": np.asarray(cov, float),
         "covariance_iid": np.asarray(cov_iid, float),
