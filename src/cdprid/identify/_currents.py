@@ -48,6 +48,8 @@ from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
 from cdprid.identify._cells import CellCalibration
 from cdprid.identify._drive_cells import cells_against_drives
+from cdprid.identify._currents_oe import raw_rates as _raw_rates
+from cdprid.identify._currents_oe import refit_output_error
 from cdprid.identify._eiv_currents import corrected, normal_and_noise
 from cdprid.identify._episodes import _trimmed
 from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate
@@ -246,17 +248,6 @@ class _SubRegression:
         return Z[r - r[0]], y[r - r[0]]
 
 
-def _raw_rates(lengths, segments, dt: float):
-    """Central first and second differences of the lengths (n, m), segment by segment."""
-    d1, d2 = np.zeros_like(lengths), np.zeros_like(lengths)
-    for i0, i1 in segments:
-        x = lengths[i0:i1]
-        d1[i0:i1] = np.gradient(x, dt, axis=0, edge_order=2)
-        d2[i0 + 1:i1 - 1] = (x[2:] - 2.0 * x[1:-1] + x[:-2]) / dt ** 2
-        d2[i0], d2[i1 - 1] = d2[i0 + 1], d2[i1 - 2]
-    return d1, d2
-
-
 def _drive_design(ds, motion, cur_i, lengths, sign, wf, dt: float, params: dict) -> np.ndarray:
     """``D`` (n, 6, 5m) through the matched filter: ``F[N[W i]]``, ``F[W D2 l]``,
     ``F[N[W D1 l]]``, ``F[N[W sign]]``, ``-F[N[W]]`` (``N`` the second difference's response
@@ -281,7 +272,7 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
                       differentiator: str = "euler-filtfilt", params: dict | None = None,
                       t_start: float | None = None, t_end: float | None = None,
                       trim: float = TRIM_S, chunk: int = CHUNK, bound: bool = True,
-                      drives=None) -> CurrentsReport:
+                      drives=None, estimator: str = "cls") -> CurrentsReport:
     """Identify the platform and every drive from poses, winch lengths and motor currents.
 
     Parameters
@@ -308,6 +299,9 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
         Compute the Cramer-Rao bound of the platform parameters with the drives known.
     drives : DriveData, optional
         Default: robot.toml's drive fields.
+    estimator : {"cls", "oe"}
+        Corrected least squares, or the output-error refit from it
+        (:mod:`cdprid.identify._currents_oe`).
 
     Returns
     -------
@@ -317,6 +311,8 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
         raise InputError("--source currents uses the differentiator euler-filtfilt (its "
                          f"zero-phase filter is matched on every drive column), not "
                          f"{differentiator}.")
+    if estimator not in ("cls", "oe"):
+        raise InputError(f"--estimator: {estimator!r} is not one of cls, oe.")
     m = ds.robot.n_cables
     drives = read_drives(ds.path) if drives is None and ds.path is not None else drives
     ref = choose_reference(reference, ds.robot, drives)
@@ -346,6 +342,10 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
                                  noise, differentiator, params, notes)
     fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes,
                _datasheet_prior(drives, ref, len(PARAMETER_NAMES[model]), m, notes))
+    if estimator == "oe":
+        fit = refit_output_error(ds, fit["p"], motion, idx, reg, fit, ref, drives,
+                                 np.asarray(sig.tension), lengths, noise["sign"], wf, sig.dt,
+                                 params, noise, ct, notes, warns)
     cells = cells_against_drives(ds, model, motion, idx, np.asarray(sig.tension), lengths,
                                  noise.pop("sign"), wf, sig.dt, params, fit["theta"],
                                  fit["cov"], int(chunk), notes)
