@@ -178,40 +178,21 @@ def run(name: str, seeds: int, duration: float, write) -> str:
     return line
 
 
-def _captured_fits(ds):
-    """``(cls fit, oe fit)`` dicts of one ``identify_currents(..., estimator="oe")`` call (the
-    refit's input is the corrected least squares, its output the output-error estimate; one
-    run of the shared pipeline gives both)."""
-    from cdprid.identify import _currents
-
-    seen = {}
-    orig = _currents.refit_output_error
-
-    def spy(*a, **k):
-        seen["cls"] = a[5]
-        seen["oe"] = orig(*a, **k)
-        return seen["oe"]
-
-    _currents.refit_output_error = spy
-    try:
-        rep = identify_currents(ds, reference="drive:1", bound=False, estimator="oe")
-    finally:
-        _currents.refit_output_error = orig
-    return rep, seen["cls"], seen["oe"]
-
-
 def compare_one(name, seed, duration, tmp):
     """Per estimator ``(z (p,), mass err, m s_G err, drive z (5m,), mass std / bound)``."""
     robot, tau_ref = ROBOTS[name]
     sim = winch_sim.simulate(robot, PLATFORM, seed=seed, duration=duration, tau_ref=tau_ref)
     ds = read_dataset(winch_sim.write(tmp / f"s{seed}", robot, sim), require_tensions=False)
-    rep, cls, oe = _captured_fits(ds)
+    rep = identify_currents(ds, reference="drive:1", bound=False, estimator="oe")
+    c = rep.compared
     b_mass = bound(name, seed, duration=duration)[0] / 100 * PLATFORM[0]
     p = len(rep.names) - 5 * len(robot["cable"])
     x, d = truth_vector(p), sim["truth"].reshape(-1)
     out = {}
-    for key, th, cov in (("cls", cls["theta"], cls["cov"]), ("oe", oe["theta"], oe["cov"]),
-                         ("oe-andrews", oe["theta"], oe["cov_andrews"])):
+    for key, th, cov in (("cls", c["cls_theta"], c["cls_cov"]), ("oe", rep.theta, rep.cov),
+                         ("oe-sandwich", rep.theta, c["cov_sandwich"]),
+                         ("oe-andrews", rep.theta, c["cov_andrews"]),
+                         ("oe-model", rep.theta, c["cov_model"])):
         sd = np.sqrt(np.clip(np.diag(cov), 0, None))
         with np.errstate(divide="ignore", invalid="ignore"):
             dz = (th[p:] - d) / np.where(sd[p:] > 0, sd[p:], np.inf)
@@ -222,7 +203,7 @@ def compare_one(name, seed, duration, tmp):
 
 def compare(name, seeds, duration, write):
     """Rows of the side-by-side comparison for one robot, rewritten after every seed."""
-    res = {"cls": [], "oe": [], "oe-andrews": []}
+    res = {"cls": [], "oe": [], "oe-sandwich": [], "oe-andrews": [], "oe-model": []}
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(seeds):
             try:
@@ -234,7 +215,7 @@ def compare(name, seeds, duration, write):
                 res[k].append(v)
             print(f"{name} seed {seed}: " + "; ".join(
                 f"{k} mass {100 * v[1]:+.2f} % (eff {v[4]:.2f}) m s_G {100 * v[2]:.1f} %"
-                for k, v in out.items() if k != "oe-andrews"), flush=True)
+                for k, v in out.items() if k in ("cls", "oe")), flush=True)
             write([compare_row(name, k, v, names) for k, v in res.items()])
 
 
