@@ -22,11 +22,12 @@ def add_source_options(p) -> None:
                    "payload:DIR:KG[:STD_KG] (a second recording DIR with KG added to the "
                    "platform); default: a drive marked "
                    "drive_reference = true, else the stated reference of least relative std")
-    p.add_argument("--estimator", choices=("cls", "oe"), default=None,
-                   help="--source currents: cls (corrected least squares: the currents inside "
-                   "the regressor, their noise removed from the normal equations) or oe (output "
-                   "error: the currents as the response, Gauss-Newton from cls, HAC sandwich; "
-                   "docs/currents-estimator.md); default cls")
+    p.add_argument("--estimator", choices=("oe", "cls"), default=None,
+                   help="--source currents: oe (default; output error: the currents as the "
+                   "response, Gauss-Newton from cls, HAC sandwich floored at the current "
+                   "noise's own std; docs/currents-estimator.md) or cls (corrected least "
+                   "squares: the currents inside the regressor, their noise removed from the "
+                   "normal equations)")
 
 
 def run_source(args, parse_params, write_json) -> int:

@@ -235,7 +235,7 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
                       differentiator: str = "euler-filtfilt", params: dict | None = None,
                       t_start: float | None = None, t_end: float | None = None,
                       trim: float = TRIM_S, chunk: int = CHUNK, bound: bool = True,
-                      drives=None, estimator: str = "cls") -> CurrentsReport:
+                      drives=None, estimator: str = "oe") -> CurrentsReport:
     """Identify the platform and every drive from poses, winch lengths and motor currents.
 
     Parameters
@@ -262,8 +262,8 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
         Compute the Cramer-Rao bound of the platform parameters with the drives known.
     drives : DriveData, optional
         Default: robot.toml's drive fields.
-    estimator : {"cls", "oe"}
-        Corrected least squares, or the output-error refit from it (``_currents_oe``).
+    estimator : {"oe", "cls"}
+        Output error (default; ``_currents_oe``) or the corrected least squares it starts from.
 
     Returns
     -------
