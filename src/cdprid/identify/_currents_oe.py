@@ -324,8 +324,8 @@ def refit_output_error(ds, model_p: int, motion, idx, reg, fit: dict, ref, drive
                      "reported.")
         return fit
     if not oe.converged:
-        notes.append(f"output-error refit stopped after {oe.iterations} iterations without "
-                     "meeting its step tolerance")
+        warns.append(f"the output-error refit stopped after {oe.iterations} iterations without "
+                     "converging: its estimate and std may not hold (compare --estimator cls).")
     T = np.eye(len(oe.phi))
     a = oe.phi[p:p + m]
     T[p:p + m, p:p + m] = np.diag(-1.0 / a ** 2)
