@@ -131,3 +131,22 @@ def test_estimator_option_is_checked(short_recording, capsys, extra, word):
         code = e.code
     assert code == 2
     assert word in capsys.readouterr().err
+
+
+@pytest.mark.slow  # ~15 s: two runs, each with the Cramer-Rao bound
+def test_estimator_reaches_the_json(short_recording, tmp_path):
+    """``--estimator cls`` on the command line runs the corrected least squares (and says so);
+    the default is the output error."""
+    import json
+
+    from cdprid.cli import main
+
+    out = tmp_path / "r.json"
+    base = ["identify", str(short_recording), "--source", "currents", "--reference", "drive:1",
+            "--params", '{"cutoff_hz": 4}', "--json", str(out)]
+    assert main(base + ["--estimator", "cls"]) == 0
+    assert json.loads(out.read_text())["estimator"] == "cls"
+    assert main(base + ["--force"]) == 0
+    js = json.loads(out.read_text())
+    assert js["estimator"] == "oe"
+    assert any("output-error estimator" in n for n in js["notes"])
