@@ -42,11 +42,8 @@ def test_noise_free_recording_gives_the_truth(exact, estimator):
     assert rep.as_json()["estimator"] == estimator
     p = len(rep.names) - 5 * 6
     x = _truth(PLATFORM, rep.names[:p])
-    # oe: W^+ F[W tau] for F[tau] (the filter does not commute with the slowly varying W^+):
-    # 2.2e-4 of the mass here, about 3 % of the noisy recordings' std
-    tol = 2e-4 if estimator == "cls" else 4e-4
-    np.testing.assert_allclose(rep.theta[0], x[0], rtol=tol)
-    np.testing.assert_allclose(rep.theta[1:4], x[1:4], atol=tol * x[0])
+    np.testing.assert_allclose(rep.theta[0], x[0], rtol=2e-4)
+    np.testing.assert_allclose(rep.theta[1:4], x[1:4], atol=2e-4 * x[0])
     d = sim["truth"]  # (5, m): k, J, fv, fc, c
     np.testing.assert_allclose(rep.theta[p:p + 6], d[0], rtol=1e-3)  # k
     np.testing.assert_allclose(rep.theta[p + 6:p + 12], d[1], rtol=2e-2, atol=2e-2)  # J

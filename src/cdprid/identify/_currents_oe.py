@@ -33,7 +33,7 @@ import numpy as np
 from cdprid.core import andrews_bandwidth, wrench_matrices
 from cdprid.signal import zero_phase_filter
 
-__all__ = ["OEFit", "fit_output_error", "oe_inputs", "raw_rates", "refit_output_error"]
+__all__ = ["OEFit", "commutator", "fit_output_error", "oe_inputs", "raw_rates", "refit_output_error"]
 
 OE_NOTE = ("output-error estimator: the currents are the response (per cable i = (tau(x) - J "
            "l'' - f_v l' - f_c sign + c) / k, the internal forces projected out on a redundant "
@@ -82,12 +82,13 @@ class OEFit:
     bandwidth_andrews: float = float("nan")
 
 
-def _resid(phi, G, I, L2, L1, S, C1, sw, Nn):
-    """Whitened current residuals (n, m) at ``phi``, projected when ``Nn`` is given."""
+def _resid(phi, G, I, L2, L1, S, C1, sw, Nn, Dc):
+    """Whitened current residuals (n, m) at ``phi``, projected when ``Nn`` is given (``Dc``
+    the filter's commutator, subtracted from ``G x``)."""
     p, m = G.shape[2], G.shape[1]
     x, a = phi[:p], phi[p:p + m]
     J, fv, fc, c = (phi[p + k * m:p + (k + 1) * m] for k in range(1, 5))
-    tau = jnp.einsum("njp,p->nj", G, x)
+    tau = jnp.einsum("njp,p->nj", G, x) - Dc
     e = sw * (I - a * (tau - J * L2 - fv * L1 - fc * S + c * C1))
     if Nn is None:
         return e
@@ -101,11 +102,12 @@ _resid_jit = jax.jit(_resid)
 _jac_jit = jax.jit(jax.jacfwd(_resid))
 
 
-def _residual_fn(G, I, L2, L1, S, C1, sw, Nn):
+def _residual_fn(G, I, L2, L1, S, C1, sw, Nn, Dc=None):
     """``(r(phi), dr/dphi(phi))``: the residual (n, m) and its Jacobian (n, m, q), compiled
     once per shape."""
     data = tuple(jnp.asarray(v, float) for v in (G, I, L2, L1, S, C1, sw))
-    data = data + (None if Nn is None else jnp.asarray(Nn, float),)
+    data = data + (None if Nn is None else jnp.asarray(Nn, float),
+                   jnp.zeros_like(data[1]) if Dc is None else jnp.asarray(Dc, float))
     return (lambda phi: _resid_jit(jnp.asarray(phi, float), *data),
             lambda phi: _jac_jit(jnp.asarray(phi, float), *data))
 
@@ -145,7 +147,7 @@ def _bartlett(S, L: float) -> np.ndarray:
 
 def fit_output_error(G, I, L2, L1, S, C1, phi0, fixed: int, weights, Nn=None, prior=None,
                      bandwidth: float | None = None, max_iter: int = 30,
-                     tol: float = 1e-10) -> OEFit:
+                     tol: float = 1e-10, Dc=None) -> OEFit:
     """Gauss-Newton fit of the output-error current model with the HAC sandwich covariance.
 
     Parameters
@@ -172,13 +174,16 @@ def fit_output_error(G, I, L2, L1, S, C1, phi0, fixed: int, weights, Nn=None, pr
     max_iter : int
     tol : float
         Relative step size at which the iteration stops.
+    Dc : (n, m), optional
+        Known offset of the tensions (N), subtracted from ``G x`` (the filter's commutator,
+        :func:`commutator`).
 
     Returns
     -------
     OEFit
     """
     sw = np.sqrt(np.asarray(weights, float))[None, :]
-    r, jac = _residual_fn(G, I, L2, L1, S, C1, sw, Nn)
+    r, jac = _residual_fn(G, I, L2, L1, S, C1, sw, Nn, Dc)
     q = len(phi0)
     P, pm = (np.zeros(q), np.zeros(q)) if prior is None else (np.asarray(prior[0], float),
                                                               np.asarray(prior[1], float))
@@ -270,6 +275,36 @@ def oe_inputs(ds, motion, idx, reg, current, lengths, sign, wf, dt: float, param
     return G, I, L2, L1, S, C1, Nn
 
 
+def commutator(ds, motion, idx, current, lengths, sign, wf, dt: float, theta, p: int):
+    """``W^+ F[W tau] - F[tau]`` (n, m) at the kept samples, ``tau`` the drive model's
+    tensions at ``theta`` (the corrected least squares) on every sample: what ``G x = W^+ Z
+    x`` (``Z x = F[W tau]``, the matched filter) has besides ``F[tau]``, the filter not
+    commuting with the slowly varying ``W^+``. Its error through ``theta``'s is second order.
+
+    Parameters
+    ----------
+    ds, motion, idx, current, lengths, sign, wf, dt
+        As in :func:`oe_inputs`.
+    theta : (p + 5m,)
+        Platform and drive parameters.
+    p : int
+        Number of platform parameters.
+
+    Returns
+    -------
+    ndarray (n, m), N
+    """
+    from cdprid.core import DriveParameters, drive_tension
+
+    d1, d2 = raw_rates(lengths, motion.segments, dt)
+    tau = drive_tension(DriveParameters.from_vector(theta[p:]), np.asarray(current, float),
+                        d1, d2, np.asarray(sign, float))
+    W = np.asarray(wrench_matrices(ds.robot, motion.position, motion.B_R_P))
+    Fu = np.asarray(wf(np.einsum("nam,nm->na", W, tau)))[idx]
+    Ft = np.asarray(wf(tau, np.ones(tau.shape[1])))[idx]
+    return np.einsum("nma,na->nm", np.linalg.pinv(W[idx]), Fu) - Ft
+
+
 def _a_prior(drives, ref, p: int, m: int):
     """Gaussian priors on ``a_j = 1 / k_j`` from the datasheets (std ``tol / (sqrt(3) k0)``),
     the reference drive excluded; None without any."""
@@ -316,9 +351,11 @@ def refit_output_error(ds, model_p: int, motion, idx, reg, fit: dict, ref, drive
     ratio = min(1.0, float(np.median(np.diff(t_cur))) / dt)
     w = 1.0 / (s_i ** 2 * ratio)
     try:
+        Dc = commutator(ds, motion, idx, current, lengths, sign, wf, dt, th0, p)
         oe = fit_output_error(G, I, L2, L1, S, C1, phi0, fixed, w, Nn,
                               _a_prior(drives, ref, p, m),
-                              bandwidth=np.ceil(BANDWIDTH_PERIODS / (params["cutoff_hz"] * dt)))
+                              bandwidth=np.ceil(BANDWIDTH_PERIODS / (params["cutoff_hz"] * dt)),
+                              Dc=Dc)
     except np.linalg.LinAlgError as e:
         warns.append(f"the output-error refit failed ({e}); the corrected least squares is "
                      "reported.")
