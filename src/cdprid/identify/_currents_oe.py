@@ -33,7 +33,8 @@ import numpy as np
 from cdprid.core import andrews_bandwidth, wrench_matrices
 from cdprid.signal import zero_phase_filter
 
-__all__ = ["OEFit", "commutator", "fit_output_error", "oe_inputs", "raw_rates", "refit_output_error"]
+__all__ = ["OEFit", "commutator", "fit_output_error", "oe_inputs", "raw_rates",
+           "refit_output_error"]
 
 OE_NOTE = ("output-error estimator: the currents are the response (per cable i = (tau(x) - J "
            "l'' - f_v l' - f_c sign + c) / k, the internal forces projected out on a redundant "
