@@ -39,6 +39,9 @@ ROBOTS = {"six-suspended": (dict(SIX_SUSPENDED, home=[0.0, 0.0, 1.4]), 40.0),
           "eight-craft": (dict(ROBOT_CRAFT, home=[0.0, 0.0, 1.3]), 30.0)}
 PLATFORM = (6.0, np.array([0.01, -0.005, -0.05]), np.diag([0.06, 0.07, 0.09]))
 KINDS = ("k", "J", "fv", "fc", "c")
+ESTIMATOR = "cls"
+"""The estimator of the plain run: results/currents.md is the corrected
+least squares' table; ``--compare`` runs both."""
 
 
 def truth_vector(p):
@@ -52,7 +55,7 @@ def one(robot, tau_ref, seed, duration, tmp):
     """(platform z, mass rel. error, m s_G rel. error, drive z (5, m), notes) of one seed."""
     sim = winch_sim.simulate(robot, PLATFORM, seed=seed, duration=duration, tau_ref=tau_ref)
     ds = read_dataset(winch_sim.write(tmp / f"s{seed}", robot, sim), require_tensions=False)
-    rep = identify_currents(ds, reference="drive:1", bound=False)
+    rep = identify_currents(ds, reference="drive:1", bound=False, estimator=ESTIMATOR)
     m = len(robot["cable"])
     p = len(rep.names) - 5 * m
     x = truth_vector(p)
@@ -178,6 +181,72 @@ def run(name: str, seeds: int, duration: float, write) -> str:
     return line
 
 
+def compare_one(name, seed, duration, tmp):
+    """Per estimator ``(z (p,), mass err, m s_G err, drive z (5m,), mass std / bound)``."""
+    robot, tau_ref = ROBOTS[name]
+    sim = winch_sim.simulate(robot, PLATFORM, seed=seed, duration=duration, tau_ref=tau_ref)
+    ds = read_dataset(winch_sim.write(tmp / f"s{seed}", robot, sim), require_tensions=False)
+    rep = identify_currents(ds, reference="drive:1", bound=False, estimator="oe")
+    c = rep.compared
+    b_mass = bound(name, seed, duration=duration)[0] / 100 * PLATFORM[0]
+    p = len(rep.names) - 5 * len(robot["cable"])
+    x, d = truth_vector(p), sim["truth"].reshape(-1)
+    out = {}
+    for key, th, cov in (("cls", c["cls_theta"], c["cls_cov"]), ("oe", rep.theta, rep.cov),
+                         ("oe-sandwich", rep.theta, c["cov_sandwich"]),
+                         ("oe-andrews", rep.theta, c["cov_andrews"]),
+                         ("oe-model", rep.theta, c["cov_model"])):
+        sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dz = (th[p:] - d) / np.where(sd[p:] > 0, sd[p:], np.inf)
+        ms = np.linalg.norm(th[1:4] - x[1:4]) / np.linalg.norm(x[1:4])
+        out[key] = ((th[:p] - x) / sd[:p], th[0] / x[0] - 1, ms, dz, sd[0] / b_mass)
+    return out, rep.names[:p]
+
+
+def compare(name, seeds, duration, write):
+    """Rows of the side-by-side comparison for one robot, rewritten after every seed."""
+    res = {"cls": [], "oe": [], "oe-sandwich": [], "oe-andrews": [], "oe-model": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in range(seeds):
+            try:
+                out, names = compare_one(name, seed, duration, Path(tmp))
+            except ValueError as e:
+                print(f"{name} seed {seed}: {e}", flush=True)
+                continue
+            for k, v in out.items():
+                res[k].append(v)
+            print(f"{name} seed {seed}: " + "; ".join(
+                f"{k} mass {100 * v[1]:+.2f} % (eff {v[4]:.2f}) m s_G {100 * v[2]:.1f} %"
+                for k, v in out.items() if k in ("cls", "oe")), flush=True)
+            write([compare_row(name, k, v, names) for k, v in res.items()])
+
+
+def compare_row(name, key, res, names) -> str:
+    """One row: the estimator's errors, RMS z, coverage and efficiency over the seeds."""
+    fin = [r for r in res if np.all(np.isfinite(r[0])) and np.isfinite(r[4])]
+    untold = len(res) - len(fin)
+    if not fin:
+        return f"| {name} | {key} | 0 (+{untold} 'cannot tell') |" + " |" * 9
+    Z, M, S, D, E = (np.array([r[i] for r in fin]) for i in range(5))
+    rmsz = np.sqrt(np.mean(Z ** 2, axis=0))
+    cover = np.mean(np.abs(D) <= 1.96, axis=0)
+    cover[0] = 1.0  # k_1: the reference (std 0)
+    w = int(np.argmin(cover))
+    m = D.shape[1] // 5
+    return (f"| {name} | {key} | {len(fin)} (+{untold} 'cannot tell') | "
+            f"{100 * np.median(np.abs(M)):.2f} / {100 * np.max(np.abs(M)):.2f} | "
+            f"{100 * np.median(S):.1f} / {100 * np.max(S):.1f} | {rmsz[0]:.2f} | "
+            f"{np.max(rmsz):.2f} ({names[int(np.argmax(rmsz))]}) | "
+            f"{100 * cover.min():.0f} % ({KINDS[w // m]}_{w % m + 1}); mean "
+            f"{100 * cover.mean():.0f} % | {np.median(E):.2f} ({E.min():.2f}-{E.max():.2f}) |")
+
+
+COMPARE_HEAD = ["| robot | estimator | seeds | mass error % median / worst | m s_G error % "
+                "median / worst | mass RMS z | worst HAC RMS z | worst drive coverage | mass "
+                "std / bound, median (range) |", "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=20)
@@ -190,7 +259,23 @@ def main(argv=None) -> int:
                     help="print the mass and m s_G Cramer-Rao bounds per seed (no fit)")
     ap.add_argument("--merge", action="store_true",
                     help="write results/currents.md from the results/currents-ROBOT.md tables")
+    ap.add_argument("--compare", action="store_true",
+                    help="corrected least squares and output error side by side (one run per "
+                         "seed), with each seed's mass bound")
     args = ap.parse_args(argv)
+    if args.compare:
+        out = Path(args.out or ROOT / "results" / "currents-oe.md")
+        rows = {}
+
+        def put(name, lines):
+            rows[name] = lines
+            out.write_text("\n".join(COMPARE_HEAD + [x for v in rows.values() for x in v])
+                           + "\n")
+
+        for name in args.robot or list(ROBOTS):
+            compare(name, args.seeds, args.duration, lambda lines, name=name: put(name, lines))
+        print(out.read_text())
+        return 0
     if args.bound:
         for name in args.robot or list(ROBOTS):
             b = np.array([bound(name, seed, duration=args.duration) for seed in range(args.seeds)])

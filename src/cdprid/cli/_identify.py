@@ -25,6 +25,8 @@ def run(args) -> int:
 
     if getattr(args, "source", "tensions") != "tensions":  # issue 41: no load cells
         return run_source(args, parse_params, write_json)
+    if getattr(args, "estimator", None) is not None:
+        raise UserError("--estimator applies to --source currents only.")
     _refuse_before_work(args)
     ds = read_dataset(args.dataset)
     check_geometry(ds.robot, ds.pose_t, ds.position, ds.quaternion)

@@ -22,6 +22,12 @@ def add_source_options(p) -> None:
                    "payload:DIR:KG[:STD_KG] (a second recording DIR with KG added to the "
                    "platform); default: a drive marked "
                    "drive_reference = true, else the stated reference of least relative std")
+    p.add_argument("--estimator", choices=("oe", "cls"), default=None,
+                   help="--source currents: oe (default; output error: the currents as the "
+                   "response, Gauss-Newton from cls, HAC sandwich floored at the current "
+                   "noise's own std; docs/currents-estimator.md) or cls (corrected least "
+                   "squares: the currents inside the regressor, their noise removed from the "
+                   "normal equations)")
 
 
 def run_source(args, parse_params, write_json) -> int:
@@ -42,12 +48,17 @@ def run_source(args, parse_params, write_json) -> int:
                            ("--wrench-filter", args.wrench_filter is not None),
                            ("--mat", getattr(args, "mat", None)),
                            ("--report", getattr(args, "report", None))) if on]
+    if getattr(args, "estimator", None) is not None and args.source != "currents":
+        raise UserError(f"--estimator applies to --source currents only, not --source "
+                        f"{args.source}.")
     if bad:
         raise UserError(f"{bad[0]} applies to --source tensions only; drop it or the --source "
                         f"{args.source} option.")
     ds = read_dataset(args.dataset, require_tensions=False)
     kw = dict(reference=args.reference, model=args.model, params=parse_params(args.params),
               t_start=args.t_start, t_end=args.t_end, trim=args.trim)
+    if args.source == "currents" and getattr(args, "estimator", None) is not None:
+        kw["estimator"] = args.estimator
     if args.differentiator not in (None, "euler-filtfilt"):
         raise UserError(f"--source {args.source} uses the differentiator euler-filtfilt, not "
                         f"{args.differentiator}.")

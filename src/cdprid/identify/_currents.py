@@ -47,6 +47,9 @@ from cdprid.core import crb as crb_bound
 from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
 from cdprid.identify._cells import CellCalibration
+from cdprid.identify._currents_oe import raw_rates as _raw_rates
+from cdprid.identify._currents_oe import refit_output_error
+from cdprid.identify._currents_sign import STILL_S, _expected_sign, _fast_rate, _friction_sign
 from cdprid.identify._drive_cells import cells_against_drives
 from cdprid.identify._eiv_currents import corrected, normal_and_noise
 from cdprid.identify._episodes import _trimmed
@@ -60,10 +63,6 @@ __all__ = ["CurrentsReport", "identify_currents"]
 EIV_SHARE_WARN = 0.3
 """Share of the regressor's energy that is current noise (in its worst direction) above
 which the identification is reported as weak."""
-SIGN_CUTOFF_HZ = 10.0
-"""Low-pass (Hz) of the encoder velocity that gives the Coulomb friction's sign."""
-STILL_S = 0.05
-"""A winch in the zero-velocity zone longer than this (s) is at rest: friction undefined."""
 EIV_CURRENTS_NOTE = ("errors-in-variables: each sample whitened by its residual covariance "
                      "(current noise x k, encoder noise through J and f_v, pose noise), and the "
                      "current and encoder noise inside the regressor removed from the normal "
@@ -118,6 +117,10 @@ class CurrentsReport:
     cond: float = float("nan")
     cond_scaled: float = float("nan")
     rotation_deg: float = 0.0
+    estimator: str = "cls"  #: "cls" (corrected least squares) or "oe" (output error)
+    #: with "oe": the corrected least squares' ``cls_theta``, ``cls_cov`` and the output
+    #: error's other covariances (``cov_sandwich``, ``cov_andrews``, ``cov_model``)
+    compared: dict | None = None
 
     @property
     def std(self) -> np.ndarray:
@@ -195,44 +198,6 @@ def _filter_gain(t_src, t, wf, pre=None, seed: int = 1) -> float:
     return float(np.mean(np.var(f[k], axis=0)))
 
 
-def _fast_rate(t_src, l_src, t, seed: int = 2):
-    """The winches' velocity for the Coulomb sign (n, m): the lengths on their own clock
-    through a zero-phase low-pass at ``SIGN_CUTOFF_HZ`` (or 0.2 of their rate), central
-    differences, interpolated onto ``t``; and its noise std per cable (m/s), the encoder noise
-    passed through the same chain. The accelerations' filter is too narrow for this: it moves
-    the zero crossings, and the current jumps by ``f_c / k`` exactly there."""
-    dt = float(np.median(np.diff(t_src)))
-    fc = min(SIGN_CUTOFF_HZ, 0.2 / dt)
-    v = np.gradient(zero_phase_filter(l_src, dt, fc), dt, axis=0)
-    out = np.column_stack([np.interp(t, t_src, v[:, c]) for c in range(v.shape[1])])
-    x = np.random.default_rng(seed).normal(size=(4000, 1))
-    gain = float(np.std(np.gradient(zero_phase_filter(x, dt, fc), dt, axis=0)[400:-400]))
-    return out, estimate_noise(np.asarray(l_src, float)) * gain
-
-
-def _friction_sign(v_fast, s_v, params: dict, dt: float):
-    """``sign(l')`` for the Coulomb column and the samples to leave out.
-
-    The column takes the expected sign under the velocity's noise, ``erf(l' / (sqrt(2)
-    s_v))`` (the sign itself on exact data): where the velocity is within its noise of zero
-    the true sign is a guess, and a guess of zero mean spreads no bias through the filter.
-    Samples with ``|l'| < 3 s_v`` on some winch are left out. Where a winch stays below
-    ``v_z = max(0.5 mm/s, 3 s_v)`` longer than ``STILL_S`` (at rest, or turning slowly) its
-    friction is anywhere within +-f_c (stiction): the matched filter's reach around it (half
-    a period of its cutoff) is left out too."""
-    s_v = np.maximum(np.asarray(s_v, float), 1e-9)
-    sign = _expected_sign(v_fast, s_v)
-    zone = np.abs(v_fast) < 3.0 * s_v
-    v_z = np.maximum(5e-4, 3.0 * s_v)
-    w = int(np.ceil(0.5 / (float(params.get("cutoff_hz", 4.0)) * dt)))
-    n_still = max(1, int(round(STILL_S / dt)))
-    long = np.zeros(len(v_fast), bool)
-    for z in (np.abs(v_fast) < v_z).T:
-        long |= np.convolve(z.astype(float), np.ones(n_still), mode="same") >= n_still - 0.5
-    long = np.convolve(long.astype(float), np.ones(2 * w + 1), mode="same") > 0
-    return sign, np.any(zone, axis=1) | long, float(np.max(v_z))
-
-
 class _SubRegression:
     """A streamed regression restricted to some of its samples (``wrench_block`` on them)."""
 
@@ -244,17 +209,6 @@ class _SubRegression:
         r = self._rows[i0:i1]
         Z, y = self._reg.wrench_block(int(r[0]), int(r[-1]) + 1)
         return Z[r - r[0]], y[r - r[0]]
-
-
-def _raw_rates(lengths, segments, dt: float):
-    """Central first and second differences of the lengths (n, m), segment by segment."""
-    d1, d2 = np.zeros_like(lengths), np.zeros_like(lengths)
-    for i0, i1 in segments:
-        x = lengths[i0:i1]
-        d1[i0:i1] = np.gradient(x, dt, axis=0, edge_order=2)
-        d2[i0 + 1:i1 - 1] = (x[2:] - 2.0 * x[1:-1] + x[:-2]) / dt ** 2
-        d2[i0], d2[i1 - 1] = d2[i0 + 1], d2[i1 - 2]
-    return d1, d2
 
 
 def _drive_design(ds, motion, cur_i, lengths, sign, wf, dt: float, params: dict) -> np.ndarray:
@@ -281,7 +235,7 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
                       differentiator: str = "euler-filtfilt", params: dict | None = None,
                       t_start: float | None = None, t_end: float | None = None,
                       trim: float = TRIM_S, chunk: int = CHUNK, bound: bool = True,
-                      drives=None) -> CurrentsReport:
+                      drives=None, estimator: str = "oe") -> CurrentsReport:
     """Identify the platform and every drive from poses, winch lengths and motor currents.
 
     Parameters
@@ -308,6 +262,8 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
         Compute the Cramer-Rao bound of the platform parameters with the drives known.
     drives : DriveData, optional
         Default: robot.toml's drive fields.
+    estimator : {"oe", "cls"}
+        Output error (default; ``_currents_oe``) or the corrected least squares it starts from.
 
     Returns
     -------
@@ -317,19 +273,13 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
         raise InputError("--source currents uses the differentiator euler-filtfilt (its "
                          f"zero-phase filter is matched on every drive column), not "
                          f"{differentiator}.")
+    if estimator not in ("cls", "oe"):
+        raise InputError(f"--estimator: {estimator!r} is not one of cls, oe.")
     m = ds.robot.n_cables
     drives = read_drives(ds.path) if drives is None and ds.path is not None else drives
     ref = choose_reference(reference, ds.robot, drives)
     (ct, cur_raw), lens = _streams(ds, m)
-    pre = _prefilter_cutoff(ct, ds.pose_t)
-    cur = cur_raw if pre is None else zero_phase_filter(cur_raw, _period(ct), pre)
-    ds_i = dataclasses.replace(ds, tension_t=ct, tension=cur)
-    sig = align(ds_i, t_start, t_end)
-    notes = [n.replace("tension", "current") for n in sig.notes]
-    if pre is not None:
-        notes.append(f"currents low-passed at {pre:.3g} Hz on their own clock before the "
-                     "interpolation onto the pose clock (their noise averaged; the Coulomb "
-                     "column passes the same filter)")
+    pre, ds_i, sig, notes = _currents_aligned(ds, ct, cur_raw, t_start, t_end)
     fix = cutoff_from_data(differentiator, params)
     params, w0 = resolve_params(ds_i, sig, differentiator, params, notes)
     model, rot, warns = _choose_model(model, sig, ds.path, w0)
@@ -346,16 +296,36 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
                                  noise, differentiator, params, notes)
     fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes,
                _datasheet_prior(drives, ref, len(PARAMETER_NAMES[model]), m, notes))
+    if estimator == "oe":
+        fit = refit_output_error(ds, fit["p"], motion, idx, reg, fit, ref, drives,
+                                 np.asarray(sig.tension), lengths, noise["sign"], wf, sig.dt,
+                                 params, noise, ct, notes, warns)
     cells = cells_against_drives(ds, model, motion, idx, np.asarray(sig.tension), lengths,
                                  noise.pop("sign"), wf, sig.dt, params, fit["theta"],
                                  fit["cov"], int(chunk), notes)
     rep = _report(ds, model, ref, drives, fit, motion, idx, rates, noise, bound, fix,
                   differentiator, params, notes, warns)
     rep = dataclasses.replace(rep, cond=float(fit["gls"].cond),
-                              cond_scaled=float(fit["gls"].cond_scaled), rotation_deg=float(rot))
+                              cond_scaled=float(fit["gls"].cond_scaled), rotation_deg=float(rot),
+                              estimator=estimator, compared=fit.get("compared"))
     if cells is None:
         return rep
     return dataclasses.replace(rep, cells=cells, warnings=rep.warnings + cells.warnings)
+
+
+def _currents_aligned(ds, ct, cur_raw, t_start, t_end):
+    """``(pre, ds_i, sig, notes)``: the currents low-passed on their own clock when faster than
+    the poses (``pre`` the cutoff or None) and aligned onto the pose clock as tensions."""
+    pre = _prefilter_cutoff(ct, ds.pose_t)
+    cur = cur_raw if pre is None else zero_phase_filter(cur_raw, _period(ct), pre)
+    ds_i = dataclasses.replace(ds, tension_t=ct, tension=cur)
+    sig = align(ds_i, t_start, t_end)
+    notes = [n.replace("tension", "current") for n in sig.notes]
+    if pre is not None:
+        notes.append(f"currents low-passed at {pre:.3g} Hz on their own clock before the "
+                     "interpolation onto the pose clock (their noise averaged; the Coulomb "
+                     "column passes the same filter)")
+    return pre, ds_i, sig, notes
 
 
 def _datasheet_prior(drives, ref, p: int, m: int, notes: list):
@@ -421,14 +391,6 @@ def _design(ds, sig, motion, reg, keep, lengths, lens, ct, pre, wf, noise, diffe
                  f"mm/s for more than {STILL_S:g} s (at rest: stiction)")
     return (idx[use], _SubRegression(reg, np.flatnonzero(use)), D[use],
             tuple(x[use] for x in rates))
-
-
-def _expected_sign(v, s_v):
-    """``E[sign(v_true)]`` for a velocity estimate ``v`` of noise std ``s_v``: ``erf(v /
-    (sqrt(2) s_v))`` (the sign itself when ``s_v`` is 0)."""
-    from scipy.special import erf
-
-    return erf(v / (np.sqrt(2.0) * np.maximum(np.asarray(s_v, float), 1e-9)))
 
 
 def _lengths_on_pose_clock(ds, motion, lens, keep, notes: list):

@@ -57,6 +57,7 @@ def currents_json(rep) -> dict:
         drives.append(entry)
     return {
         "source": "currents",
+        "estimator": getattr(rep, "estimator", "cls"),
         "model": rep.model,
         "parameters": params,
         "sigma_rho": rep.sigma_rho,
