@@ -9,6 +9,7 @@ from cdprid.core._bandwidth import BUDGET as BUDGET
 from cdprid.core._bandwidth import BandwidthChoice as BandwidthChoice
 from cdprid.core._bandwidth import choose_cutoff as choose_cutoff
 from cdprid.core._covariance import andrews_bandwidth as andrews_bandwidth
+from cdprid.core._covariance import bartlett_meat as bartlett_meat
 from cdprid.core._covariance import hac_covariance as hac_covariance
 from cdprid.core._covariance import hac_covariance_blocks as hac_covariance_blocks
 from cdprid.core._covariance import iid_covariance as iid_covariance

@@ -153,11 +153,22 @@ def andrews_bandwidth(S: Float[np.ndarray, "n p"]) -> float:
     return float(np.clip(b, 1.0, max(1.0, n / 4.0)))
 
 
-def _bartlett_meat(S, bandwidth: float):
+def bartlett_meat(S, bandwidth: float):
     """``sum_{|j| < L} (1 - |j| / L) Gamma_j`` with ``L = ceil(bandwidth)`` by moving sums.
 
     The Bartlett-weighted sum of the score autocovariances equals the mean outer product of the
     moving sums of L consecutive scores (partial windows at both ends), O(n p^2).
+
+    Parameters
+    ----------
+    S : ndarray (n, p)
+        Per-sample scores.
+    bandwidth : float
+        Bartlett window L (samples; rounded up, at least 1).
+
+    Returns
+    -------
+    ndarray (p, p)
     """
     n, p = S.shape
     L = max(1, int(np.ceil(bandwidth)))
@@ -309,7 +320,7 @@ def hac_covariance_blocks(
     if leverage:
         meat = _leverage_adjusted_windows(design, S, R.T @ R, float(bandwidth), int(chunk))
     else:
-        meat = _bartlett_meat(S, float(bandwidth))
+        meat = bartlett_meat(S, float(bandwidth))
     cov = bread @ meat @ bread
     return 0.5 * (cov + cov.T), float(bandwidth)
 

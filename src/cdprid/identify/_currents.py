@@ -47,8 +47,8 @@ from cdprid.core import crb as crb_bound
 from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
 from cdprid.identify._cells import CellCalibration
+from cdprid.identify._currents_oe import datasheet_drives, refit_output_error
 from cdprid.identify._currents_oe import raw_rates as _raw_rates
-from cdprid.identify._currents_oe import refit_output_error
 from cdprid.identify._currents_sign import STILL_S, _expected_sign, _fast_rate, _friction_sign
 from cdprid.identify._drive_cells import cells_against_drives
 from cdprid.identify._eiv_currents import corrected, normal_and_noise
@@ -336,11 +336,7 @@ def _datasheet_prior(drives, ref, p: int, m: int, notes: list):
         return None
     q = p + 5 * m
     P, mean = np.zeros(q), np.zeros(q)
-    for j in range(m):
-        tol = float(drives.tolerance[j])
-        if np.isnan(tol) or (ref.kind == "drive" and ref.cable == j + 1):
-            continue
-        k0 = float(drives.k_nominal[j])
+    for j, k0, tol in datasheet_drives(drives, ref, m):
         s = max(tol, 1e-6) * k0 / np.sqrt(3.0) / ref.value
         P[p + j], mean[p + j] = 1.0 / s ** 2, k0 / ref.value
     if not P.any():

@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cdprid.core import andrews_bandwidth, wrench_matrices
+from cdprid.core import andrews_bandwidth, bartlett_meat, wrench_matrices
 from cdprid.signal import zero_phase_filter
 
 __all__ = ["OEFit", "commutator", "fit_output_error", "oe_inputs", "raw_rates",
@@ -136,16 +136,6 @@ def raw_rates(lengths, segments, dt: float):
     return d1, d2
 
 
-def _bartlett(S, L: float) -> np.ndarray:
-    """``sum_{|j| < L} (1 - |j| / L) Gamma_j`` of the scores ``S`` (n, q) by moving sums."""
-    n, q = S.shape
-    L = max(1, int(np.ceil(L)))
-    c = np.concatenate([np.zeros((1, q)), np.cumsum(S, axis=0)])
-    k = np.arange(n + L - 1)
-    M = c[np.minimum(k + 1, n)] - c[np.maximum(k - L + 1, 0)]
-    return (M.T @ M) / L
-
-
 def fit_output_error(G, I, L2, L1, S, C1, phi0, fixed: int, weights, Nn=None, prior=None,
                      bandwidth: float | None = None, max_iter: int = 30,
                      tol: float = 1e-10, Dc=None) -> OEFit:
@@ -228,9 +218,9 @@ def _sandwich(r, jac, phi, o, P, it: int, converged: bool, bandwidth) -> OEFit:
     H = np.einsum("njq,njr->qr", Jm, Jm) + np.diag(P[o])
     Hi = np.linalg.inv(H)
     cov, cov_a, cov_iid = np.zeros((q, q)), np.zeros((q, q)), np.zeros((q, q))
-    cov_a[np.ix_(o, o)] = Hi @ (_bartlett(scores, bw_a) + np.diag(P[o])) @ Hi
+    cov_a[np.ix_(o, o)] = Hi @ (bartlett_meat(scores, bw_a) + np.diag(P[o])) @ Hi
     bw = bw_a if bandwidth is None else float(bandwidth)
-    cov[np.ix_(o, o)] = Hi @ (_bartlett(scores, bw) + np.diag(P[o])) @ Hi
+    cov[np.ix_(o, o)] = Hi @ (bartlett_meat(scores, bw) + np.diag(P[o])) @ Hi
     cov_iid[np.ix_(o, o)] = Hi
     return OEFit(phi, cov, cov_iid, float(bw), it, converged, e, cov_a, float(bw_a))
 
@@ -306,6 +296,16 @@ def commutator(ds, motion, idx, current, lengths, sign, wf, dt: float, theta, p:
     return np.einsum("nma,na->nm", np.linalg.pinv(W[idx]), Fu) - Ft
 
 
+def datasheet_drives(drives, ref, m: int):
+    """``(j, k0, tol)`` for every drive but the reference that states a datasheet tolerance:
+    index, nominal torque constant and relative tolerance (the priors of both estimators)."""
+    for j in range(m):
+        tol = float(drives.tolerance[j])
+        if np.isnan(tol) or (ref.kind == "drive" and ref.cable == j + 1):
+            continue
+        yield j, float(drives.k_nominal[j]), tol
+
+
 def _a_prior(drives, ref, p: int, m: int):
     """Gaussian priors on ``a_j = 1 / k_j`` from the datasheets (std ``tol / (sqrt(3) k0)``),
     the reference drive excluded; None without any."""
@@ -313,11 +313,7 @@ def _a_prior(drives, ref, p: int, m: int):
         return None
     q = p + 5 * m
     P, mean = np.zeros(q), np.zeros(q)
-    for j in range(m):
-        tol = float(drives.tolerance[j])
-        if np.isnan(tol) or (ref.kind == "drive" and ref.cable == j + 1):
-            continue
-        k0 = float(drives.k_nominal[j])
+    for j, k0, tol in datasheet_drives(drives, ref, m):
         P[p + j] = (np.sqrt(3.0) * k0 / max(tol, 1e-6)) ** 2
         mean[p + j] = 1.0 / k0
     return (P, mean) if P.any() else None
