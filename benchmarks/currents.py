@@ -66,13 +66,7 @@ def one(robot, tau_ref, seed, duration, tmp):
     return z, est[0] / x[0] - 1, ms, dz.reshape(5, m), rep
 
 
-def _wrench_x(x, p, a, R, om, al):
-    """The simulator's wrench for the parameter vector ``x`` (m, m s_G, I_P's six)."""
-    m = x[0]
-    s = x[1:4] / m
-    IP = np.array([[x[4], x[5], x[6]], [x[5], x[7], x[8]], [x[6], x[8], x[9]]])
-    IG = IP - m * (s @ s * np.eye(3) - np.outer(s, s))
-    return winch_sim.wrench(m, s, IG, p, a, R, om, al)
+_wrench_x = winch_sim.wrench_of_parameters
 
 
 def bound(name, seed, sigma=0.03, tol=0.1, duration=30.0, amp=0.25, rot_amp=0.08, prior=True):

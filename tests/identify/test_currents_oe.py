@@ -23,12 +23,7 @@ def _x_truth():
     return np.array([m, *(m * s), IP[0, 0], IP[0, 1], IP[0, 2], IP[1, 1], IP[1, 2], IP[2, 2]])
 
 
-def _wrench_x(x, p, a, R, om, al):
-    m = x[0]
-    s = x[1:4] / m
-    IP = np.array([[x[4], x[5], x[6]], [x[5], x[7], x[8]], [x[6], x[8], x[9]]])
-    IG = IP - m * (s @ s * np.eye(3) - np.outer(s, s))
-    return winch_sim.wrench(m, s, IG, p, a, R, om, al)
+_wrench_x = winch_sim.wrench_of_parameters
 
 
 def _exact(robot, tau_ref, seed=3, duration=12.0, rate=50.0):

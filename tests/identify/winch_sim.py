@@ -85,6 +85,16 @@ def wrench(m, sG, IG, p, a, R, om, al):
     return np.hstack([F, M])
 
 
+def wrench_of_parameters(x, p, a, R, om, al):
+    """:func:`wrench` for the parameter vector ``x`` = (m, m s_G (3), I_P's six: xx, xy, xz,
+    yy, yz, zz about P in the platform frame)."""
+    m = x[0]
+    s = x[1:4] / m
+    IP = np.array([[x[4], x[5], x[6]], [x[5], x[7], x[8]], [x[6], x[8], x[9]]])
+    IG = IP - m * (s @ s * np.eye(3) - np.outer(s, s))
+    return wrench(m, s, IG, p, a, R, om, al)
+
+
 def wrench_matrix(A, b, p, R):
     """Columns (u_i; (R b_i) x u_i), u_i the unit vector from the attachment to the exit."""
     rb = np.einsum("nij,mj->nmi", R, b)
