@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from cdprid.effects import EXTERNAL_WRENCH
 from cdprid.episodes import (
     Episode,
     filter_autocorrelation,
@@ -56,7 +57,7 @@ def _stage(ds, sig, cutoff: float, trim: float, far_per_hour: float):
 def _residual_episode(t, a: int, b: int, T: float, mean, p: float) -> Episode:
     """A stretch of the free directions' residual as an ``external_wrench`` episode (only its
     projection on the free directions is seen: force and moment are not given)."""
-    return Episode(float(t[a]), float(t[b - 1]), "external_wrench", None, None, None, None, p,
+    return Episode(float(t[a]), float(t[b - 1]), EXTERNAL_WRENCH, None, None, None, None, p,
                    {"free_directions_N": float(np.linalg.norm(mean)),
                     "located_by": "free-motion residual"})
 
