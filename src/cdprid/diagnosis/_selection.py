@@ -271,14 +271,21 @@ def effect_size_N(prob: Problem, s: Selection, c) -> float:
 MASS_RATIO = 2.0
 
 
+def implausible_findings(prob: Problem, t: Selection, extra: dict):
+    """``(k, reason)`` for every finding of ``t`` whose refitted parameters lie outside their
+    vocabulary range (:func:`cdprid.diagnosis._candidates.implausible`), in model order."""
+    for k, c in enumerate(t.accepted):
+        why = implausible(c.effect, vocab_params(c, t.theta, prob.layout, extra, t.th_cov))
+        if why:
+            yield k, why
+
+
 def model_implausible(prob: Problem, t: Selection, extra: dict) -> str:
     """A reason when the jointly refitted model is implausible, else '': an earlier
     finding pushed outside its plausible range, or a mass changed by more than
     :data:`MASS_RATIO` from the base model's."""
-    for c in t.accepted:
-        why = implausible(c.effect, vocab_params(c, t.theta, prob.layout, extra, t.th_cov))
-        if why:
-            return f"{c.label} becomes {why}"
+    for k, why in implausible_findings(prob, t, extra):
+        return f"{t.accepted[k].label} becomes {why}"
     m0 = extra.get("base_mass_kg")
     if m0 and not (m0 / MASS_RATIO < t.x[0] < m0 * MASS_RATIO):
         return f"the mass becomes {t.x[0]:.3g} kg (base model {m0:.3g} kg)"

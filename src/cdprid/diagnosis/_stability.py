@@ -34,6 +34,7 @@ from cdprid.diagnosis._selection import (
     effect_size_N,
     extends_base,
     finding_columns,
+    implausible_findings,
     linear_model,
     model_implausible,
     refit,
@@ -233,12 +234,10 @@ def plausibility_stage(prob: Problem, s: Selection, extra: dict, say) -> tuple[S
     3.4 and 4.3 (range 0.5-2) that the report would have named."""
     out = []
     while True:
-        bad = [(k, why) for k, c in enumerate(s.accepted)
-               if (why := implausible(c.effect, vocab_params(c, s.theta, prob.layout, extra,
-                                                             s.th_cov)))]
-        if not bad:
+        bad = next(implausible_findings(prob, s, extra), None)
+        if bad is None:
             return s, out
-        k, why = bad[0]
+        k, why = bad
         c = s.accepted[k]
         say(f"plausibility: {c.label} withdrawn: the model without the findings taken back "
             f"refits it to an implausible value ({why})")
