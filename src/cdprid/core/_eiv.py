@@ -45,6 +45,8 @@ def noise_gains(differentiator: str, params: dict, dt: float, wf=None, n: int = 
     Units: 1, 1/s^2 and 1/s^4 on the diagonal.
     """
     x = np.random.default_rng(seed).normal(size=(n, 3))
+    if hasattr(wf, "whole"):  # a per-segment filter of the recording: here one n-sample segment
+        wf = wf.whole(n)
     v, a = (np.asarray(z) for z in differentiate(x, dt, method=differentiator, **params))
     f = x if wf is None else np.asarray(wf(x, np.ones(3)))
     if hasattr(wf, "position"):  # the linear match: accelerations are its FIR of the poses

@@ -82,9 +82,20 @@ class LinearMatch:
     segments: tuple
     dt: float
 
+    def whole(self, n: int) -> "LinearMatch":
+        """The same filter on a gap-free sequence of ``n`` samples (one segment)."""
+        return dataclasses.replace(self, segments=((0, int(n)),))
+
+    def _check_length(self, n: int) -> None:
+        """The filter is defined on the recording's segments only (no sample left unset)."""
+        if self.segments and self.segments[-1][1] != n:
+            raise ValueError(f"LinearMatch: {n} samples given, its segments cover "
+                             f"{self.segments[-1][1]} (use whole(n) for another sequence).")
+
     def position(self, x: np.ndarray) -> np.ndarray:
         """``c * x`` for position-like channels (n, k), per segment (zero before ``L``)."""
         x = np.asarray(x, float)
+        self._check_length(len(x))
         out = np.zeros_like(x)
         for a, b in self.segments:
             out[a:b] = _fir(self.taps, x[a:b])
@@ -99,6 +110,7 @@ class LinearMatch:
         u = np.asarray(u, float)
         squeeze = u.ndim == 1
         u2 = u.reshape(len(u), -1)
+        self._check_length(len(u2))
         out = np.empty_like(u2)
         for a, b in self.segments:
             mu = u2[a:b].mean(axis=0)
