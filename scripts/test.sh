@@ -5,7 +5,7 @@
 # pytest process runs exactly what they name).
 #
 # Without arguments the suite runs as one pytest process per test folder (tests/<subpackage>/,
-# then the top-level test files), one after the other: a single process that had compiled the
+# and each top-level test file), two at a time (below): a single process that had compiled the
 # whole suite's XLA programs died in XLA:CPU's compiler (segfault in backend_compile_and_load,
 # tests/identify/test_online.py, CI 2026-11-27, twice at the same test) while the same tests
 # pass in a fresh process. Each folder's process starts from a clean JAX state; the exit code
@@ -34,20 +34,54 @@ for d in tests/*/; do
 done
 for f in tests/test_*.py; do GROUPS_+=("$f"); done
 
-start=$SECONDS
-failed=()
+# Two folders at a time (CDPRID_TEST_JOBS, default: the number of cores, at most 4): each
+# pytest process spends most of its time in XLA's single-threaded compiler, so a second process
+# uses the second core (26 min -> see the README's "How long"). The heaviest folders start
+# first; each folder's output is printed whole when it ends, in the order they end.
+JOBS="${CDPRID_TEST_JOBS:-$(nproc 2>/dev/null || echo 2)}"
+if [ "$JOBS" -gt 4 ]; then JOBS=4; fi
+if [ "$JOBS" -lt 1 ]; then JOBS=1; fi
+HEAVY=(tests/identify tests/diagnosis tests/notebooks tests/core tests/excitation tests/cli
+       tests/io tests/tuning)
+ORDERED=()
+for h in "${HEAVY[@]}"; do
+  for g in "${GROUPS_[@]}"; do [ "$g" = "$h" ] && ORDERED+=("$g"); done
+done
 for g in "${GROUPS_[@]}"; do
-  echo "[test] $g"
+  case " ${HEAVY[*]} " in *" $g "*) ;; *) ORDERED+=("$g") ;; esac
+done
+LOGS="$(mktemp -d)"
+trap 'rm -rf "$LOGS"' EXIT
+export LOGS
+run_one() {
+  local g="$1" key rc s
+  key="$(echo "$g" | tr '/.' '__')"
+  s=$SECONDS
   set +e
-  "${PYTEST[@]}" "$g"
+  if [ "${CI:-}" = "true" ]; then
+    .venv/bin/python -m pytest -q -p no:cacheprovider -m "slow or not slow" "$g" > "$LOGS/$key.log" 2>&1
+  else
+    .venv/bin/python -m pytest -q -p no:cacheprovider "$g" > "$LOGS/$key.log" 2>&1
+  fi
   rc=$?
   set -e
+  echo "$rc" > "$LOGS/$key.rc"
+  { echo "[test] $g ($((SECONDS - s)) s, exit $rc)"; cat "$LOGS/$key.log"; } | flock "$LOGS/.lock" cat
+}
+export -f run_one
+
+start=$SECONDS
+printf '%s\n' "${ORDERED[@]}" | xargs -P "$JOBS" -I{} bash -c 'run_one "$@"' _ {}
+failed=()
+for g in "${ORDERED[@]}"; do
+  key="$(echo "$g" | tr '/.' '__')"
+  rc="$(cat "$LOGS/$key.rc" 2>/dev/null || echo missing)"
   # 5: nothing collected (a folder whose tests are all deselected) is not a failure
-  if [ "$rc" -ne 0 ] && [ "$rc" -ne 5 ]; then
+  if [ "$rc" != "0" ] && [ "$rc" != "5" ]; then
     failed+=("$g (exit $rc)")
   fi
 done
-echo "[test] ${#GROUPS_[@]} folders in $((SECONDS - start)) s"
+echo "[test] ${#GROUPS_[@]} folders in $((SECONDS - start)) s ($JOBS at a time)"
 if [ "${#failed[@]}" -gt 0 ]; then
   echo "[test] FAILED: ${failed[*]}"
   exit 1

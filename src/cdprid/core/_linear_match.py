@@ -89,7 +89,7 @@ class LinearMatch:
     def _check_length(self, n: int) -> None:
         """The filter is defined on the recording's segments only (no sample left unset)."""
         if self.segments and self.segments[-1][1] != n:
-            raise ValueError(f"LinearMatch: {n} samples given, its segments cover "
+            raise RuntimeError(f"LinearMatch: {n} samples given, its segments cover "
                              f"{self.segments[-1][1]} (use whole(n) for another sequence).")
 
     def position(self, x: np.ndarray) -> np.ndarray:
