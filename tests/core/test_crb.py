@@ -59,7 +59,8 @@ def _gls_bound(robot, model, theta, p, R, a, om, al, tension, s):
     return np.linalg.inv(info)
 
 
-@pytest.mark.parametrize("name", ["SIX_SUSPENDED", "EIGHT_REDUNDANT"])
+@pytest.mark.parametrize("name", ["SIX_SUSPENDED",
+                                  pytest.param("EIGHT_REDUNDANT", marks=pytest.mark.slow)])
 def test_bound_with_known_motion_is_the_gls_bound(name):
     import cdprid.model as M
 

@@ -10,8 +10,8 @@ import pytest
 from cdprid.core import crb
 
 
-@pytest.mark.parametrize("rot", [True, False])
-def test_blockwise_bound_equals_one_block(rot):
+@pytest.mark.parametrize("rot", [pytest.param(True, marks=pytest.mark.slow), False])
+def test_blockwise_bound_equals_one_block(rot):  # rotating: 26 s, with the slow tests
     import cdprid.model as M
     from cdprid.model import quat_to_matrix, rotvec_to_quat
 

@@ -4,8 +4,10 @@ the truth in meta.toml, read through the typed estimates (issue 36)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 
+@pytest.mark.slow  # over 20 s on 2 cores: with the slow tests (CI runs them all)
 def test_full_model_identifies_the_sample_truth(sample_dataset):
     from cdprid.identify import identify_dataset
     from cdprid.io import read_dataset

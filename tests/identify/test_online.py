@@ -147,6 +147,7 @@ def test_online_noise_free_matched_filter_close_to_truth(robot, sim_clean):
     assert abs(bad[3] - x_true[3]) > 5 * abs(good[3] - x_true[3])
 
 
+@pytest.mark.slow  # over 20 s on 2 cores: with the slow tests (CI runs them all)
 def test_full_model_angular_rates_match_batch_motion(robot):
     tr = preset("paper-orbits", robot, duration=12.0, rotation_amplitude=0.05)
     sim = simulate(robot, tr, noise=SensorNoise.off())
@@ -305,6 +306,7 @@ def test_cli_identify_online(ds_path, tmp_path, monkeypatch, capsys):
     assert on2["csv"] != on["csv"] and csv.read_text() == before
 
 
+@pytest.mark.slow  # over 20 s on 2 cores: with the slow tests (CI runs them all)
 def test_online_json_has_the_batch_guards_when_auto_picks_the_model(robot, tmp_path, capsys,
                                                                     monkeypatch):
     """--model auto on rotating data: the online JSON names the model, rotation, inertia point

@@ -43,7 +43,17 @@ def test_notebook_has_no_outputs(path):
     assert not dirty, f"{path.name}: cells {dirty} carry outputs; commit notebooks without outputs"
 
 
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
+HEAVY = ("03_differentiators_and_tuning.ipynb", "06_real_data.ipynb")
+"""Notebooks whose execution takes over 1.5 min on 2 cores: run with the slow tests (CI runs
+them all; the default suite's time goal, README "How long")."""
+
+
+def _executes_params():
+    return [pytest.param(p, id=p.name, marks=pytest.mark.slow) if p.name in HEAVY
+            else pytest.param(p, id=p.name) for p in NOTEBOOKS]
+
+
+@pytest.mark.parametrize("path", _executes_params())
 def test_notebook_executes(path, tmp_path, monkeypatch):
     nb = nbformat.read(path, as_version=4)
     if _needs_shared(nb) and not (SHARED / "datasets").is_dir():
