@@ -238,11 +238,10 @@ def diagnose(
     s, (other, second), clock_info, ranking, thr_first = _search(
         prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain,
         np.random.default_rng(seed), say)
-    feats = _structure(prob)
-    s, hints, withdrawn, clock_info = _checks(prob, s, candidates, feats, alpha, min_gain,
-                                              thr_first, extra, say, clock_info)
-    s, competing, n_alt, clock_info = _competing_stage(prob, s, candidates, min_gain, extra,
-                                                       say, other, thr_first, clock_info, notes)
+    s, hints, withdrawn, clock_info = _checks(prob, s, candidates, feats := _structure(prob),
+                                              alpha, min_gain, thr_first, extra, say, clock_info)
+    s, competing, n_alt, clock_info = _competing_stage(prob, s, candidates, min_gain, extra, say,
+                                                       other, thr_first, clock_info, notes)
     unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say)
     findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {

@@ -69,6 +69,6 @@ def without_own_signature(C, F, train, own: float = OWN_SIGNATURE):
     rho = canonical_correlation(C[train], F[train])
     if rho < own:
         return F, rho
-    n, p, q = C.shape[0], C.shape[2], F.shape[2]
+    p, q = C.shape[2], F.shape[2]
     b, *_ = np.linalg.lstsq(C[train].reshape(-1, p), F[train].reshape(-1, q), rcond=None)
     return F - np.einsum("nip,pq->niq", C, b), rho
