@@ -314,7 +314,11 @@ def _checks(prob, s, candidates, feats, alpha, min_gain, thr_first, extra, say, 
 
 
 def _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say):
-    """The ``unexplained`` stage on the final model, with the withdrawn findings after it."""
+    """The ``unexplained`` stage on the final model, with the withdrawn findings after it (a
+    hint of backward elimination about an effect the final model names again, e.g. after a
+    competing model replaced a finding by it, is left out)."""
+    named = {c.label for c in s.accepted}
+    hints = [h for h in hints if h["where"] not in named]
     Z, y, _, _ = linear_model(prob, s)
     unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
     unexplained += withdrawn
