@@ -38,6 +38,28 @@ from cdprid.effects import DIAGNOSIS
 DM_LEVEL = 0.05
 #: at most this many alternative models are refitted (the strongest aliases first)
 MAX_ALTERNATIVES = 12
+#: an alternative replaces the named model when its held-out RMS is lower by more than this
+#: fraction (material) and the Diebold-Mariano test finds it better at :data:`DM_LEVEL`
+#: (beyond its sampling uncertainty)
+REPLACE_FRACTION = 0.05
+
+
+def verdict_of(rel: float, loss_alt, loss_best, lags: int, min_gain: float) -> str | None:
+    """What an alternative complete model is to the named one.
+
+    ``"replaces"`` when it predicts the held-out data materially and significantly better:
+    its held-out RMS lower by more than :data:`REPLACE_FRACTION` (``rel``, relative to the
+    named model's) and the one-sided Diebold-Mariano test (:func:`dm_p_worse`) finds it
+    better at :data:`DM_LEVEL`; ``"competes"`` when the data cannot tell the two apart (the
+    difference below the search's gate ``min_gain``, or the test does not find it worse);
+    ``None`` when it predicts worse.
+    """
+    p = dm_p_worse(loss_alt, loss_best, lags)
+    if rel < -REPLACE_FRACTION and p > 1.0 - DM_LEVEL:
+        return "replaces"
+    if rel < min_gain or p > DM_LEVEL:
+        return "competes"
+    return None
 
 
 def dm_p_worse(loss_alt, loss_best, lags: int) -> float:
@@ -80,7 +102,7 @@ def _losses(prob: Problem, Z, y) -> np.ndarray:
 
 
 def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
-                     say=lambda msg: None, other=None) -> tuple[list, int]:
+                     say=lambda msg: None, other=None, better=None) -> tuple[list, int]:
     """Alternative complete models within the noise of the final one.
 
     Parameters
@@ -99,6 +121,11 @@ def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
         :mod:`cdprid.diagnosis._restart`), compared with the final model like the alternatives
         (``replaces`` and ``by`` then join several labels with " + ", and ``parameters``
         maps each replacing effect's label to its parameters when there are several).
+    better : list, optional
+        Receives ``(relative_difference, p_worse, k, replaced, replacing, selection)`` for
+        every one-finding alternative that predicts the held-out data materially and
+        significantly better (:func:`verdict_of`: it should replace the named model, see
+        :func:`adopt_better`); such an alternative is not a competing model.
 
     Returns
     -------
@@ -110,7 +137,8 @@ def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
     """
     saved = {k: dict(v) for k, v in prob.cache.items()}
     try:
-        out, n_tried = _competing(prob, s, candidates, min_gain, extra, say)
+        out, n_tried = _competing(prob, s, candidates, min_gain, extra, say,
+                                  [] if better is None else better)
         if other is not None:
             m = _whole_model(prob, s, other, min_gain, extra, say)
             n_tried += 1
@@ -122,7 +150,7 @@ def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
         prob.cache.update(saved)
 
 
-def _competing(prob, s, candidates, min_gain, extra, say):
+def _competing(prob, s, candidates, min_gain, extra, say, better):
     by_label = {}
     for c in candidates:
         by_label.setdefault(alias_label(c), c)
@@ -154,8 +182,16 @@ def _competing(prob, s, candidates, min_gain, extra, say):
         Za, ya, _, _ = linear_model(prob, t)
         rms = heldout_rms(prob, Za, ya)
         rel = (rms - rms_best) / rms_best
-        p = dm_p_worse(_losses(prob, Za, ya), loss_best, prob.lags)
-        if rel < min_gain or p > DM_LEVEL:
+        loss = _losses(prob, Za, ya)
+        p, kind = dm_p_worse(loss, loss_best, prob.lags), verdict_of(rel, loss, loss_best,
+                                                                      prob.lags, min_gain)
+        if kind == "replaces":
+            better.append((float(rel), p, k, c, a, t))
+            say(f"competing model: {a.label} instead of {c.label}, held-out rms "
+                f"{rms_best:.4f} -> {rms:.4f} ({100 * rel:+.2f} %, p = {1 - p:.2g} that it is "
+                f"not better): predicts materially better (more than {100 * REPLACE_FRACTION:g} "
+                "% and beyond its sampling uncertainty)")
+        elif kind == "competes":
             accepted = s.accepted[:k] + (a,) + s.accepted[k + 1:]
             out.append({
                 "replaces": alias_label(c), "by": alias_label(a),

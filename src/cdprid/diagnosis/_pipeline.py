@@ -30,6 +30,7 @@ from cdprid.diagnosis._clock import clock_check, clock_interval, clock_stage
 from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis._problem import Problem, force_heldout_rms, measured, prepare
+from cdprid.diagnosis._replace import adopt_better
 from cdprid.diagnosis._restart import MIN_FINDINGS, choose, pair_start
 from cdprid.diagnosis._result import DiagnosisResult
 from cdprid.diagnosis._selection import (
@@ -237,10 +238,10 @@ def diagnose(
     s, (other, second), clock_info, ranking, thr_first = _search(
         prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain,
         np.random.default_rng(seed), say)
-    feats = _structure(prob)
-    s, hints, withdrawn, clock_info = _checks(prob, s, candidates, feats, alpha, min_gain,
-                                              thr_first, extra, say, clock_info)
-    competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say, other)
+    s, hints, withdrawn, clock_info = _checks(prob, s, candidates, feats := _structure(prob),
+                                              alpha, min_gain, thr_first, extra, say, clock_info)
+    s, competing, n_alt, clock_info = _competing_stage(prob, s, candidates, min_gain, extra, say,
+                                                       other, thr_first, clock_info, notes)
     unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say)
     findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
@@ -254,6 +255,23 @@ def diagnose(
                           ext_params, ext_ho, ranking, info, _arrays(prob, base, resid),
                           unexplained=unexplained, notes=notes, competing=competing)
     return _with_episodes(res, eps, prob, prob_with, s)
+
+
+def _competing_stage(prob, s, candidates, min_gain, extra, say, other, thr, clock_info, notes):
+    """Competing models of the final model; one that predicts the held-out data materially
+    better replaces it (:func:`cdprid.diagnosis._replace.adopt_better`, with a note), and
+    the competing models are then those of the new model. Returns ``(selection, competing
+    models, alternatives refitted, clock info)``."""
+    better: list = []
+    competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say, other,
+                                        better=better)
+    if better:
+        s, clock_info, note = adopt_better(prob, s, better, candidates, thr, min_gain, extra,
+                                           say, clock_info)
+        notes.append(note)
+        competing, n_more = competing_models(prob, s, candidates, min_gain, extra, say, other)
+        n_alt += n_more
+    return s, competing, n_alt, clock_info
 
 
 def _complete_info(info, not_named, rule, el_info, clock_info, second, t0, sub) -> None:
@@ -296,7 +314,11 @@ def _checks(prob, s, candidates, feats, alpha, min_gain, thr_first, extra, say, 
 
 
 def _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say):
-    """The ``unexplained`` stage on the final model, with the withdrawn findings after it."""
+    """The ``unexplained`` stage on the final model, with the withdrawn findings after it (a
+    hint of backward elimination about an effect the final model names again, e.g. after a
+    competing model replaced a finding by it, is left out)."""
+    named = {c.label for c in s.accepted}
+    hints = [h for h in hints if h["where"] not in named]
     Z, y, _, _ = linear_model(prob, s)
     unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
     unexplained += withdrawn

@@ -29,6 +29,7 @@ from cdprid.diagnosis._problem import Problem, design, heldout_rms, seed_design
 from cdprid.diagnosis._profile import clock_index, joint_delay
 from cdprid.diagnosis._refit import refit_gauss_newton
 from cdprid.diagnosis._result import Finding
+from cdprid.diagnosis._signature import OWN_SIGNATURE, without_own_signature
 from cdprid.diagnosis._testing import aliases_of, partial_wald, partial_wald_many
 from cdprid.diagnosis._unexplained import structure_tests
 from cdprid.effects import DIAGNOSIS
@@ -64,15 +65,20 @@ def wald_given_others(Z, y, cols: list, lags: int) -> tuple[float, float]:
 
 
 def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int,
-                    min_gain: float, thr_p: float):
+                    min_gain: float, thr_p: float, structure: tuple = ()):
     """Backward step: the finding whose removal hurts held-out prediction least, if it fails.
 
     A finding stays when removing it (given every other column of ``Z``: the other
-    findings, and the unexplained structure when there is one) worsens the held-out RMS by
-    more than ``min_gain`` (relative) AND its HAC Wald test given the others passes
-    ``thr_p``. Returns ``(index, reason, p)`` of the worst failing finding (p: its Wald
-    p-value given the others), or ``(None, '', 1.0)``.
+    findings, and the unexplained structure ``structure`` when there is one) worsens the
+    held-out RMS by more than ``min_gain`` (relative) AND its HAC Wald test given the others
+    passes ``thr_p``. A structure signal (``(n, 6, q)`` each, appended to ``Z``) that is the
+    finding's own signature is used only where it is not
+    (:func:`cdprid.diagnosis._signature.without_own_signature`): a signal that spans an
+    effect's form does not displace it. Returns ``(index, reason, p)`` of the worst failing
+    finding (p: its Wald p-value given the others), or ``(None, '', 1.0)``.
     """
+    Z0 = Z
+    Z = np.concatenate([Z0, *structure], axis=2) if structure else Z0
     p = Z.shape[2]
     rms_full = heldout_rms(Z, y)
     worst, worst_gain, reason, worst_p = None, np.inf, "", 1.0
@@ -80,6 +86,9 @@ def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int
         cols = cols_of(c)
         if not cols:  # every parameter held at its bound: nothing left of it
             return k, f"{c.label}: every parameter at its bound", 1.0
+        if structure:  # the signals with the finding's own signature projected out
+            Z = np.concatenate([Z0] + [without_own_signature(Z0[:, :, cols], F, train)[0]
+                                       for F in structure], axis=2)
         rest = [j for j in range(p) if j not in cols]
         rms_minus = heldout_rms(Z[:, :, rest], y)
         gain = 1.0 - rms_full / rms_minus
@@ -452,9 +461,11 @@ def backward_stage(prob: Problem, s: Selection, feats: dict, alpha: float, min_g
         Zs = np.concatenate([Z] + [feats[k] for k in sig_names], axis=2)
         cols_of = functools.partial(finding_columns, layout=prob.layout,
                                     active_idx=list(s.active_idx), n_model=n_model)
-        k, why, p_given = weakest_finding(list(s.accepted), Zs, y, cols_of,
+        _say_signatures(s.accepted, Z, {k: feats[k] for k in sig_names}, cols_of, train, say)
+        k, why, p_given = weakest_finding(list(s.accepted), Z, y, cols_of,
                                           functools.partial(heldout_rms, prob), train,
-                                          prob.lags, min_gain, thr_p)
+                                          prob.lags, min_gain, thr_p,
+                                          tuple(feats[k] for k in sig_names))
         if k is None:
             break
         c, f = s.accepted[k], s.findings[k]
@@ -472,6 +483,17 @@ def backward_stage(prob: Problem, s: Selection, feats: dict, alpha: float, min_g
                 "p_value": p_given})
         s = withdraw(prob, s, k, extra)
     return s, hints
+
+
+def _say_signatures(accepted, Z, sigs: dict, cols_of, train, say) -> None:
+    """One progress line per finding whose own signature a significant structure signal is."""
+    for c in accepted:
+        cols = cols_of(c)
+        for name, F in sigs.items():
+            rho = without_own_signature(Z[:, :, cols], F, train)[1] if cols else 0.0
+            if rho >= OWN_SIGNATURE:
+                say(f"backward elimination: {name} reproduces {c.label} (canonical correlation "
+                    f"{rho:.3f}): {c.label} is tested only against the rest of it")
 
 
 def withdraw(prob: Problem, s: Selection, k: int, extra: dict) -> Selection:
