@@ -52,6 +52,7 @@ def test_diebold_mariano_size_and_power():
     assert dm_p_worse(worse - 0.5, worse, 20) > 1 - 1e-6
 
 
+@pytest.mark.slow  # a full diagnosis, 50-75 s on 2 cores: with the slow tests (CI runs them all)
 def test_the_hidden_gain_is_a_competing_model_when_a_tilt_is_named(monkeypatch):
     """4-cable point mass, a 4 % gain on cable 4 (the detection benchmark's run
     ``single|tension_gain 0.04|four|2``): the search names a frame tilt (an alias on this

@@ -55,6 +55,7 @@ def test_hac_wald_is_calibrated_on_autocorrelated_noise():
     assert rej <= 5  # a naive (iid) test rejects most of the time here
 
 
+@pytest.mark.slow  # 30-35 s on 2 cores: with the slow tests (CI runs them all)
 def test_per_cable_jacobian_equals_full_jacobian():
     from cdprid.model import robot_from_dict
     from conftest import SAMPLE_ROBOTS

@@ -64,6 +64,7 @@ def _check(res, expect: dict):
         assert lo - 0.05 * abs(truth) <= truth <= hi + 0.05 * abs(truth), (name, lo, hi, truth)
 
 
+@pytest.mark.slow  # a full diagnosis, 35-45 s on 2 cores: with the slow tests (CI runs them all)
 def test_six_cable_upfed_delay_and_friction_on_every_pulley(tmp_path):
     """The issue's 6-cable robot with up-fed swivel pulleys, rotating ~5 deg: a 12 ms clock
     offset and 1.5 N Coulomb friction on all six pulleys, with noise."""
