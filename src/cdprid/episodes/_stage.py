@@ -44,6 +44,7 @@ from cdprid.episodes._energy import (
     winch_power,
 )
 from cdprid.episodes._glitches import find_glitches
+from cdprid.episodes._null import cells, persistent_null
 from cdprid.episodes._scan import (
     SCALES_S,
     filter_autocorrelation,
@@ -216,7 +217,10 @@ def _data(robot, sig, cutoff_hz):
     y = _filtered(np.einsum("nim,nm->ni", W, sig.tension), sig, cutoff_hz)
     A = np.asarray(_regressors_jit(
         model, mo.B_R_P, mo.acceleration, mo.omega, mo.alpha, np.asarray(robot.gravity)))
-    return y, A, Wf, model, mo
+    twist = np.concatenate([np.asarray(mo.velocity), np.asarray(mo.omega)], axis=1)
+    c = cells(W, twist, sig.tension, float(sig.dt), sig.segments,
+              lambda x: _filtered(x, sig, cutoff_hz), cutoff_hz)
+    return y, A, Wf, model, mo, c
 
 
 def _robust_fit(y, Z, rows, whiten, steps: int = 3):
@@ -283,16 +287,19 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
                                                   else np.asarray(use, bool))
     glitch, gsize = find_glitches(sig.position, sig.segments)
     gl_excl = _dilate(glitch, margin)
-    y, Z, Wf, model, mo = _data(robot, sig, cutoff_hz)
+    y, A, Wf, model, mo, c = _data(robot, sig, cutoff_hz)
     rows = np.std(y, 0) > 1e-9 * np.std(y, 0).max()  # nil rows (point mass): no test there
-    y, Z, Wf = y[:, rows], Z[:, rows], Wf[:, rows]
+    y, A, Wf = y[:, rows], A[:, rows], Wf[:, rows]
     scan_use = keep & ~gl_excl
+    whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
+    Z = persistent_null(A, c, rows, lambda Z1: _robust_fit(y, Z1, scan_use, whiten)[1])
     found, excl, nm, beta, passes, caveat = _wrench_passes(y, Z, scan_use, gl_excl, dt, margin,
                                                            cutoff_hz, far_per_hour)
     n_windows = (t[-1] - t[0]) * sum(2.0 / s for s in SCALES_S)
     eps = [_wrench_episode(t, a, b, T, mean, Wf, nm, n_windows, rows)
            for a, b, T, mean in found]
     eps += _glitch_episodes(t, glitch, gsize)
+    beta = _robust_fit(y, A, scan_use & ~excl, nm.whiten)[1]  # the rigid body alone: energy
     energy, excl = _energy_episodes(robot, sig, mo, beta, model,
                                     segment_mask(t, sig.segments, trim) & ~gl_excl, excl,
                                     margin, far_per_hour, lengths)
