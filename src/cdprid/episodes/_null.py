@@ -14,14 +14,17 @@ falling one ``w_j / 2`` high), ``delta`` the clock offset of the tension stream 
 the cell's zero. To first order the measured wrench ``W tau~`` then departs from the rigid
 body's by
 
-    sum_j W_j (o_j - c_j sign(dl_j/dt) - (w_j / 2) sign(dtau~_j/dt) - delta dtau~_j/dt),
+    sum_j W_j (o_j - c_j sign(dl_j/dt) - (w_j / 2) h_j - delta dtau~_j/dt),
 
+with ``h_j`` where the cell's force sits in its band (+1 on a rising branch, -1 on a falling
+one, in between while the force crosses the band after a reversal; :func:`band_positions`),
 linear in ``(o_j, c_j, w_j, delta)``: the columns ``W_j``, ``W_j sign(dl_j/dt)``,
-``W_j sign(dtau~_j/dt)`` per cable and one ``sum_j W_j dtau~_j/dt`` (one clock for every
-cell), each through the same zero-phase filter as ``W tau~`` (matched). The cable's sliding
-speed over its pulley is minus the platform twist along its column,
-``dl_j/dt = -W_j . (v, omega)`` (``W_j = (u_j, b_j x u_j)``, ``u_j`` from the attachment
-towards the exit point; the pulley's wrap changes the speed, not its sign). Fitted once for
+``W_j h_j`` per cable and one ``sum_j W_j dtau~_j/dt`` (one clock for every cell), each
+through the same zero-phase filter as ``W tau~`` (matched). The cable's sliding speed over
+its pulley is minus the platform twist along its column, ``dl_j/dt = -W_j . (v, omega)``
+(``W_j = (u_j, b_j x u_j)``, ``u_j`` from the attachment towards the exit point; the
+pulley's wrap changes the speed, not its sign). ``h_j`` needs the widths: a first fit with
+``h_j`` the sign of the reading's rate gives them (:func:`persistent_null`). Fitted once for
 the whole recording, these columns take the reversals of the cables' velocities and tension
 rates, where a rigid body alone leaves a step at every reversal; a push is local in time and
 not aligned with the reversals, and stays in the residual.
