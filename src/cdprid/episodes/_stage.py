@@ -7,12 +7,15 @@ the robot; ``identify`` and ``diagnose`` call it before their fits and leave the
 1. Pose glitches (:mod:`cdprid.episodes._glitches`) are found on the raw positions.
 2. The motion is differentiated (``euler-filtfilt`` at ``cutoff_hz``) and the measured wrench
    ``W tau`` and each cable's column of W go through the same zero-phase filter (matched).
-3. The paper's model (the full model when the platform rotates) plus one zero offset per
-   load cell is fitted by least squares on the samples outside the episodes, whitened by the
-   residual's noise model; the residual is scanned (:mod:`cdprid.episodes._scan`) at the
-   stated false-alarm rate; each flagged stretch is refined to the interval where a constant
-   wrench explains the most. Repeated until the episodes stop changing (at most
-   :data:`PASSES` passes).
+3. The paper's model (the full model when the platform rotates) plus the load-cell effects
+   that persist over the whole recording (:mod:`cdprid.episodes._null`: per cable a zero
+   offset, Coulomb friction on its pulley, a hysteretic band, and one clock offset; a few
+   columns per cable, their hysteresis columns from a first fit) is fitted by least squares
+   on the samples outside the episodes, whitened by the residual's noise model (the energy
+   test of step 4 takes the rigid body fitted alone); the residual is scanned
+   (:mod:`cdprid.episodes._scan`) at the stated false-alarm rate; each flagged stretch is
+   refined to the interval where a constant wrench explains the most. Repeated until the
+   episodes stop changing (at most :data:`PASSES` passes).
 4. When the winches are locked, the energy balance is a second, independent test
    (:mod:`cdprid.episodes._energy`).
 """
@@ -44,6 +47,7 @@ from cdprid.episodes._energy import (
     winch_power,
 )
 from cdprid.episodes._glitches import find_glitches
+from cdprid.episodes._null import cells, persistent_null
 from cdprid.episodes._scan import (
     SCALES_S,
     filter_autocorrelation,
@@ -216,7 +220,10 @@ def _data(robot, sig, cutoff_hz):
     y = _filtered(np.einsum("nim,nm->ni", W, sig.tension), sig, cutoff_hz)
     A = np.asarray(_regressors_jit(
         model, mo.B_R_P, mo.acceleration, mo.omega, mo.alpha, np.asarray(robot.gravity)))
-    return y, A, Wf, model, mo
+    twist = np.concatenate([np.asarray(mo.velocity), np.asarray(mo.omega)], axis=1)
+    c = cells(W, twist, sig.tension, float(sig.dt), sig.segments,
+              lambda x: _filtered(x, sig, cutoff_hz), cutoff_hz)
+    return y, A, Wf, model, mo, c
 
 
 def _robust_fit(y, Z, rows, whiten, steps: int = 3):
@@ -283,12 +290,14 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
                                                   else np.asarray(use, bool))
     glitch, gsize = find_glitches(sig.position, sig.segments)
     gl_excl = _dilate(glitch, margin)
-    y, Z, Wf, model, mo = _data(robot, sig, cutoff_hz)
+    y, A, Wf, model, mo, c = _data(robot, sig, cutoff_hz)
     rows = np.std(y, 0) > 1e-9 * np.std(y, 0).max()  # nil rows (point mass): no test there
-    y, Z, Wf = y[:, rows], Z[:, rows], Wf[:, rows]
+    y, A, Wf = y[:, rows], A[:, rows], Wf[:, rows]
     scan_use = keep & ~gl_excl
+    whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
+    Z = persistent_null(A, c, rows, lambda Z1: _robust_fit(y, Z1, scan_use, whiten)[1])
     found, excl, nm, beta, passes, caveat = _wrench_passes(y, Z, scan_use, gl_excl, dt, margin,
-                                                           cutoff_hz, far_per_hour)
+                                                           cutoff_hz, far_per_hour, A.shape[2])
     n_windows = (t[-1] - t[0]) * sum(2.0 / s for s in SCALES_S)
     eps = [_wrench_episode(t, a, b, T, mean, Wf, nm, n_windows, rows)
            for a, b, T, mean in found]
@@ -301,11 +310,13 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     return Episodes(tuple(eps), t, excl, margin * dt, far_per_hour, passes, caveat)
 
 
-def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour):
+def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour, p):
     """Fit -> locate -> refit passes: ``(episodes (a, b, T, mean), excluded, noise model,
-    beta, passes, caveat)``. When the episodes would cover more than :data:`MAX_SHARE` of the
-    scanned samples, the residual is not local in time (the model misses something all along:
-    the diagnosis's question): no wrench episode is reported, and ``caveat`` says so."""
+    beta, passes, caveat)``; ``beta`` is the rigid body's (the first ``p`` columns of ``Z``)
+    fitted alone on the last fit's samples and whitening, for the energy test. When the
+    episodes would cover more than :data:`MAX_SHARE` of the scanned samples, the residual is
+    not local in time (the model misses something all along: the diagnosis's question): no
+    wrench episode is reported, and ``caveat`` says so."""
     level = window_level(far_per_hour)
     max_lag = int(math.ceil(1.5 / (cutoff_hz * dt)))  # correlation length, filtered residual
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
@@ -313,7 +324,8 @@ def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour)
     excl, found, passes, caveat = gl_excl.copy(), [], 0, None
     while passes < PASSES:
         passes += 1
-        r, beta = _robust_fit(y, Z, scan_use & ~excl, whiten)
+        r, _ = _robust_fit(y, Z, scan_use & ~excl, whiten)
+        beta = _robust_fit(y, Z[..., :p], scan_use & ~excl, whiten)[1]
         nm = noise_model(r, scan_use & ~excl, max_lag, rho)
         whiten = nm.whiten
         found = locate(r, scan_use, dt, nm, level, guard=margin)
@@ -326,7 +338,7 @@ def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour)
             caveat = (f"the wrench residual departs from its noise over {100 * share:.0f} % of "
                       "the recording: the model misses something all along, not only at "
                       "times, so no external_wrench episode is reported (see diagnose)")
-            r, beta = _fit(y, Z, scan_use & ~gl_excl, whiten)
+            beta = _fit(y, Z[..., :p], scan_use & ~gl_excl, whiten)[1]
             return [], gl_excl.copy(), nm, beta, passes, caveat
         if np.array_equal(new, excl):
             break
