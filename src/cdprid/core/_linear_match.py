@@ -82,7 +82,7 @@ class LinearMatch:
     segments: tuple
     dt: float
 
-    def whole(self, n: int) -> "LinearMatch":
+    def whole(self, n: int) -> LinearMatch:
         """The same filter on a gap-free sequence of ``n`` samples (one segment)."""
         return dataclasses.replace(self, segments=((0, int(n)),))
 
