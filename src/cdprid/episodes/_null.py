@@ -37,11 +37,11 @@ from __future__ import annotations
 
 import dataclasses
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["STILL_FRACTION", "Cells", "cells", "columns", "band_positions", "play",
+from cdprid.effects import play_operator
+
+__all__ = ["STILL_FRACTION", "Cells", "cells", "columns", "band_positions",
            "persistent_null"]
 
 #: a reading stands still below this share of ``2 pi f_c sigma`` (:func:`still_rate`); chosen
@@ -165,29 +165,6 @@ def columns(c: Cells, band=None) -> np.ndarray:
     return np.asarray(c.filt(cols), float)
 
 
-@jax.jit
-def play(x, half):
-    """Play operator along time (lax.scan): the output holds while ``|x - y| <= half``, else
-    follows ``x`` at the band's edge; starts at ``x_0 - half``.
-
-    Parameters
-    ----------
-    x : array (n, m)
-        Input, N.
-    half : array (m,)
-        Half-widths, N.
-
-    Returns
-    -------
-    array (n, m)
-    """
-    def step(prev, xk):
-        y = jnp.clip(prev, xk - half, xk + half)
-        return y, y
-
-    return jax.lax.scan(step, x[0] - half, x)[1]
-
-
 def band_positions(c: Cells, offset, friction, half) -> np.ndarray:
     """Where each cell's force sits in its hysteresis band, +1 (rising) to -1 (falling), from a
     first fit's coefficients (``offset``, ``friction`` = minus the Coulomb force, ``half`` =
@@ -210,7 +187,7 @@ def band_positions(c: Cells, offset, friction, half) -> np.ndarray:
     hw = np.maximum(-half, 1e-9)
     band = np.zeros_like(x)
     for a, b in c.segments:
-        band[a:b] = (x[a:b] - np.asarray(play(jnp.asarray(x[a:b]), jnp.asarray(hw)))) / hw
+        band[a:b] = (x[a:b] - play_operator(x[a:b], 2.0 * hw)) / hw
     fallback = _per_segment(across_still, c, np.sign(c.rate), c.moving)
     return np.where(half < 0, band, fallback)
 
