@@ -26,7 +26,7 @@ import re
 import sys
 import textwrap
 
-DOCUMENTED = ("base", "model",
+DOCUMENTED = ("base", "model", "io",
               )
 
 _SECTION = re.compile(r"^(\w[\w ]*)\n-{3,}\s*$", re.MULTILINE)
