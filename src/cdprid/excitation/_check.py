@@ -60,6 +60,7 @@ class SafetyCertificate:
 
     @property
     def certified(self) -> bool:
+        """True when no check failed."""
         return not self.failed
 
     def as_json(self) -> dict:

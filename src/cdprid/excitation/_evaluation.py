@@ -38,6 +38,7 @@ class DesignReport:
 
     @property
     def certified(self) -> bool:
+        """True when the design passes every safety check."""
         return self.certificate.certified
 
     @property

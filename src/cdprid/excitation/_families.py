@@ -82,19 +82,23 @@ class OrbitFamily(eqx.Module):
 
     @property
     def rotates(self) -> bool:
+        """False: orbits do not rotate the platform."""
         return False
 
     @property
     def segment(self) -> float:
+        """Duration of each orbit, s (the rests of :data:`REST_S` excluded)."""
         K = self.n_orbits
         return (self.duration - (K + 1) * _REST) / K
 
     @property
     def ramp(self) -> float:
+        """Ramp-in and ramp-out time of each orbit, s (at most 2 s)."""
         return min(2.0, 0.5 * self.segment)
 
     @property
     def n_params(self) -> int:
+        """Number of coordinates, ``3 + 5 K``."""
         return 3 + 5 * self.n_orbits
 
     def to_params(self, z) -> dict:
@@ -288,10 +292,12 @@ class FourierFamily(eqx.Module):
 
     @property
     def rotates(self) -> bool:
+        """True: the family rotates the platform."""
         return True
 
     @property
     def n_params(self) -> int:
+        """Number of coordinates, ``3 + 12 H``."""
         return 3 + 12 * self.harmonics
 
     # coordinates: position coefficients in units of 0.1 m, rotation ones of 0.05 rad

@@ -55,6 +55,7 @@ class FourierTrajectory(TimedTrajectory):
 
     @property
     def has_rotation(self) -> bool:
+        """True: the platform rotates."""
         return True
 
     def _series_derivs(self, C, S, t):

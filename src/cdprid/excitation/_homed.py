@@ -61,6 +61,7 @@ class HomedTrajectory(TimedTrajectory):
 
     @property
     def has_rotation(self) -> bool:
+        """Whether the family rotates the platform."""
         return bool(self.family.rotates)
 
     @property
@@ -70,6 +71,7 @@ class HomedTrajectory(TimedTrajectory):
 
     @property
     def name(self) -> str:
+        """``excitation-<family>``."""
         return f"excitation-{self.family.name}"
 
     @property

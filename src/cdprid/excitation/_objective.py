@@ -128,7 +128,7 @@ def predicted_sigma(W_ID, sigma_rho: float = 1.0):
     Returns
     -------
     array (p,)
-        In the parameters' units (kg, kg m, kg m^2) per unit of ``sigma_rho``.
+        In the parameters' units (kg, kg m, kg m^2) for ``sigma_rho`` in N.
     """
     R = jnp.linalg.qr(W_ID, mode="r")
     Rinv = jax.scipy.linalg.solve_triangular(R, jnp.eye(R.shape[0]), lower=False)

@@ -89,26 +89,32 @@ class ExcitationProblem:
 
     @property
     def nominal(self) -> InertialParameters:
+        """The nominal platform of the uncertainty box."""
         return self.box.nominal
 
     @property
     def tmin(self) -> float:
+        """Lowest tension, N."""
         return self.limits.tension_min
 
     @property
     def tmax(self) -> float:
+        """Highest tension, N."""
         return self.limits.tension_max
 
     @property
     def speed_max(self) -> float:
+        """Highest cable speed, m/s."""
         return self.limits.cable_speed_max
 
     @property
     def names(self) -> tuple:
+        """Parameter names of the model."""
         return PARAMETER_NAMES[self.model]
 
     @property
     def pulleys(self) -> bool:
+        """Whether any cable has a swivel pulley."""
         return self.robot.has_pulleys
 
     @property

@@ -173,6 +173,7 @@ class UncertaintyBox:
 
     @property
     def x_nominal(self) -> np.ndarray:
+        """Nominal parameter vector (10,), full model (kg, kg m, kg m^2)."""
         return np.asarray(self.nominal.vector("full"))
 
     @property
@@ -182,10 +183,12 @@ class UncertaintyBox:
 
     @property
     def x_hi(self) -> np.ndarray:
+        """Upper corner of the interval hull of the corners in x (10,)."""
         return np.maximum(self.corners.max(axis=0), self.x_nominal)
 
     @property
     def mass_max(self) -> float:
+        """The largest mass of the box, kg."""
         return float(self.corners[:, 0].max())
 
 

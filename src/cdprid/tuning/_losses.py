@@ -76,7 +76,8 @@ class ParamProblem:
         Returns
         -------
         array (S,)
-            Mean over the 4 parameters of the squared error scaled by the truth (dimensionless).
+            Mean over the 4 parameters of the squared error, each scaled by the true mass or the
+            norm of the true first moment (dimensionless).
         """
         A_hat = A_hat[: self.n]
         m = jnp.asarray(mask[: self.n], A_hat.dtype)

@@ -91,7 +91,7 @@ def params_from_theta(method, th, zeta_min=None, fixed_alpha=None) -> dict:
     Returns
     -------
     dict
-        ``lambda1..lambdaN`` (1/s^k), ``alpha`` (at most 1) and ``mu`` (1).
+        The gains ``lambda1..lambdaN``, ``alpha`` (at most 1) and ``mu`` (1).
     """
     lams, alpha = _theta_to_gains(method, jnp.asarray(th, jnp.float64), zeta_min, fixed_alpha)
     p = {f"lambda{q + 1}": float(v) for q, v in enumerate(lams)}

@@ -36,6 +36,7 @@ class TrainingSignal:
 
     @property
     def mask(self) -> np.ndarray:
+        """Samples whose errors count: ``t >= t[0] + t0``."""
         return self.t >= self.t[0] + self.t0
 
 
@@ -201,7 +202,7 @@ def any_differentiate(y, dt, method, **params):
     Returns
     -------
     velocity, acceleration : ndarray
-        Shaped as ``y``, per s and per s^2.
+        Shaped as ``y``, in y's unit per s and per s^2.
 
     Raises
     ------
