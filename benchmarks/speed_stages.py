@@ -153,9 +153,17 @@ def _findings(res) -> list:
 
 def worker(data_dir: str, out: str, runs: int = 2) -> None:
     """Diagnose ``data_dir`` ``runs`` times in this process; write the timers as JSON."""
+    import os
+
     import jax
 
     jax.config.update("jax_enable_x64", True)
+    cache = os.environ.get("CDPRID_CACHE_DIR", "off")
+    if cache != "off":  # the persistent compilation cache as the CLI sets it (enable_x64)
+        Path(cache).mkdir(parents=True, exist_ok=True)
+        jax.config.update("jax_compilation_cache_dir", cache)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+        jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
     import cdprid.diagnosis  # noqa: F401  (loads the pipeline's modules)
     from cdprid.diagnosis import diagnose
     from cdprid.io import read_dataset

@@ -41,10 +41,17 @@ def clock_index(prob: Problem) -> int | None:
     return None
 
 
+@jax.jit
+def _shifted(d, s):
+    """The tension stream read at the pose times shifted by ``s`` (n, m); the data are an
+    argument (compiled once per shape, not once per problem with the data as constants)."""
+    return tension_at(d.stream, d.t + s, CATMULL_ROM)
+
+
 def _shift_fn(prob: Problem):
     store = prob.cache.setdefault("clock_shift", {})
     if "fn" not in store:
-        store["fn"] = jax.jit(lambda s: tension_at(prob.d.stream, prob.d.t + s, CATMULL_ROM))
+        store["fn"] = lambda s: _shifted(prob.d, s)
     return store
 
 
