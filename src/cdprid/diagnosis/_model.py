@@ -279,6 +279,15 @@ def cable_locals(d: DiagData, th, layout: ThetaLayout):
     return jnp.concatenate(cols, axis=1)
 
 
+class _Scalars(tuple):
+    """A parameter vector given as scalars, read block by block (a slice stacks its
+    elements), so that a jaxpr tells which blocks a function reads (:func:`_used_inputs`)."""
+
+    def __getitem__(self, i):
+        return jnp.stack(tuple.__getitem__(self, i)) if isinstance(i, slice) \
+            else tuple.__getitem__(self, i)
+
+
 def _used_inputs(fn, args) -> set:
     """Indices of ``args`` (scalars) that the jaxpr of ``fn(*args)`` reads (a conservative
     dead-code analysis: an input read by an equation whose result is unused still counts)."""
@@ -308,13 +317,8 @@ def geometry_locals() -> tuple:
     """
     n = sum(size for _, size in LOCAL_BLOCKS)
 
-    class Scalars(tuple):  # a local vector whose blocks are read element by element
-        def __getitem__(self, i):
-            return jnp.stack(tuple.__getitem__(self, i)) if isinstance(i, slice) \
-                else tuple.__getitem__(self, i)
-
     def fn(*xs):
-        loc, loc_c = Scalars(xs[:n]), Scalars(xs[n:2 * n])
+        loc, loc_c = _Scalars(xs[:n]), _Scalars(xs[n:2 * n])
         c = _context(loc_c, jnp.ones(3), jnp.eye(3), jnp.array([0.0, 0.0, -1.0]),
                      jnp.array([1.0, 0.0, 0.0]), xs[-1], 1.0, 1.0, 1.0)
         return cable_geometry(loc, jnp.array([1.0, 2.0, 3.0]), jnp.array([0.1, 0.2, 0.3]),
@@ -444,10 +448,39 @@ def model_jit(d, theta, x, layout, rotational):
     return model_side(d, layout.unpack(theta), x, rotational)
 
 
-@functools.partial(jax.jit, static_argnums=(3, 4))
+_MODEL_INDICES: dict = {}
+
+
+def model_theta_indices(d: DiagData, layout: ThetaLayout, rotational: bool) -> tuple:
+    """Theta indices that :func:`model_side` reads (its jaxpr; whole blocks), per number of
+    cables and model: its Jacobian is zero in every other column."""
+    key = (layout.m, layout.size, bool(rotational))
+    if key not in _MODEL_INDICES:
+        x = jnp.zeros(10 if rotational else 4)
+
+        def fn(*xs):
+            return model_side(d, layout.unpack(_Scalars(xs)), x, rotational)
+
+        _MODEL_INDICES[key] = tuple(sorted(_used_inputs(fn, [0.0] * layout.size)))
+    return _MODEL_INDICES[key]
+
+
 def model_jac_jit(d, theta, x, layout, rotational):
-    """Jitted Jacobian of :func:`model_side` with respect to theta."""
-    return jax.jacfwd(lambda th: model_side(d, layout.unpack(th), x, rotational))(theta)
+    """Jitted Jacobian of :func:`model_side` with respect to theta (differentiated only in
+    the columns :func:`model_theta_indices` finds, zero in the others)."""
+    return _model_jac(d, theta, x, layout, rotational,
+                      model_theta_indices(d, layout, rotational))
+
+
+@functools.partial(jax.jit, static_argnums=(3, 4, 5))
+def _model_jac(d, theta, x, layout, rotational, idx):
+    ix = jnp.asarray(idx, int)
+
+    def f(sub):
+        return model_side(d, layout.unpack(theta.at[ix].set(sub)), x, rotational)
+
+    J = jax.jacfwd(f)(theta[ix])
+    return jnp.zeros(J.shape[:-1] + (layout.size,)).at[..., ix].set(J)
 
 
 @functools.partial(jax.jit, static_argnums=(2, 3))
