@@ -225,8 +225,10 @@ def run_trees(d: Path, trees: dict, seed: int, rounds: int = 1) -> dict:
 
     root = Path(__file__).resolve().parents[1]
     data = d / f"floor8_{seed}"
-    code = ("import sys; from pathlib import Path; from tests._testbench import floor8_case, "
-            f"write; write(floor8_case({seed}), Path(sys.argv[1]), overwrite=True)")
+    code = ("import sys; from pathlib import Path; import jax; "
+            "jax.config.update('jax_enable_x64', True); "  # else robot.toml in float32
+            "from tests._testbench import floor8_case, write; "
+            f"write(floor8_case({seed}), Path(sys.argv[1]), overwrite=True)")
     env0 = {**os.environ, "PYTHONPATH": f"{root / 'src'}{os.pathsep}{root}"}
     subprocess.run([sys.executable, "-c", code, str(data)], env=env0, check=True, cwd=root)
     out: dict = {}
