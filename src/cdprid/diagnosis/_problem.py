@@ -35,7 +35,6 @@ from cdprid.diagnosis._model import (
     assemble_jac,
     geometry_blocks,
     geometry_jac,
-    meas_and_jac,
     model_jac_jit,
     model_jit,
     regs_jit,
@@ -223,8 +222,9 @@ def measured(prob: Problem, theta) -> np.ndarray:
     """Unfiltered measured side (n, 6) at theta (kept when computed by :func:`cable_side`)."""
     key = np.asarray(theta, float).tobytes()
     hit = prob.cache.get("measured", {}).get(key)
-    if hit is None:
-        hit = np.asarray(meas_and_jac(prob.d, jnp.asarray(theta), prob.layout)[0])
+    if hit is None:  # the parts cable_side uses (compiled once; meas_and_jac joins them)
+        hit = np.asarray(assemble_jac(prob.layout, _geometry(prob, theta), tension_jac(
+            prob.d, jnp.asarray(theta), prob.layout))[0])
         _remember(prob, key, hit, "measured")
     return hit
 
