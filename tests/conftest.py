@@ -10,7 +10,7 @@ from pathlib import Path
 # under a second), so the suite asks JAX to compile with little optimization
 # (jax_disable_most_optimizations: LLVM at -O0 without its expensive passes; XLA's HLO passes,
 # hence the computation and its float64 arithmetic, are unchanged): tests/identify/test_eiv.py
-# took 68 s of CPU compiled as users run it and 49 s so. Set before jax is imported, so the
+# took 68 s of CPU compiled as users run it and 52 s so. Set before jax is imported, so the
 # commands and notebook kernels the tests start inherit it. scripts/test.sh with CI=true sets
 # it to 0: CI runs every test compiled exactly as users run them.
 os.environ.setdefault("JAX_DISABLE_MOST_OPTIMIZATIONS", "1")
