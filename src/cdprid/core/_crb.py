@@ -29,6 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.core._regression import CHUNK
 from cdprid.model import regressor_full, regressor_translation, wrench_matrix
 
 __all__ = ["CRBResult", "crb", "bspline_basis", "block_banded_solve", "sample_jacobians",
@@ -184,16 +185,12 @@ def _schur_banded(Itt, Itc_loc, Icc_loc, cols, nc: int, ndof: int):
     return _schur(Itt, *_scatter(Itc_loc, Icc_loc, cols, nc), ndof)
 
 
-def _information_block(robot, model, theta, u_t, h: float, K: int, ndof: int, s2, sd,
-                       tension, position, R, acceleration, omega, alpha):
+def _information_block(u_t, h: float, K: int, ndof: int, s2, sd, G, Y, W):
     """One block's share of the information: ``I_tt`` (p, p), ``I_tc`` (p, K ndof) and
-    ``I_cc`` (K ndof, K ndof), the last two scatter-added from each sample's 4 knots."""
+    ``I_cc`` (K ndof, K ndof), the last two scatter-added from each sample's 4 knots;
+    ``G, Y, W`` are the block's :func:`sample_jacobians`."""
     n = len(u_t)
     rot = ndof == 6
-    G, Y, W = (np.asarray(z) for z in sample_jacobians(
-        robot, model, jnp.asarray(theta, float), jnp.asarray(tension, float),
-        jnp.asarray(position, float), jnp.asarray(R, float), jnp.asarray(acceleration, float),
-        jnp.asarray(omega, float), jnp.asarray(alpha, float)))
     Sig = np.matmul(W * s2, W.transpose(0, 2, 1))
     P = _pinv_sym(Sig)
     i0, b, d1, d2 = bspline_basis(u_t / h)
@@ -246,8 +243,9 @@ def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, te
         Spline knot spacing, s (widened so that no coordinate has more than
         :data:`MAX_KNOTS` knots).
     chunk : int
-        Samples evaluated at a time: the per-sample Jacobians and information blocks (about
-        18 KB a sample) are summed block by block, so memory does not grow with the recording.
+        Samples whose information blocks (about 18 KB a sample) are summed at a time, so
+        memory does not grow with the recording; the per-sample Jacobians (about 1.6 KB a
+        sample) are evaluated :data:`cdprid.core.CHUNK` samples at a time.
 
     Returns
     -------
@@ -264,13 +262,21 @@ def crb(robot, model: str, theta, t, position, R, acceleration, omega, alpha, te
     sd = np.array([position_std] * 3 + ([rotation_std] * 3 if rot else []), float)
     s2 = np.square(np.broadcast_to(np.asarray(tension_std, float), (robot.n_cables,)))
     Itt, Itc, Icc = 0.0, 0.0, np.zeros((nc, nc))
-    for a in range(0, n, chunk):  # (chunk, 24, 24) temporaries, never (n, ...) ones
-        sl = slice(a, min(n, a + chunk))
-        parts = _information_block(robot, model, theta, t[sl] - t[0], h, K, ndof, s2, sd,
-                                   *(np.asarray(z)[sl] for z in (tension, position, R,
-                                                                 acceleration, omega, alpha)))
-        Itt, Itc = Itt + parts[0], Itc + parts[1]
-        Icc += parts[2]
+    th = jnp.asarray(theta, float)
+    # the Jacobians in CHUNK blocks (those of the errors-in-variables weighting: the same
+    # shapes, one trace for both), the information in ``chunk`` blocks: (chunk, 24, 24)
+    # temporaries, never (n, ...) ones
+    for j in range(0, n, CHUNK):
+        sj = slice(j, min(n, j + CHUNK))
+        GYW = [np.asarray(z) for z in sample_jacobians(robot, model, th, *(
+            jnp.asarray(np.asarray(z)[sj], float)
+            for z in (tension, position, R, acceleration, omega, alpha)))]
+        for a in range(0, sj.stop - j, chunk):
+            sl = slice(a, min(sj.stop - j, a + chunk))
+            parts = _information_block(t[j:sj.stop][sl] - t[0], h, K, ndof, s2, sd,
+                                       *(z[sl] for z in GYW))
+            Itt, Itc = Itt + parts[0], Itc + parts[1]
+            Icc += parts[2]
     S = _schur(Itt, Itc, Icc, ndof)
     cov = np.linalg.pinv(0.5 * (S + S.T))
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
