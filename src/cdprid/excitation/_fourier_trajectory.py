@@ -7,6 +7,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from cdprid.excitation._states_jit import states_jit
 from cdprid.model import (
     TimedTrajectory,
     TrajectoryState,
@@ -141,9 +142,5 @@ class FourierTrajectory(TimedTrajectory):
             Position (m), velocity, acceleration, jerk, quaternion, angular velocity (rad/s) and
             acceleration (rad/s^2), base frame, each with n rows.
         """
-        return _fourier_eval(self, jnp.atleast_1d(jnp.asarray(t, float)))
+        return states_jit(self, jnp.atleast_1d(jnp.asarray(t, float)))
 
-
-@eqx.filter_jit
-def _fourier_eval(traj, t):
-    return traj.states(t)

@@ -10,6 +10,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.excitation._states_jit import states_jit
 from cdprid.model import TimedTrajectory, TrajectoryState, smoothstep7_derivs
 
 __all__ = ["HomedTrajectory", "move_duration"]
@@ -118,9 +119,5 @@ class HomedTrajectory(TimedTrajectory):
             Position (m), velocity, acceleration, jerk, quaternion, angular velocity (rad/s) and
             acceleration (rad/s^2), base frame, each with n rows.
         """
-        return _homed_eval(self, jnp.atleast_1d(jnp.asarray(t, float)))
+        return states_jit(self, jnp.atleast_1d(jnp.asarray(t, float)))
 
-
-@eqx.filter_jit
-def _homed_eval(traj, t):
-    return traj.states(t)
