@@ -169,10 +169,24 @@ def butter_sos(order: int, cutoff_hz: float, fs: float) -> Float[np.ndarray, "s 
     applied to the first section. Mathematically the same filter as ``(b, a)``, numerically
     well conditioned at any order (the ``(b, a)`` form is not for high orders and low cut-offs).
 
+    Parameters
+    ----------
+    order : int
+        Filter order (>= 1).
+    cutoff_hz : float
+        -3 dB frequency, Hz (0 < cutoff_hz < fs / 2).
+    fs : float
+        Sampling rate, Hz.
+
     Returns
     -------
     ndarray (ceil(order / 2), 6)
         Rows ``[b0, b1, b2, 1, a1, a2]`` (``scipy.signal`` sos layout).
+
+    Raises
+    ------
+    InputError
+        From :func:`butter_lowpass`: an order below 1 or a cut-off outside ``(0, fs / 2)``.
     """
     n = int(order)
     b, _ = butter_lowpass(n, cutoff_hz, fs)  # validates; b[0] is the overall gain
@@ -193,9 +207,15 @@ def butter_sos(order: int, cutoff_hz: float, fs: float) -> Float[np.ndarray, "s 
 def sosfilt_zi(sos: Float[np.ndarray, "s 6"]) -> Float[np.ndarray, "s 2"]:
     """Steady-state initial states of :func:`sosfilt` for a unit step (``scipy.signal.sosfilt_zi``).
 
+    Parameters
+    ----------
+    sos : ndarray (n_sections, 6)
+        Second-order sections ``[b0, b1, b2, a0, a1, a2]`` (:func:`butter_sos`).
+
     Returns
     -------
     ndarray (n_sections, 2)
+        Initial states of each section (per unit of the input's first value).
     """
     sos = np.asarray(sos, float)
     zi = np.empty((sos.shape[0], 2))
@@ -317,5 +337,21 @@ class ZeroPhaseFilter:
 
 
 def make_zero_phase_filter(dt: float, cutoff_hz: float = 4.0, order: int = 2) -> ZeroPhaseFilter:
-    """The JAX twin of ``zero_phase_filter(x, dt, cutoff_hz, order)``."""
+    """The JAX twin of ``zero_phase_filter(x, dt, cutoff_hz, order)``: a
+    :class:`ZeroPhaseFilter` for a fixed step, callable inside ``jit``.
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period, s.
+    cutoff_hz : float
+        -3 dB frequency of one pass, Hz.
+    order : int
+        Order of one pass (the filter runs forward and backward: twice the order, no phase).
+
+    Returns
+    -------
+    ZeroPhaseFilter
+        ``f(x)`` filters a time-first array (n,) or (n, ...) along axis 0, units unchanged.
+    """
     return ZeroPhaseFilter(dt, cutoff_hz, order)

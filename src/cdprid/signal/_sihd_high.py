@@ -50,12 +50,38 @@ __all__ = [
 
 
 def alpha_min(n: int) -> float:
-    """Smallest admissible homogeneity exponent of an n-state SIHD: ``(n - 1) / n``."""
+    """Smallest admissible homogeneity exponent of an n-state SIHD: ``(n - 1) / n``.
+
+    Below it the correction exponent ``n alpha - (n - 1)`` of the last line is negative.
+
+    Parameters
+    ----------
+    n : int
+        Number of states (position and its first ``n - 1`` derivatives), 2..6.
+
+    Returns
+    -------
+    float
+        ``(n - 1) / n`` (dimensionless).
+    """
     return (n - 1) / n
 
 
 def poly_gains(omega: float, n: int) -> list[float]:
-    """Gains placing the linear part's n-fold pole at ``-omega``: binom(n, q) omega^q."""
+    """Gains placing the linear part's n-fold pole at ``-omega``: ``binom(n, q) omega^q``.
+
+    Parameters
+    ----------
+    omega : float
+        Bandwidth of the linear part, rad/s (> 0).
+    n : int
+        Number of states.
+
+    Returns
+    -------
+    list of float
+        ``lambda_1..lambda_n``; ``lambda_q`` in s^-q.
+    """
     return [math.comb(n, q) * omega**q for q in range(1, n + 1)]
 
 
@@ -113,7 +139,31 @@ def sihdn_step(state, y, lams, alpha, mu, h):
 
 
 def sihdn_channel(y, h, lams, alpha, mu):
-    """Run an n-state SIHD (n = len(lams)) on one channel; returns (d1, d2)."""
+    """Run an n-state SIHD (``n = len(lams)``) over one channel (``lax.scan``).
+
+    The state starts at rest on the first sample (``z_1 = y[0]``, derivatives 0).
+
+    Parameters
+    ----------
+    y : jax.Array (N,)
+        Samples of one channel (any unit U), uniform step ``h``.
+    h : jax.Array
+        Sampling period, s.
+    lams : sequence of n jax.Array
+        Gains ``lambda_1..lambda_n`` (``lambda_q`` in s^-q).
+    alpha : jax.Array
+        Homogeneity exponent, in ``[(n - 1) / n, 1]`` (not checked here: see
+        :func:`differentiate_high`).
+    mu : jax.Array
+        Time scaling of the gains (dimensionless).
+
+    Returns
+    -------
+    d1 : jax.Array (N,)
+        First derivative (posterior ``w_2``), U/s.
+    d2 : jax.Array (N,)
+        Second derivative (posterior ``w_3``), U/s^2; zeros for ``n = 2``.
+    """
     n = len(lams)
     zero = jnp.zeros((), y.dtype)
     init = (y[0],) + (zero,) * (n - 1)
@@ -127,10 +177,19 @@ def sihdn_channel(y, h, lams, alpha, mu):
 
 
 def channel(n: int):
-    """Channel function ``f(y, h, p)`` for ``differentiators._CHANNEL_FNS``.
+    """Channel function ``f(y, h, p)`` of the n-state SIHD for the scan's registry
+    (``cdprid.signal._CHANNEL_FNS``).
 
-    ``p`` is the parameter vector in the order of ``METHOD_INFO[f"sihd{n}"]``:
-    ``lambda1..lambda_n, alpha, mu``.
+    Parameters
+    ----------
+    n : int
+        Number of states, 2..6.
+
+    Returns
+    -------
+    callable
+        ``f(y, h, p) -> (d1, d2)`` (see :func:`sihdn_channel`), ``p`` the parameter vector in
+        the order of ``METHOD_INFO[f"sihd{n}"]``: ``lambda1..lambda_n, alpha, mu``.
     """
 
     def f(y, h, p):
@@ -175,12 +234,32 @@ _jit_channels = jax.jit(
 
 
 def differentiate_high(y, dt, method="sihd5", **params):
-    """Like :func:`cdprid.differentiate` for the methods of :data:`METHOD_INFO`.
+    """First and second derivatives by a higher-order SIHD (the methods of :data:`METHOD_INFO`),
+    like :func:`cdprid.signal.differentiate`.
+
+    Parameters
+    ----------
+    y : array_like (N,) or (N, k)
+        Uniformly sampled signal(s), time first (any unit U).
+    dt : float
+        Sampling period, s.
+    method : str
+        A key of :data:`METHOD_INFO` (``"sihd4"``, ``"sihd5"``, ...).
+    **params : float
+        Overrides of the method's parameters (``lambda1..lambda_n``, ``alpha``, ``mu``).
+
+    Returns
+    -------
+    d1 : ndarray, the shape of ``y``
+        First derivative, U/s.
+    d2 : ndarray, the shape of ``y``
+        Second derivative, U/s^2.
 
     Raises
     ------
-    ValueError
-        Unknown method/parameter, alpha outside ``[(n-1)/n, 1]``, non-positive gain.
+    InputError
+        Unknown method or parameter, a parameter not finite and > 0, ``alpha`` outside
+        ``[(n - 1) / n, 1]``.
     """
     n = _order_of(method)
     info = METHOD_INFO[method]
