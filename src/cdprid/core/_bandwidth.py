@@ -59,7 +59,14 @@ class BandwidthChoice:
     within_budget: bool
 
     def note(self) -> str:
-        """One sentence for the report."""
+        """One sentence for the report: the cut-off chosen, why, and how to override it.
+
+        Returns
+        -------
+        str
+            The note (cut-off in Hz, the errors-in-variables budget, the noise over signal power
+            per motion kind).
+        """
         r = ", ".join(f"{k} {v:.1e}" for k, v in self.ratio.items())
         why = ("the widest with a predicted errors-in-variables attenuation below "
                f"{BUDGET:.0e}" if self.within_budget else

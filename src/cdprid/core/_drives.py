@@ -58,45 +58,86 @@ class DriveParameters:
     c: np.ndarray
 
     def vector(self) -> np.ndarray:
-        """``(k_1..k_m, J_1..J_m, fv_1.., fc_1.., c_1..)`` (5m,)."""
+        """The parameters as one vector, kinds in the order of :data:`DRIVE_PARAMETER_NAMES`.
+
+        Returns
+        -------
+        ndarray (5 m,)
+            ``(k_1..k_m, J_1..J_m, fv_1..fv_m, fc_1..fc_m, c_1..c_m)`` in N/A, kg, N s/m, N, N.
+        """
         return np.concatenate([np.asarray(getattr(self, n), float)
                                for n in DRIVE_PARAMETER_NAMES])
 
     @classmethod
     def from_vector(cls, d) -> DriveParameters:
-        """Inverse of :meth:`vector`."""
+        """Inverse of :meth:`vector`.
+
+        Parameters
+        ----------
+        d : array_like (5 m,)
+            ``(k_1..k_m, J_1..J_m, fv_1..fv_m, fc_1..fc_m, c_1..c_m)`` in N/A, kg, N s/m, N, N.
+
+        Returns
+        -------
+        DriveParameters
+            Each kind an array (m,).
+        """
         d = np.asarray(d, float)
         return cls(*np.split(d, len(DRIVE_PARAMETER_NAMES)))
 
 
 def drive_names(m: int) -> tuple:
-    """Names of the 5m drive parameters (``k_1``, ..., ``c_m``)."""
+    """Names of the 5m drive parameters.
+
+    Parameters
+    ----------
+    m : int
+        Number of cables.
+
+    Returns
+    -------
+    tuple of str
+        ``("k_1", ..., "k_m", "J_1", ..., "c_m")``, the order of :meth:`DriveParameters.vector`.
+    """
     return tuple(f"{n}_{j}" for n in DRIVE_PARAMETER_NAMES for j in range(1, m + 1))
 
 
 def drive_tension(p: DriveParameters, current, ldot, lddot, sign=None) -> np.ndarray:
-    """Cable tensions of the drive model (n, m), N.
+    """Cable tensions of the drive model, ``k i + J l'' + f_v l' + f_c sign(l') - c``.
 
     Parameters
     ----------
     p : DriveParameters
-    current : (n, m) current readings, A
-    ldot, lddot : (n, m) paid-out length rate (m/s) and acceleration (m/s^2)
-    sign : (n, m), optional
+    current : ndarray (n, m)
+        Current readings, A.
+    ldot, lddot : ndarray (n, m)
+        Paid-out length rate (m/s) and acceleration (m/s^2).
+    sign : ndarray (n, m), optional
         ``sign(l')`` (default ``np.sign(ldot)``).
+
+    Returns
+    -------
+    ndarray (n, m)
+        Tensions, N.
     """
     s = np.sign(ldot) if sign is None else sign
     return p.k * current + p.J * lddot + p.fv * ldot + p.fc * s - p.c
 
 
 def drive_columns(W, current, ldot, lddot, sign) -> np.ndarray:
-    """The drive regressor ``D`` (n, 6, 5m) with ``W tau = D d`` (``d``: :meth:`vector`).
+    """The drive regressor ``D`` with ``W tau = D d`` (``d``: :meth:`DriveParameters.vector`).
 
     Parameters
     ----------
-    W : (n, 6, m) wrench matrices
-    current, ldot, lddot, sign : (n, m)
-        As in :func:`drive_tension`.
+    W : ndarray (n, 6, m)
+        Wrench matrices.
+    current, ldot, lddot, sign : ndarray (n, m)
+        As in :func:`drive_tension` (A, m/s, m/s^2, sign of ``ldot``).
+
+    Returns
+    -------
+    ndarray (n, 6, 5 m)
+        Columns in the order of :meth:`DriveParameters.vector`; ``D d`` in N and N m.
     """
     W = np.asarray(W, float)
     parts = [W * np.asarray(x, float)[:, None, :] for x in (current, lddot, ldot, sign)]

@@ -130,17 +130,27 @@ def bias_correction(reg, robot, model: str, motion, tension, theta, U, Su,
     Parameters
     ----------
     reg : StreamedRegression
-    motion : namespace of the kept samples' motion (position, B_R_P, acceleration, omega,
-        alpha)
-    tension : (n, m) the kept samples' tensions
-    theta : (p,) the estimate
-    U : (n, 6, 6) :func:`whitening`
-    Su : (15, 15) :func:`input_covariance`
+        The kept samples' regression (n samples).
+    robot : CableRobot
+    model : {"translation", "full"}
+    motion : namespace
+        The kept samples' motion (``position`` m, ``B_R_P``, ``acceleration`` m/s^2, ``omega``
+        rad/s, ``alpha`` rad/s^2), each with n rows.
+    tension : ndarray (n, m)
+        The kept samples' tensions, N.
+    theta : ndarray (p,)
+        The estimate (SI units).
+    U : ndarray (n, 6, 6)
+        Whitening matrices (:func:`whitening`).
+    Su : ndarray (15, 15)
+        Covariance of the Jacobians' inputs (:func:`input_covariance`).
     chunk : int
+        Samples per evaluation block.
 
     Returns
     -------
-    ndarray (p,): subtract it from ``theta``.
+    ndarray (p,)
+        The bias, in the parameters' units: subtract it from ``theta``.
     """
     n, p = len(reg.t), len(theta)
     b, N = np.zeros(p), np.zeros((p, p))
@@ -184,16 +194,35 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
     ----------
     reg : StreamedRegression
         The kept samples' regression (``reg.t`` = ``motion.t[idx]``).
+    robot : CableRobot
+    model : {"translation", "full"}
     motion : Motion
-    tension : (n, m) tensions at the pose times (all samples)
-    idx : (k,) the kept samples' indices
-    noise : (s_tau, s_pos, s_rot)
-        Noise std per pose sample (see :func:`whitening`).
-    C : (3, 3) :func:`noise_gains`
+        The differentiated motion (all samples).
+    tension : ndarray (n, m)
+        Tensions at the pose times (all samples), N.
+    idx : ndarray (k,) of int
+        The kept samples' indices.
+    noise : tuple (s_tau, s_pos, s_rot)
+        Noise std per pose sample: tensions (m,) in N, position in m, orientation in rad or
+        None (see :func:`whitening`).
+    C : ndarray (3, 3)
+        :func:`noise_gains`.
+    names : sequence of str
+        Parameter names (p,).
+    covariance : {"hac", "iid"}
+        Covariance of the GLS estimate.
+    chunk : int
+        Samples per evaluation block (bounded memory).
     min_bandwidth : float
         Floor of the HAC bandwidth (the memory of the rows' filter, samples).
     bias_correct : bool
         Step 3 (identify applies it with a cutoff chosen from the data only).
+
+    Returns
+    -------
+    LSResult
+        GLS estimate (bias-corrected with ``bias_correct``), its covariance, the unweighted
+        design's condition numbers, the unwhitened residuals (6 k,) and ``sigma_rho`` (N).
     """
     import dataclasses
     from types import SimpleNamespace

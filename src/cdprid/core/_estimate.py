@@ -89,9 +89,21 @@ class Estimate:
         return None if self.crb_std is None else self.std / self.crb_std
 
     def as_json(self, bound: bool = True) -> dict:
-        """``{"value", "std", "rel_std_percent", "std_iid", "crb_std", "efficiency"}`` (one
-        entry of the ``parameters`` object of ``cdprid identify --json``); ``bound=False``
-        leaves out the last two (``identify --online``, which computes no bound)."""
+        """One entry of the ``parameters`` object of ``cdprid identify --json``.
+
+        Parameters
+        ----------
+        bound : bool
+            Include ``crb_std`` and ``efficiency``; False for ``identify --online``, which computes
+            no bound.
+
+        Returns
+        -------
+        dict
+            ``{"value", "std", "rel_std_percent", "std_iid"}`` and, with ``bound``,
+            ``"crb_std", "efficiency"`` (SI units of the parameter; percent; efficiency
+            dimensionless).
+        """
         out = {"value": self.value, "std": self.std, "rel_std_percent": self.rel_std_percent,
                "std_iid": self.std_iid}
         if bound:
@@ -181,6 +193,16 @@ class Estimates:
         return name in self.names
 
     def as_json(self, bound: bool = True) -> dict:
-        """``{name: Estimate.as_json(bound)}`` in order (the ``parameters`` object of the
-        JSON)."""
+        """The ``parameters`` object of the JSON: every estimate by name, in order.
+
+        Parameters
+        ----------
+        bound : bool
+            Passed to :meth:`Estimate.as_json` (False: no ``crb_std``/``efficiency``).
+
+        Returns
+        -------
+        dict
+            ``{name: Estimate.as_json(bound)}``.
+        """
         return {e.name: e.as_json(bound) for e in self.items}

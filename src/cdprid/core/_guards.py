@@ -42,8 +42,24 @@ EARTH_G = 9.81
 def check_geometry(robot, t, position, quaternion=None) -> None:
     """Raise :class:`~cdprid.base.UserError` when the geometry makes W meaningless.
 
-    All cable exits at one point (the wrench matrix has rank 3 at most), or a cable of zero
-    length at some sample (its direction is undefined: every estimate would be ``nan``).
+    All cable exits at one point (the wrench matrix has rank 3 at most), two cables with the
+    same exit and attachment, or a cable of zero length at some sample (its direction is
+    undefined: every estimate would be ``nan``).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    t : array_like (n,)
+        Pose times, s.
+    position : array_like (n, 3)
+        Platform positions, base frame, m.
+    quaternion : array_like (n, 4), optional
+        Orientations ``(w, x, y, z)``; None: the platform does not rotate.
+
+    Raises
+    ------
+    UserError
+        One sentence naming robot.toml or the sample time.
     """
     B_A = np.asarray(robot.B_A, float)
     spread = float(np.max(np.linalg.norm(B_A - B_A.mean(0), axis=1)))

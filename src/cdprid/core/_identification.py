@@ -86,7 +86,14 @@ class LSResult:
             return 100.0 * self.std / np.abs(self.x)
 
     def as_dict(self) -> dict:
-        """``{name: {"value", "std", "rel_std_percent", "std_iid"}}`` (the CLI's JSON contract)."""
+        """The estimates by name (the CLI's JSON contract).
+
+        Returns
+        -------
+        dict
+            ``{name: {"value", "std", "rel_std_percent", "std_iid"}}``, floats in the parameter's
+            SI unit (``rel_std_percent`` in percent).
+        """
         return {
             n: {"value": float(v), "std": float(s), "rel_std_percent": float(r),
                 "std_iid": float(si)}
@@ -96,7 +103,20 @@ class LSResult:
 
 
 def condition_number(W_ID, scaled: bool = False) -> float:
-    """Condition number of W_ID by SVD; ``scaled=True`` first scales columns to unit norm."""
+    """Condition number of W_ID by SVD.
+
+    Parameters
+    ----------
+    W_ID : array_like (N, p)
+        Stacked regressor.
+    scaled : bool
+        Scale the columns to unit norm first (removes the parameters' units).
+
+    Returns
+    -------
+    float
+        Largest over smallest singular value (``inf`` when the smallest is 0).
+    """
     A = np.asarray(W_ID, float)
     if scaled:
         norms = np.linalg.norm(A, axis=0)
@@ -111,8 +131,14 @@ def group_weights(residual, groups) -> np.ndarray:
     Parameters
     ----------
     residual : ndarray (N,)
+        First-pass residual (N for force rows, N m for moment rows).
     groups : ndarray of int (N,)
         Group label of each row (e.g. 0 for force rows, 1 for moment rows).
+
+    Returns
+    -------
+    ndarray (N,)
+        ``1 / rms(residual of the row's group)`` (1 where that rms is 0), inverse residual units.
     """
     residual = np.asarray(residual, float)
     groups = np.asarray(groups)

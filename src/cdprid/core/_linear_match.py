@@ -83,7 +83,18 @@ class LinearMatch:
     dt: float
 
     def whole(self, n: int) -> LinearMatch:
-        """The same filter on a gap-free sequence of ``n`` samples (one segment)."""
+        """The same filter on a gap-free sequence of ``n`` samples (one segment).
+
+        Parameters
+        ----------
+        n : int
+            Samples of the sequence.
+
+        Returns
+        -------
+        LinearMatch
+            The same taps with ``segments = ((0, n),)``.
+        """
         return dataclasses.replace(self, segments=((0, int(n)),))
 
     def _check_length(self, n: int) -> None:
@@ -93,7 +104,24 @@ class LinearMatch:
                              f"{self.segments[-1][1]} (use whole(n) for another sequence).")
 
     def position(self, x: np.ndarray) -> np.ndarray:
-        """``c * x`` for position-like channels (n, k), per segment (zero before ``L``)."""
+        """``c * x`` for position-like channels, per segment (zero for the first ``L`` samples
+        of each).
+
+        Parameters
+        ----------
+        x : ndarray (n,) or (n, k)
+            Position-like channels on the filter's samples (m or rad).
+
+        Returns
+        -------
+        ndarray, the shape of ``x``
+            Their filtered second derivative (m/s^2 or rad/s^2).
+
+        Raises
+        ------
+        RuntimeError
+            ``n`` is not the length the segments cover (use :meth:`whole` for another sequence).
+        """
         x = np.asarray(x, float)
         self._check_length(len(x))
         out = np.zeros_like(x)
@@ -144,6 +172,16 @@ def fit_linear_match(motion: Motion, keep, trim: float) -> LinearMatch:
         Samples used by the identification (the fit uses them only).
     trim : float
         Seconds trimmed at every segment edge; the FIR is at most that long.
+
+    Returns
+    -------
+    LinearMatch
+        The taps (1/s^2), the fit's relative rms residual and the motion's segments.
+
+    Raises
+    ------
+    InputError
+        No gap-free segment is long enough for the FIR.
     """
     dt = float(np.median(np.diff(motion.t)))
     L = fir_length(dt, trim)
@@ -211,7 +249,20 @@ def _hat_basis(n: int) -> np.ndarray:
 
 
 def fir_length(dt: float, trim: float = FIR_SECONDS) -> int:
-    """Number of FIR taps minus one: :data:`FIR_SECONDS` (at most ``trim``) of samples."""
+    """Number of FIR taps minus one: :data:`FIR_SECONDS` (at most ``trim``) of samples, at least 8.
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period, s.
+    trim : float
+        Seconds trimmed at every segment edge, s.
+
+    Returns
+    -------
+    int
+        ``L`` (the FIR has ``L + 1`` taps).
+    """
     return int(max(8, round(min(FIR_SECONDS, trim) / dt) - 1))
 
 

@@ -73,7 +73,17 @@ class Motion:
             object.__setattr__(self, "segments", ((0, len(self.t)),))
 
     def keep(self, trim: float) -> np.ndarray:
-        """Boolean mask of the samples at least ``trim`` seconds from every segment edge."""
+        """The samples at least ``trim`` seconds from every segment edge.
+
+        Parameters
+        ----------
+        trim : float
+            Margin at both ends of each gap-free segment, s.
+
+        Returns
+        -------
+        ndarray (n,) of bool
+        """
         return segment_mask(self.t, self.segments, trim)
 
 

@@ -13,6 +13,18 @@ def estimate_noise(x, order: int = 4) -> np.ndarray:
     The ``order``-th difference of white noise of variance s^2 has variance
     ``C(2 order, order) s^2`` while a smooth signal's is negligible at 100 Hz; a median
     absolute deviation keeps it robust.
+
+    Parameters
+    ----------
+    x : array_like (n,) or (n, k)
+        Uniformly sampled signal(s), time first (any unit U).
+    order : int
+        Order of the differences.
+
+    Returns
+    -------
+    ndarray () or (k,)
+        Noise std per column, U.
     """
     x = np.asarray(x, float)
     d = np.diff(x, n=order, axis=0)

@@ -76,7 +76,16 @@ class Regression(_StackedWrenches):
         return self.A.reshape(-1, self.A.shape[-1])
 
     def select(self, mask) -> Regression:
-        """The samples where ``mask`` is True."""
+        """The samples where ``mask`` is True.
+
+        Parameters
+        ----------
+        mask : array_like (n,) of bool or indices
+
+        Returns
+        -------
+        Regression
+        """
         return Regression(self.t[mask], self.A[mask], self.y[mask], self.model)
 
 
@@ -123,9 +132,26 @@ def _blockwise(fn, arrays, out, i0: int, i1: int, chunk: int) -> None:
 def cable_wrench(robot: CableRobot, B_p: Float[np.ndarray, "n 3"],
                  B_R_P: Float[np.ndarray, "n 3 3"], tau: Float[np.ndarray, "n m"],
                  chunk: int = CHUNK) -> Float[np.ndarray, "n 6"]:
-    """Measured cable wrench ``W(pose) tau`` per sample (n, 6), as numpy (jit-compiled).
+    """Measured cable wrench ``W(pose) tau`` per sample, as numpy (jit-compiled).
 
     Evaluated ``chunk`` samples at a time, so the (n, 6, m) wrench matrices are never all held.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    B_p : ndarray (n, 3)
+        Platform positions, base frame, m.
+    B_R_P : ndarray (n, 3, 3)
+        Platform orientations (platform to base).
+    tau : ndarray (n, m)
+        Cable tensions, N.
+    chunk : int
+        Samples per block.
+
+    Returns
+    -------
+    ndarray (n, 6)
+        Force (N) and moment about the platform reference point (N m), base frame.
     """
     n = len(B_p)
     out = np.empty((n, 6))
@@ -184,9 +210,20 @@ class StreamedRegression(_StackedWrenches):
     block: object
 
     def wrench_block(self, i0: int, i1: int) -> tuple[np.ndarray, np.ndarray]:
-        """``(A, y)`` of samples ``i0:i1``.
+        """``(A, y)`` of samples ``i0:i1``: the form :func:`cdprid.core.least_squares_blocks`
+        asks for.
 
-        The form :func:`cdprid.core.least_squares_blocks` asks for.
+        Parameters
+        ----------
+        i0, i1 : int
+            First and one-past-last sample.
+
+        Returns
+        -------
+        A : ndarray (i1 - i0, 6, p)
+            Regressor rows (the parameters' SI units to N and N m).
+        y : ndarray (i1 - i0, 6)
+            Cable wrenches ``W tau``, N and N m.
         """
         return self.block(i0, i1), self.y[i0:i1]
 
@@ -202,7 +239,17 @@ class StreamedRegression(_StackedWrenches):
         return A.reshape(-1, A.shape[-1])
 
     def select(self, mask) -> Regression:
-        """The samples where ``mask`` is True (materialised)."""
+        """The samples where ``mask`` is True, materialised.
+
+        Parameters
+        ----------
+        mask : array_like (n,) of bool or indices
+
+        Returns
+        -------
+        Regression
+            Regressor rows (k, 6, p) and cable wrenches (k, 6) of the selected samples.
+        """
         return Regression(self.t[mask], self.A[mask], self.y[mask], self.model)
 
 
@@ -214,11 +261,23 @@ def build_regression(robot: CableRobot, motion: Motion, tension, model: str = "t
     ----------
     robot : CableRobot
     motion : Motion
+        The differentiated motion (n samples).
     tension : ndarray (n, m)
-        Tensions on the motion's time base.
+        Tensions on the motion's time base, N.
     model : {"translation", "full"}
+        Parameters of the regressor (4 or 10).
     wrench_filter : callable, optional
         Applied to the (n, 6) measured wrench (matched filtering).
+
+    Returns
+    -------
+    Regression
+        Regressor rows ``A`` (n, 6, p) and cable wrenches ``y = W tau`` (n, 6) in N and N m.
+
+    Raises
+    ------
+    InputError
+        An unknown ``model``.
     """
     if model not in ("translation", "full"):
         raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")

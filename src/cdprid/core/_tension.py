@@ -48,8 +48,29 @@ class TensionStream(eqx.Module):
 
     @classmethod
     def from_arrays(cls, t, values, rel_tol: float = 0.01) -> TensionStream:
-        """Build the stream; raises ``ValueError`` when the step is not uniform to ``rel_tol``
-        (the cubic interpolant assumes a uniform grid; gaps are never bridged silently)."""
+        """Build the stream from its time stamps and values.
+
+        The cubic interpolant assumes a uniform grid; gaps are never bridged silently.
+
+        Parameters
+        ----------
+        t : array_like (k,)
+            Time stamps, s (k >= 4).
+        values : array_like (k, m)
+            Tensions, N.
+        rel_tol : float
+            Largest step deviation from the median step, relative.
+
+        Returns
+        -------
+        TensionStream
+
+        Raises
+        ------
+        InputError
+            Shapes that do not match or fewer than 4 samples; a step that varies by more than
+            ``rel_tol`` (a gap).
+        """
         t = np.asarray(t, float)
         values = np.asarray(values, float)
         if t.ndim != 1 or values.ndim != 2 or values.shape[0] != t.size or t.size < 4:
@@ -92,7 +113,19 @@ class TensionStream(eqx.Module):
         return cls.from_arrays(t, values, rel_tol)
 
     def smoothed(self, cutoff_hz: float | None) -> TensionStream:
-        """The stream through a zero-phase Butterworth low-pass at ``cutoff_hz`` (None: self)."""
+        """The stream through a zero-phase Butterworth low-pass
+        (:func:`cdprid.signal.make_zero_phase_filter`).
+
+        Parameters
+        ----------
+        cutoff_hz : float or None
+            -3 dB frequency of one pass, Hz; None returns the stream unchanged.
+
+        Returns
+        -------
+        TensionStream
+            Same times; tensions in N.
+        """
         if cutoff_hz is None:
             return self
         from cdprid.signal import make_zero_phase_filter
