@@ -111,6 +111,11 @@ def sample_scores(Z: Float[np.ndarray, "n k p"], e: Float[np.ndarray, "n k"]
         Design rows grouped by time sample (k = 6 wrench rows), or one row per sample.
     e : ndarray (n, k) or (N,)
         Residuals in the same grouping (weighted rows and residuals for weighted LS).
+
+    Returns
+    -------
+    ndarray (n, p)
+        Scores, in the units of ``Z`` times ``e``.
     """
     Z, e = _grouped(Z, e)
     return np.einsum("nkp,nk->np", Z, e)
@@ -326,5 +331,15 @@ def hac_covariance_blocks(
 
 
 def std_from_cov(cov: Float[np.ndarray, "p p"]) -> Float[np.ndarray, " p"]:
-    """Standard deviations: square roots of the covariance diagonal (negatives clipped to 0)."""
+    """Standard deviations: square roots of the covariance diagonal (negatives clipped to 0).
+
+    Parameters
+    ----------
+    cov : array_like (p, p)
+
+    Returns
+    -------
+    ndarray (p,)
+        In the parameters' units.
+    """
     return np.sqrt(np.clip(np.diag(np.asarray(cov, float)), 0.0, None))

@@ -78,14 +78,40 @@ def _regressor(robot, model: str, R, a, w, al):
 
 @functools.partial(jax.jit, static_argnums=(1,))
 def sample_jacobians(robot, model, theta, tau, p, R, a, w, al):
-    """Per-sample ``(G, Y, W)``: d residual / d xi (n, 6, 15), regressor, wrench matrix.
+    """Per-sample ``(G, Y, W)``: d residual / d xi, regressor, wrench matrix.
 
     The residual is the cable side minus the model, ``W(p, R) tau - Y(R, a, omega, alpha)
     theta``; ``xi`` perturbs position, acceleration, rotation vector (base frame), angular rate
     and angular acceleration (3 each). The cable side is differentiated in the 6 pose
     directions only (the pulley geometry is the costly part; the 9 rate directions do not
     reach it), the model side in its 12. Shared by the bound and the errors-in-variables
-    weighting of identify (one trace for both when they ask for the same samples)."""
+    weighting of identify (one trace for both when they ask for the same samples).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    model : {"translation", "full"}
+        Static.
+    theta : jax.Array (p,)
+        Parameters (SI units).
+    tau : jax.Array (n, m)
+        Tensions, N.
+    p : jax.Array (n, 3)
+        Positions, base frame, m.
+    R : jax.Array (n, 3, 3)
+        Orientations (platform to base).
+    a, w, al : jax.Array (n, 3)
+        Acceleration (m/s^2), angular rate (rad/s), angular acceleration (rad/s^2), base frame.
+
+    Returns
+    -------
+    G : jax.Array (n, 6, 15)
+        d residual / d xi (N per unit of each input).
+    Y : jax.Array (n, 6, p)
+        Regressors.
+    W : jax.Array (n, 6, m)
+        Wrench matrices.
+    """
 
     def one(tk, pk, Rk, ak, wk, alk):
         def cable(x):  # (dp, dphi)
@@ -104,9 +130,24 @@ def sample_jacobians(robot, model, theta, tau, p, R, a, w, al):
 
 @functools.partial(jax.jit, static_argnums=(1,))
 def regressor_jacobians(robot, model, R, a, w, al):
-    """Per-sample ``d Y / d xi`` (n, 6, p, 15): the regressor's columns differentiated with
-    respect to the inputs of :func:`cdprid.core.sample_jacobians` (position, acceleration,
-    rotation vector, angular rate, angular acceleration; the position does not enter ``Y``)."""
+    """Per-sample ``d Y / d xi``: the regressor's columns differentiated with respect to the
+    inputs of :func:`cdprid.core.sample_jacobians` (position, acceleration, rotation vector,
+    angular rate, angular acceleration; the position does not enter ``Y``).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    model : {"translation", "full"}
+        Static.
+    R : jax.Array (n, 3, 3)
+        Orientations (platform to base).
+    a, w, al : jax.Array (n, 3)
+        Acceleration (m/s^2), angular rate (rad/s), angular acceleration (rad/s^2), base frame.
+
+    Returns
+    -------
+    jax.Array (n, 6, p, 15)
+    """
     def one(Rk, ak, wk, alk):
         def body(x):  # (dphi, da, domega, dalpha)
             return _regressor(robot, model, _small_rotation(x[:3], Rk), ak + x[3:6],

@@ -38,11 +38,30 @@ EIV_NOTE = ("errors-in-variables weighting: each sample whitened by its residual
 
 def noise_gains(differentiator: str, params: dict, dt: float, wf=None, n: int = 3000,
                 seed: int = 0) -> np.ndarray:
-    """``C`` (3, 3): the covariance of ``(F x, D1 x, D2 x)`` for unit white noise ``x``.
+    """``C``: the covariance of ``(F x, D1 x, D2 x)`` for unit white noise ``x``.
 
     ``F`` is the wrench filter ``wf`` (identity when None), ``D1``, ``D2`` the
     differentiator's first and second derivative; 10 % of each end is dropped (transients).
-    Units: 1, 1/s^2 and 1/s^4 on the diagonal.
+
+    Parameters
+    ----------
+    differentiator : str
+        A method of :data:`cdprid.signal.METHODS`.
+    params : dict
+        Its parameters.
+    dt : float
+        Sampling period, s.
+    wf : callable or LinearMatch, optional
+        The wrench filter (a per-segment filter is applied to one ``n``-sample segment).
+    n : int
+        Samples of the simulated noise.
+    seed : int
+        Seed of the noise (the result is deterministic).
+
+    Returns
+    -------
+    ndarray (3, 3)
+        Units 1, 1/s^2 and 1/s^4 on the diagonal.
     """
     x = np.random.default_rng(seed).normal(size=(n, 3))
     if hasattr(wf, "whole"):  # a per-segment filter of the recording: here one n-sample segment
@@ -60,7 +79,7 @@ def noise_gains(differentiator: str, params: dict, dt: float, wf=None, n: int = 
 
 def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
               s_rot: float | None, C: np.ndarray, chunk: int = 16384) -> np.ndarray:
-    """Per-sample whitening matrices ``U_n`` (n, 6, 6), ``U_n^T U_n = Sigma_n^-1``.
+    """Per-sample whitening matrices ``U_n``, ``U_n^T U_n = Sigma_n^-1``.
 
     The Jacobians are those of the Cramer-Rao bound (:func:`cdprid.core.sample_jacobians`:
     the residual with respect to position, acceleration, rotation vector, angular rate and
@@ -71,18 +90,26 @@ def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
     robot : CableRobot
     model : {"translation", "full"}
     motion : Motion
-        The estimated motion (position, B_R_P, acceleration, omega, alpha).
-    tension : (n, m) tensions at the pose times
-    theta : (p,) the parameters at which the Jacobians are taken (the OLS estimate)
-    s_tau : (m,) tension noise std per pose sample, N
+        The estimated motion (position, B_R_P, acceleration, omega, alpha), n samples.
+    tension : ndarray (n, m)
+        Tensions at the pose times, N.
+    theta : ndarray (p,)
+        The parameters at which the Jacobians are taken (the OLS estimate).
+    s_tau : ndarray (m,)
+        Tension noise std per pose sample, N.
     s_pos : float
         Position noise std per axis, m.
     s_rot : float or None
         Orientation noise std per axis, rad (None: no orientation stream).
-    C : (3, 3)
+    C : ndarray (3, 3)
         :func:`noise_gains`.
     chunk : int
         Samples per evaluation block (bounded memory).
+
+    Returns
+    -------
+    ndarray (n, 6, 6)
+        ``U_n`` in 1/N (force rows) and 1/(N m) (moment rows).
     """
     n = len(motion.t)
     U = np.empty((n, 6, 6))
@@ -102,9 +129,24 @@ def whitening(robot, model: str, motion, tension, theta, s_tau, s_pos: float,
 
 
 def input_covariance(s_pos: float, s_rot: float | None, C: np.ndarray) -> np.ndarray:
-    """Covariance (15, 15) of the noisy inputs of :func:`cdprid.core.sample_jacobians`
-    (position, acceleration, rotation vector, angular rate, angular acceleration):
-    ``sigma^2 C (x) I3`` over (pose, rate, second derivative) of each coordinate."""
+    """Covariance of the noisy inputs of :func:`cdprid.core.sample_jacobians` (position,
+    acceleration, rotation vector, angular rate, angular acceleration): ``sigma^2 C (x) I3``
+    over (pose, rate, second derivative) of each coordinate.
+
+    Parameters
+    ----------
+    s_pos : float
+        Position noise std per axis, m.
+    s_rot : float or None
+        Orientation noise std per axis, rad; None: no orientation noise.
+    C : ndarray (3, 3)
+        :func:`noise_gains`.
+
+    Returns
+    -------
+    ndarray (15, 15)
+        In m^2, m^2/s^4, rad^2, rad^2/s^2, rad^2/s^4 on the diagonal blocks.
+    """
     S = np.zeros((15, 15))
     for sig, blocks in ((s_pos, {0: 0, 2: 1}), (0.0 if s_rot is None else s_rot,
                                                    {0: 2, 1: 3, 2: 4})):
@@ -260,12 +302,28 @@ def eiv_fit(reg, robot, model: str, motion, tension, idx, noise: tuple, C: np.nd
 
 
 def noise_levels(ds, sig) -> tuple:
-    """Noise levels estimated from the data: ``(s_tau (m,) per pose sample, tension samples
-    per pose sample, position std (m), orientation std (rad) or None)``.
+    """Noise levels estimated from the data (4th differences, :func:`estimate_noise`).
 
-    Tension noise per cable from the raw stream (4th differences), scaled to a pose sample
-    by the tension samples per pose sample; position and orientation noise from the pose
-    stream.
+    Tension noise per cable from the raw stream, scaled to a pose sample by the tension
+    samples per pose sample; position and orientation noise from the pose stream.
+
+    Parameters
+    ----------
+    ds : Dataset
+        The recording (raw tension stream, quaternions or None).
+    sig : AlignedSignals
+        Its aligned streams (pose times, positions, quaternions).
+
+    Returns
+    -------
+    s_tau : ndarray (m,)
+        Tension noise std per pose sample, N.
+    per_pose : float
+        Tension samples per pose sample (>= 1).
+    s_pos : float
+        Position noise std per axis, m.
+    s_rot : float or None
+        Orientation noise std per axis, rad; None without a quaternion stream.
     """
     tt = np.asarray(ds.tension_t, float)
     per_pose = max(1.0, sig.dt / float(np.median(np.diff(tt)))) if len(tt) > 1 else 1.0

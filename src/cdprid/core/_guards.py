@@ -216,8 +216,25 @@ def input_warnings(ds, signals, differentiator: str, params: dict,
                    acceleration=None) -> list[str]:
     """Problems of a dataset that make any identification of it doubtful (one sentence each).
 
-    ``acceleration`` (n, 3): the differentiator's accelerations at ``signals.t`` when the caller
-    has them (identify), so the motion is not differentiated twice."""
+    Parameters
+    ----------
+    ds : Dataset
+    signals : AlignedSignals
+        The aligned window identified.
+    differentiator : str
+        The method used.
+    params : dict
+        Its parameters.
+    acceleration : ndarray (n, 3), optional
+        The differentiator's accelerations at ``signals.t`` (m/s^2) when the caller has them
+        (identify), so the motion is not differentiated twice.
+
+    Returns
+    -------
+    list of str
+        The warnings (gravity, duplicate exits, workspace, quaternion order, flat tensions,
+        clocks, signal-to-noise); empty when none applies.
+    """
     out = [_gravity_warning(ds.robot), _duplicate_exit_warning(ds.robot),
            _workspace_warning(ds.robot, signals.position),
            _quaternion_order_warning(ds.quaternion), _flat_tension_warning(ds.tension),
@@ -235,12 +252,42 @@ REFUSAL_KEYS = ("|gravity|", "outside the box", "are both in seconds", "too smal
 
 
 def refusals(warnings: list[str]) -> list[str]:
-    """The input problems under which the diagnosis refuses to name effects."""
+    """The input problems under which the diagnosis refuses to name effects.
+
+    Parameters
+    ----------
+    warnings : list of str
+        Sentences of :func:`input_warnings` and :func:`result_warnings`.
+
+    Returns
+    -------
+    list of str
+        Those that contain a key of ``REFUSAL_KEYS``.
+    """
     return [w for w in warnings if any(k in w for k in REFUSAL_KEYS)]
 
 
 def result_warnings(robot, names, x, sigma_rho: float, tension) -> list[str]:
-    """Problems of an identification result (one sentence each)."""
+    """Problems of an identification result (one sentence each).
+
+    Parameters
+    ----------
+    robot : CableRobot
+        Its ``[platform] mass`` (kg) is compared with the identified one.
+    names : sequence of str
+        Parameter names.
+    x : array (p,)
+        The estimates (SI units).
+    sigma_rho : float
+        Residual rms, N.
+    tension : ndarray (n, m)
+        Tensions, N (their noise sets the residual's floor).
+
+    Returns
+    -------
+    list of str
+        Mass far from robot.toml, residual far above the tension noise, non-finite estimates.
+    """
     out = []
     names = list(names)
     m_stated = robot.platform.mass
@@ -290,6 +337,12 @@ def swapped_columns_warning(robot, motion, A, idx, tension, wf, linear: bool) ->
         The wrench filter of the fit (matched filtering), applied to (n, k) channels.
     linear : bool
         ``wf`` is linear (a zero-phase or FIR filter): the candidates are filtered at once.
+
+    Returns
+    -------
+    str or None
+        One sentence naming the two columns and the residual ratio; None when no exchange
+        helps or the check does not apply (too many samples, one cable, < 10 kept samples).
     """
     from cdprid.core._regression import cable_wrench
 

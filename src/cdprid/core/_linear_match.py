@@ -271,9 +271,22 @@ def reference_fir(method: str, params: dict, dt: float) -> np.ndarray:
 
     The reference is a 40 s multisine per axis (0.1 m at 0.15-1.2 Hz, the band of platform
     orbits) plus :data:`REFERENCE_NOISE_M` of white noise, so the taps are known before the
-    first sample. Any taps keep the online
-    regression exact on noise-free data (every term passes the same filter); fitting them to
-    the differentiator keeps its noise behaviour.
+    first sample. Any taps keep the online regression exact on noise-free data (every term
+    passes the same filter); fitting them to the differentiator keeps its noise behaviour.
+
+    Parameters
+    ----------
+    method : str
+        A differentiator of :data:`cdprid.signal.METHODS`.
+    params : dict
+        Its parameters.
+    dt : float
+        Sampling period, s.
+
+    Returns
+    -------
+    ndarray (L + 1,)
+        FIR taps (position to acceleration, 1/s^2), ``L`` from :func:`fir_length`.
     """
     from cdprid.signal import differentiate
 
@@ -295,7 +308,20 @@ def reference_fir(method: str, params: dict, dt: float) -> np.ndarray:
 
 
 def settled(keep, segments, taps: int) -> np.ndarray:
-    """``keep`` without the first ``taps`` samples of every segment (the FIR's start-up)."""
+    """``keep`` without the first ``taps`` samples of every segment (the FIR's start-up).
+
+    Parameters
+    ----------
+    keep : array_like (n,) of bool
+    segments : sequence of (int, int)
+        Gap-free segments ``[a, b)``.
+    taps : int
+        Samples dropped at the start of each segment.
+
+    Returns
+    -------
+    ndarray (n,) of bool
+    """
     k = np.asarray(keep, bool).copy()
     for a, _ in segments:
         k[a:a + taps] = False
@@ -304,7 +330,20 @@ def settled(keep, segments, taps: int) -> np.ndarray:
 
 def uses_linear_match(model: str, causal: bool, wrench_filter: str) -> bool:
     """Whether identification takes the rotation-consistent path: the full model with a causal
-    differentiator and matched filtering."""
+    differentiator and matched filtering.
+
+    Parameters
+    ----------
+    model : {"translation", "full"}
+    causal : bool
+        The differentiator is causal.
+    wrench_filter : str
+        ``"matched"`` or ``"none"``.
+
+    Returns
+    -------
+    bool
+    """
     return model == "full" and causal and wrench_filter == "matched"
 
 
@@ -312,8 +351,37 @@ def linear_match_regression(robot, motion: Motion, quaternion, tension, model: s
                             trim: float, chunk: int):
     """Fit :class:`LinearMatch` and build :func:`matched_regression`.
 
-    Returns ``(regression, lm, note, warnings)``; ``lm`` is the wrench filter for the
-    errors-in-variables noise gains.
+    Parameters
+    ----------
+    robot : CableRobot
+    motion : Motion
+        The causal differentiator's motion.
+    quaternion : ndarray (n, 4)
+        Measured quaternions at the pose times.
+    tension : ndarray (n, m)
+        Tensions at the pose times, N.
+    model : {"translation", "full"}
+    keep : ndarray (n,) of bool
+        Samples kept (trimmed ends).
+    trim : float
+        Seconds trimmed at every segment edge (bounds the FIR's length).
+    chunk : int
+        Samples per regressor block.
+
+    Returns
+    -------
+    regression : StreamedRegression
+    lm : LinearMatch
+        The wrench filter (also for the errors-in-variables noise gains).
+    note : str
+        One sentence for the report.
+    warnings : list of str
+        A sentence when the FIR fit's residual exceeds :data:`FIT_WARN`.
+
+    Raises
+    ------
+    InputError
+        No segment is long enough for the FIR (:func:`fit_linear_match`).
     """
     lm = fit_linear_match(motion, keep, trim)
     reg = matched_regression(robot, motion, quaternion, tension, model, keep, lm, chunk)
@@ -333,10 +401,25 @@ def linear_match_regression(robot, motion: Motion, quaternion, tension, model: s
 def reference_rates(motion: Motion, quaternion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Accurate accelerations and angular rates per segment (central differences, base frame).
 
-    Returns ``(a, omega, alpha)``, each (n, 3): second differences of the positions, and
-    ``omega = 2 vec(qd q*)``, ``alpha = 2 vec(qdd q*)`` from central differences of the
-    sign-continuous quaternions (segment ends: the nearest interior value); no difference uses
-    the sample it is centred on (:func:`_second`).
+    Second differences of the positions, and ``omega = 2 vec(qd q*)``, ``alpha = 2 vec(qdd q*)``
+    from central differences of the sign-continuous quaternions (segment ends: the nearest
+    interior value); no difference uses the sample it is centred on (:func:`_second`).
+
+    Parameters
+    ----------
+    motion : Motion
+        Positions and segments.
+    quaternion : ndarray (n, 4)
+        Measured quaternions ``(w, x, y, z)``; signs may flip between samples.
+
+    Returns
+    -------
+    a : ndarray (n, 3)
+        Accelerations, m/s^2.
+    omega : ndarray (n, 3)
+        Angular rates, rad/s.
+    alpha : ndarray (n, 3)
+        Angular accelerations, rad/s^2.
     """
     n = len(motion.t)
     dt = float(np.median(np.diff(motion.t)))
@@ -379,12 +462,30 @@ def _mean_rotation(quaternion, keep) -> np.ndarray:
 def rotation_remainder(robot, motion: Motion, quaternion, model: str, keep, chunk: int):
     """The regressor's rotation-dependent part from accurate rates, and its linear part.
 
-    Returns ``(rem, linear_part)``: ``rem = Y(R, a, omega, alpha) - Y(R0, a, 0, 0) +
-    Y(R0, 0, 0, 0)`` (n, 6, p) with ``R0`` the mean orientation and the rates of
-    :func:`reference_rates` (to be passed through the matched filter term by term), and
-    ``linear_part(a_hat) = Y(R0, a_hat, 0, 0) - Y(R0, 0, 0, 0)``, the part linear in the
-    translational acceleration at the mean orientation, for the differentiator's own
-    (already filtered) accelerations ``a_hat`` (n, 3).
+    ``rem = Y(R, a, omega, alpha) - Y(R0, a, 0, 0) + Y(R0, 0, 0, 0)`` with ``R0`` the mean
+    orientation and the rates of :func:`reference_rates` (to be passed through the matched
+    filter term by term), and ``linear_part(a_hat) = Y(R0, a_hat, 0, 0) - Y(R0, 0, 0, 0)``,
+    the part linear in the translational acceleration at the mean orientation, for the
+    differentiator's own (already filtered) accelerations ``a_hat`` (n, 3).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    motion : Motion
+    quaternion : ndarray (n, 4)
+        Measured quaternions.
+    model : {"translation", "full"}
+    keep : ndarray (n,) of bool
+        Samples whose orientations give the mean ``R0``.
+    chunk : int
+        Samples per regressor block.
+
+    Returns
+    -------
+    rem : ndarray (n, 6, p)
+        In N and N m per unit of each parameter.
+    linear_part : callable
+        ``a_hat (n, 3) -> (n, 6, p)``.
     """
     n = len(motion.t)
     a_ref, om, al = reference_rates(motion, quaternion)
@@ -408,6 +509,26 @@ def matched_regression(robot, motion: Motion, quaternion, tension, model: str, k
     ``A = Y(R0, c * p, 0, 0) - Y(R0, 0, 0, 0) + H[Y(R, a, omega, alpha) - Y(R0, a, 0, 0)
     + Y(R0, 0, 0, 0)]`` with ``R0`` the mean orientation and accurate rates
     (:func:`reference_rates`); ``y = H[W tau]``. Holds the (n, 6 p) filtered regressor.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    motion : Motion
+    quaternion : ndarray (n, 4)
+        Measured quaternions at the pose times.
+    tension : ndarray (n, m)
+        Tensions at the pose times, N.
+    model : {"translation", "full"}
+    keep : ndarray (n,) of bool
+        Samples kept; the FIR's start-up of each segment is dropped too (:func:`settled`).
+    lm : LinearMatch
+    chunk : int
+        Samples per regressor block.
+
+    Returns
+    -------
+    StreamedRegression
+        Rows (k, 6, p) and filtered wrenches (k, 6), N and N m, at the settled kept samples.
     """
     n = len(motion.t)
     rem, linear_part = rotation_remainder(robot, motion, quaternion, model, keep, chunk)

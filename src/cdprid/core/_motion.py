@@ -262,12 +262,17 @@ and ``model="auto"`` picks the full model."""
 
 
 def rotation_angle_deg(quaternion) -> float:
-    """99th percentile of the rotation angle (deg) of each sample from the mean orientation.
+    """99th percentile of the rotation angle of each sample from the mean orientation.
 
     Parameters
     ----------
     quaternion : ndarray (n, 4)
         Unit quaternions (w, x, y, z); signs may flip between samples.
+
+    Returns
+    -------
+    float
+        Angle, deg.
     """
     q = np.asarray(quaternion, float)
     q = q * np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]

@@ -204,7 +204,19 @@ def rest_mask(
 
 def mask_windows(t: Float[np.ndarray, " n"], mask: Bool[np.ndarray, " n"]
                  ) -> list[tuple[float, float]]:
-    """The runs of ``mask`` as ``(t_first, t_last)`` windows, s."""
+    """The runs of ``mask`` as ``(t_first, t_last)`` windows.
+
+    Parameters
+    ----------
+    t : array_like (n,)
+        Sample times, s.
+    mask : array_like (n,) of bool
+
+    Returns
+    -------
+    list of (float, float)
+        First and last time of each run of True, s.
+    """
     t = np.asarray(t, float)
     return [(float(t[i]), float(t[j - 1])) for i, j in _runs(mask)]
 

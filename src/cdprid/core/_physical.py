@@ -30,6 +30,17 @@ def inertia_com_matrix(x: Float[np.ndarray, " 10"]) -> Float[np.ndarray, "3 3"]:
 
     ``I_G = I_P - m (|s|^2 1 - s s^T)`` with ``s = (m s_G) / m`` (parallel-axis theorem).
     Traceable JAX.
+
+    Parameters
+    ----------
+    x : array (10,)
+        ``(m, m xG, m yG, m zG, Ixx, Ixy, Ixz, Iyy, Iyz, Izz)`` in kg, kg m and kg m^2
+        (inertia about the platform's reference point P, platform frame).
+
+    Returns
+    -------
+    jax.Array (3, 3)
+        ``I_G``, kg m^2.
     """
     x = jnp.asarray(x)
     m = x[0]
@@ -66,16 +77,39 @@ def inertia_about_com(x: Float[np.ndarray, " 10"]
 
 
 def realisability_margin(x):
-    """min(smallest principal moment, I_1 + I_2 - I_3) of the inertia about G (kg m^2).
+    """``min(smallest principal moment, I_1 + I_2 - I_3)`` of the inertia about G.
 
     Negative when the body is not realisable; traceable JAX (for its gradient).
+
+    Parameters
+    ----------
+    x : array (10,)
+        ``(m, m xG, m yG, m zG, Ixx, Ixy, Ixz, Iyy, Iyz, Izz)`` (SI units, about P).
+
+    Returns
+    -------
+    jax.Array ()
+        The margin, kg m^2.
     """
     ev = jnp.linalg.eigvalsh(inertia_com_matrix(x))
     return jnp.minimum(ev[0], ev[0] + ev[1] - ev[2])
 
 
 def margin_z(x: Float[np.ndarray, " 10"], cov: Float[np.ndarray, "10 10"]) -> float:
-    """The realisability margin divided by its standard deviation (delta method)."""
+    """The realisability margin divided by its standard deviation (delta method).
+
+    Parameters
+    ----------
+    x : array (10,)
+        The full parameter vector (SI units, about P).
+    cov : array (10, 10)
+        Its covariance.
+
+    Returns
+    -------
+    float
+        :func:`realisability_margin` over its std (dimensionless); +-inf when the std is 0.
+    """
     xj = jnp.asarray(np.asarray(x, float))
     g = float(realisability_margin(xj))
     grad = np.asarray(jax.grad(realisability_margin)(xj))
@@ -84,7 +118,21 @@ def margin_z(x: Float[np.ndarray, " 10"], cov: Float[np.ndarray, "10 10"]) -> fl
 
 
 def violations(x: Float[np.ndarray, " p"], model: str) -> list[str]:
-    """The physical conditions that the estimate ``x`` violates (empty when realisable)."""
+    """The physical conditions that the estimate ``x`` violates.
+
+    Parameters
+    ----------
+    x : array (p,)
+        Estimate (SI units): the 4 translation parameters or the full 10.
+    model : {"translation", "full"}
+        ``"translation"`` checks the mass only.
+
+    Returns
+    -------
+    list of str
+        One phrase per violated condition (mass <= 0, inertia about G not positive definite,
+        triangle inequality); empty when realisable.
+    """
     x = np.asarray(x, float)
     out = []
     if x[0] <= 0:
@@ -145,6 +193,16 @@ def pseudo_inertia_to_vector(L):
     ``J = L L^T = [[Sigma, m s_G], [m s_G^T, m]]`` with ``Sigma = tr(I_P)/2 1 - I_P`` (about P).
     J positive definite <=> a physically realisable body (m > 0, I_G positive definite and
     triangle inequalities; Wensing, Kim and Slotine 2017). Traceable JAX.
+
+    Parameters
+    ----------
+    L : jax.Array (4, 4)
+        Lower-triangular factor of the pseudo-inertia (entries in sqrt(kg) m and sqrt(kg)).
+
+    Returns
+    -------
+    jax.Array (10,)
+        ``(m, m xG, m yG, m zG, Ixx, Ixy, Ixz, Iyy, Iyz, Izz)``, kg, kg m, kg m^2.
     """
     J = L @ L.T
     S = J[:3, :3]
@@ -189,16 +247,29 @@ def physical_fit(x_ls: Float[np.ndarray, " 10"], R: Float[np.ndarray, "10 10"],
     (:func:`pseudo_inertia_to_vector`), with optimistix' BFGS; ``sol.result`` is
     checked. The covariance is propagated by the delta method through the constrained solution
     (``cov`` the covariance of ``x_ls``; on the boundary of the realisable set this is the
-    linearisation of the active constraint).
+    linearisation of the active constraint). A realisable ``x_ls`` is returned unchanged.
+
+    Parameters
+    ----------
+    x_ls : ndarray (10,)
+        The least-squares estimate (SI units, about P).
+    R : ndarray (10, 10)
+        Upper-triangular QR factor of the (weighted) regressor.
+    cov : ndarray (10, 10)
+        Covariance of ``x_ls``.
+    max_steps : int
+        Most BFGS iterations.
 
     Returns
     -------
     x_phys : ndarray (10,)
+        The constrained estimate (SI units).
     cov_phys : ndarray (10, 10)
+        Its covariance.
 
     Raises
     ------
-    cdprid.base._errors.ConvergenceError
+    cdprid.base.ConvergenceError
         When the solver does not converge.
     """
     import optimistix as optx

@@ -90,27 +90,77 @@ class Regression(_StackedWrenches):
 
 
 def wrench_matrices(robot: CableRobot, B_p, B_R_P):
-    """Wrench matrices ``W`` (eq. 2) per sample, (n, 6, m); pure JAX, traceable.
+    """Wrench matrices ``W`` (eq. 2) per sample; pure JAX, traceable.
 
     The one place where ``W`` is evaluated over a time series: every feature calls this.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    B_p : jax.Array (n, 3)
+        Platform positions, base frame, m.
+    B_R_P : jax.Array (n, 3, 3)
+        Orientations (platform to base).
+
+    Returns
+    -------
+    jax.Array (n, 6, m)
+        Unit cable directions (force rows, 1) and their moments (moment rows, m).
     """
     return jax.vmap(lambda p, R: wrench_matrix(robot, p, R))(B_p, B_R_P)
 
 
 def measured_wrench(robot: CableRobot, B_p, B_R_P, tau):
-    """Measured cable wrench ``y = W(pose) tau`` per sample, (n, 6); pure JAX, traceable.
+    """Measured cable wrench ``y = W(pose) tau`` per sample; pure JAX, traceable.
 
     The one place where ``W tau`` is formed: every feature (identification, diagnosis,
     online, real-data fitting, excitation) calls this instead of its own copy.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    B_p : jax.Array (n, 3)
+        Platform positions, base frame, m.
+    B_R_P : jax.Array (n, 3, 3)
+        Orientations (platform to base).
+    tau : jax.Array (n, m)
+        Tensions, N.
+
+    Returns
+    -------
+    jax.Array (n, 6)
+        Force (N) and moment (N m), base frame.
     """
     return jnp.einsum("nij,nj->ni", wrench_matrices(robot, B_p, B_R_P), tau)
 
 
 def regressors(model: str, B_R_P, B_a, B_omega, B_alpha, gravity):
-    """Regressor ``A`` per sample (eq. 10 or the full model), (n, 6, p); pure JAX, traceable.
+    """Regressor ``A`` per sample (eq. 10 or the full model); pure JAX, traceable.
 
-    ``model`` is static ("translation" or "full"). The one place where the regressor is
-    vmapped over time: every feature calls this.
+    ``model`` is static. The one place where the regressor is vmapped over time: every
+    feature calls this.
+
+    Parameters
+    ----------
+    model : {"translation", "full"}
+    B_R_P : jax.Array (n, 3, 3)
+        Orientations (platform to base).
+    B_a : jax.Array (n, 3)
+        Accelerations, base frame, m/s^2.
+    B_omega, B_alpha : jax.Array (n, 3)
+        Angular rate (rad/s) and acceleration (rad/s^2), base frame.
+    gravity : jax.Array (3,)
+        Gravity, base frame, m/s^2.
+
+    Returns
+    -------
+    jax.Array (n, 6, p)
+        ``A theta`` in N and N m (p = 4 or 10).
+
+    Raises
+    ------
+    InputError
+        An unknown ``model``.
     """
     if model not in ("translation", "full"):
         raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")
@@ -163,17 +213,31 @@ def cable_wrench(robot: CableRobot, B_p: Float[np.ndarray, "n 3"],
 def regressor_blocks(model: str, B_R_P: Float[np.ndarray, "n 3 3"], B_a: Float[np.ndarray, "n 3"],
                      B_omega: Float[np.ndarray, "n 3"], B_alpha: Float[np.ndarray, "n 3"],
                      gravity, chunk: int = CHUNK):
-    """A function ``block(i0, i1)`` that returns the regressors (i1 - i0, 6, p) of samples
-    ``i0:i1`` (:func:`regressors`, jit-compiled for one block shape).
+    """A function ``block(i0, i1)`` that returns the regressors of samples ``i0:i1``
+    (:func:`regressors`, jit-compiled for one block shape).
 
     Parameters
     ----------
     model : {"translation", "full"}
     B_R_P : ndarray (n, 3, 3)
+        Orientations (platform to base).
     B_a, B_omega, B_alpha : ndarray (n, 3)
+        Acceleration (m/s^2), angular rate (rad/s) and angular acceleration (rad/s^2), base
+        frame.
     gravity : array (3,)
+        Gravity, base frame, m/s^2.
     chunk : int
         Samples per jitted call.
+
+    Returns
+    -------
+    callable
+        ``block(i0, i1) -> ndarray (i1 - i0, 6, p)``.
+
+    Raises
+    ------
+    InputError
+        An unknown ``model``.
     """
     if model not in ("translation", "full"):
         raise InputError(f"unknown model {model!r}; use 'translation' or 'full'.")

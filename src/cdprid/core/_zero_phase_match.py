@@ -38,27 +38,78 @@ __all__ = ["platform_radius", "regressor_scale", "seen_mass", "uses_zero_phase_m
 def uses_zero_phase_match(model: str, differentiator: str, wrench_filter: str,
                           quaternion) -> bool:
     """Whether identification takes the zero-phase rotation-consistent path: the full model,
-    ``euler-filtfilt``, matched filtering and a quaternion stream."""
+    ``euler-filtfilt``, matched filtering and a quaternion stream.
+
+    Parameters
+    ----------
+    model : {"translation", "full"}
+    differentiator : str
+    wrench_filter : str
+    quaternion : ndarray (n, 4) or None
+        The quaternion stream, if any.
+
+    Returns
+    -------
+    bool
+    """
     return (model == "full" and differentiator == "euler-filtfilt"
             and wrench_filter == "matched" and quaternion is not None)
 
 
 def platform_radius(robot) -> float:
-    """The largest attachment distance from the platform's reference point, m (>= 1 mm):
-    the moment rows' scale."""
+    """The largest attachment distance from the platform's reference point (>= 1 mm): the
+    moment rows' scale.
+
+    Parameters
+    ----------
+    robot : CableRobot
+
+    Returns
+    -------
+    float
+        Radius, m.
+    """
     return max(float(np.max(np.linalg.norm(np.asarray(robot.P_b), axis=1))), 1e-3)
 
 
 def seen_mass(robot, y: np.ndarray) -> float:
-    """The mass the mean force of the wrenches ``y`` (n, 6) holds against gravity, kg."""
+    """The mass the mean force of the wrenches ``y`` holds against gravity (>= 1e-6 kg).
+
+    Parameters
+    ----------
+    robot : CableRobot
+        Its gravity vector (m/s^2).
+    y : ndarray (n, 6)
+        Wrenches, N and N m.
+
+    Returns
+    -------
+    float
+        Mass, kg.
+    """
     gnorm = max(float(np.linalg.norm(np.asarray(robot.gravity))), 1e-9)
     return max(float(np.linalg.norm(y[:, :3].mean(axis=0))) / gnorm, 1e-6)
 
 
 def regressor_scale(robot, y: np.ndarray, p: int) -> np.ndarray:
-    """Amplitude (6, p) of each row and column channel of the regressor, the filter's
-    ``scale``: the seen mass (from the filtered wrench ``y``), the first moment and the inertia
-    at the platform's radius, forces and moments apart."""
+    """Amplitude of each row and column channel of the regressor, the filter's ``scale``: the
+    seen mass (from the filtered wrench ``y``), the first moment and the inertia at the
+    platform's radius, forces and moments apart.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    y : ndarray (n, 6)
+        Filtered cable wrenches, N and N m.
+    p : int
+        Parameters of the model (4 or 10).
+
+    Returns
+    -------
+    ndarray (6, p)
+        Row scale over parameter scale (1/kg, 1/(kg m), 1/(kg m^2) for force rows; times the
+        radius for moment rows).
+    """
     m_seen = seen_mass(robot, y)
     r = platform_radius(robot)
     typical = np.array([m_seen] + [m_seen * r] * 3 + [m_seen * r * r] * 6)[:p]
@@ -70,20 +121,29 @@ def zero_phase_matched_regression(robot, motion: Motion, quaternion, tension, wf
                                   chunk: int) -> StreamedRegression:
     """The kept samples' regression with every rotation term through the wrench filter ``wf``.
 
+    Holds the (n, 6 p) filtered regressor.
+
     Parameters
     ----------
     robot : CableRobot
     motion : Motion
         The differentiator's motion (its ``acceleration`` is ``F[a]``).
-    quaternion : (n, 4) measured quaternions at the pose times
-    tension : (n, m) tensions at the pose times
+    quaternion : ndarray (n, 4)
+        Measured quaternions at the pose times.
+    tension : ndarray (n, m)
+        Tensions at the pose times, N.
     wf : callable
         The matched wrench filter (``wf(u, scale)`` filters (n, k) channels).
-    keep : (n,) bool, the samples kept (trimmed ends)
+    keep : ndarray (n,) of bool
+        The samples kept (trimmed ends).
     chunk : int
         Samples per regressor block.
 
-    Holds the (n, 6 p) filtered regressor.
+    Returns
+    -------
+    StreamedRegression
+        The full model's rows (k, 6, 10) and filtered wrenches (k, 6), N and N m, at the kept
+        samples.
     """
     n = len(motion.t)
     y = np.asarray(wf(cable_wrench(robot, motion.position, motion.B_R_P, tension, chunk)))
