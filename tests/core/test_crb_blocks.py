@@ -32,3 +32,35 @@ def test_blockwise_bound_equals_one_block(rot):  # rotating: 26 s, with the slow
     many = crb(*args, knot_spacing_s=0.05, chunk=97)  # 8 blocks, the last one short
     np.testing.assert_allclose(many.cov, one.cov, rtol=1e-9, atol=1e-12 * np.abs(one.cov).max())
     assert np.all(np.isfinite(one.std)) and np.all(one.std > 0)
+
+
+def test_bound_and_weighting_trace_the_jacobians_once():
+    """Issue 36 (identify < 2 s): the bound evaluates its Jacobians in CHUNK blocks whatever its
+    information ``chunk``, the shapes the errors-in-variables weighting asks for, so the two
+    share one trace (before: 97-sample blocks, one trace per block shape)."""
+    from types import SimpleNamespace
+
+    import cdprid.model as M
+    from cdprid.core import sample_jacobians, whitening
+
+    robot = M.robot_from_dict(M.EIGHT_REDUNDANT)
+    n = 300
+    t = np.arange(n) * 0.01
+    w = 2 * np.pi * np.array([0.7, 0.9, 1.1])
+    p = np.mean(np.asarray(robot.B_A), 0) * [1, 1, 0.5] + 0.1 * np.sin(w * t[:, None])
+    a = -0.1 * w**2 * np.sin(w * t[:, None])
+    R = np.broadcast_to(np.eye(3), (n, 3, 3))
+    z = np.zeros((n, 3))
+    theta = np.array([8.0, 0.05, -0.02, -0.4])
+    tension = 40.0 + np.random.default_rng(1).normal(0, 1, (n, robot.n_cables))
+    s = np.linspace(0.3, 0.6, robot.n_cables)
+    sample_jacobians.clear_cache()
+    b = crb(robot, "translation", theta, t, p, R, a, z, z, tension, s, 1e-3, None,
+            knot_spacing_s=0.05, chunk=97)  # 4 information blocks, the last one short
+    assert np.all(np.isfinite(b.std)) and np.all(b.std > 0)
+    assert sample_jacobians._cache_size() == 1
+    motion = SimpleNamespace(t=t, position=p, B_R_P=R, acceleration=a, omega=z, alpha=z)
+    U = whitening(robot, "translation", motion, tension, 1.01 * theta, s, 1e-3, None,
+                  np.eye(3))
+    assert U.shape == (n, 6, 6) and np.all(np.isfinite(U))
+    assert sample_jacobians._cache_size() == 1
