@@ -32,7 +32,8 @@ def _corrupt(kind, root):
         shutil.rmtree(root)
         return "does not exist"
     if kind == "nan":
-        _edit(root / "pose.csv", lambda L: L[:5] + [L[5].replace(L[5].split(",")[2], "nan", 1)] + L[6:])
+        _edit(root / "pose.csv",
+              lambda L: L[:5] + [L[5].replace(L[5].split(",")[2], "nan", 1)] + L[6:])
         return "not finite"
     if kind == "text":
         _edit(root / "tensions.csv", lambda L: L[:7] + [L[7].rsplit(",", 1)[0] + ",abc"] + L[8:])
@@ -54,14 +55,17 @@ def _corrupt(kind, root):
         _edit(root / "tensions.csv", lambda L: L[:1])
         return "empty"
     if kind == "quaternion-norm":
-        _edit(root / "pose.csv", lambda L: L[:3] + [",".join(L[3].split(",")[:4] + ["1.1", "0", "0", "0"])] + L[4:])
+        _edit(root / "pose.csv",
+              lambda L: L[:3] + [",".join(L[3].split(",")[:4] + ["1.1", "0", "0", "0"])]
+              + L[4:])
         return "norm"
     if kind == "no-overlap":
         _edit(root / "tensions.csv", lambda L: L[:1] + [
             ",".join([f"{100 + float(s.split(',')[0]):.4f}"] + s.split(",")[1:]) for s in L[1:]])
         return "do not overlap"
     if kind == "missing-column":
-        _edit(root / "pose.csv", lambda L: [",".join(s.split(",")[:3] + s.split(",")[4:]) for s in L])
+        _edit(root / "pose.csv",
+              lambda L: [",".join(s.split(",")[:3] + s.split(",")[4:]) for s in L])
         return "'z'"
     raise AssertionError(kind)
 
@@ -119,7 +123,8 @@ def test_alignment_interpolates_tensions_and_resamples_pose(tmp_path):
     sig = align(ds)
     assert sig.resampled and any("not uniform" in n for n in sig.notes)
     assert sampling_report(sig.t)["uniform"]
-    assert np.allclose(sig.position, np.column_stack([np.sin(sig.t), np.cos(sig.t), 1 + 0.1 * sig.t]),
+    assert np.allclose(sig.position,
+                       np.column_stack([np.sin(sig.t), np.cos(sig.t), 1 + 0.1 * sig.t]),
                        atol=1e-5)
     assert np.allclose(sig.tension[:, 2], 10 + np.sin(3 * sig.t + 2), atol=1e-5)
 

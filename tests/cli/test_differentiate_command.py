@@ -38,6 +38,7 @@ def test_differentiate_errors(tmp_path, capsys):
     (tmp_path / "o.csv").write_text("keep")
     assert main(["differentiate", str(tmp_path / "in.csv"), "--out", str(tmp_path / "o.csv")]) == 2
     assert (tmp_path / "o.csv").read_text() == "keep"
-    assert main(["differentiate", str(tmp_path / "missing.csv"), "--out", str(tmp_path / "x.csv")]) == 2
+    assert main(["differentiate", str(tmp_path / "missing.csv"), "--out",
+                 str(tmp_path / "x.csv")]) == 2
     assert main(["differentiate", str(tmp_path / "in.csv"), "--params", "[1]",
                  "--out", str(tmp_path / "y.csv")]) == 2

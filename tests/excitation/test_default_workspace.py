@@ -41,9 +41,8 @@ def test_exits_at_many_heights_keep_the_shrunk_box():
 
 @pytest.mark.slow
 def test_gentle_run_of_a_robot_without_limits(sample_dataset, tmp_path, capsys):
-    import tomllib
-
     import tomli_w
+    import tomllib
 
     from cdprid.cli import main
 

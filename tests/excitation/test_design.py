@@ -272,4 +272,5 @@ def test_cholesky_solve_equals_numpy_solve(rng):
     ref = np.linalg.solve(A, b[..., None])[..., 0]
     got = jax.vmap(ex_constraints._cholesky_solve)(jnp.asarray(A), jnp.asarray(b))
     np.testing.assert_allclose(np.asarray(got), ref, rtol=1e-10, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(ex_constraints._cholesky_solve(A[0], b[0])), ref[0], rtol=1e-10)
+    np.testing.assert_allclose(np.asarray(ex_constraints._cholesky_solve(A[0], b[0])), ref[0],
+                               rtol=1e-10)

@@ -10,7 +10,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-import cdprid.signal as D
+import cdprid.signal as D  # noqa: E402
 from cdprid.signal import METHODS, differentiate, zero_phase_filter  # noqa: E402
 from cdprid.signal import _scan as D_scan  # noqa: E402
 
@@ -329,7 +329,8 @@ def test_zero_phase_filter_matches_euler_filtfilt():
                                               (3, 0.5, 1000.0), (4, 30.0, 100.0),
                                               (5, 1.0, 200.0)])
 def test_butterworth_and_filtering_match_scipy_signal(order, cutoff, fs):
-    """The SciPy-free Butterworth design and filters (cdprid.signal._filters) against scipy.signal."""
+    """The SciPy-free Butterworth design and filters (cdprid.signal._filters) against
+    scipy.signal."""
     ss = pytest.importorskip("scipy.signal")
     from cdprid.signal import (
         butter_lowpass,
