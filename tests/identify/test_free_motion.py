@@ -259,3 +259,44 @@ def test_cells_wrench_fit_recovers_gains_and_offsets():
             assert np.all(np.abs(c.gain - g) < 1.96 * c.gain_std), (c.gain, c.gain_std)
             assert np.all(np.abs(c.offset - o) < 1.96 * c.offset_std)
             assert np.all(c.gain_std < 0.05)
+
+
+def test_widened_cutoff_is_the_widest_within_the_noise_budget():
+    """The free motion's data-chosen cutoff on the 4-16 Hz grid (the core's 1-4 Hz grid on a
+    stretched time axis): an independent numpy computation of the predicted attenuation
+    (noise over signal power of the second differences through the zero-phase Butterworth)
+    is within the 1e-3 budget at the chosen cutoff and above it 1 Hz wider."""
+    import types
+
+    from cdprid.identify._free_rows import widen_cutoff
+
+    rng = np.random.default_rng(2)
+    dt, n = 0.01, 4000
+    t = np.arange(n) * dt
+    s = 3e-4
+    clean = np.stack([0.05 * np.sin(2 * np.pi * 2.0 * t), 0.02 * np.sin(2 * np.pi * 3.9 * t + 1),
+                      0.01 * np.sin(2 * np.pi * 6.0 * t)], 1)
+    pos = clean + s * rng.standard_normal(clean.shape)
+    sig = types.SimpleNamespace(position=pos, quaternion=None, has_rotation=False, dt=dt, t=t,
+                                segments=((0, n),))
+    ds = types.SimpleNamespace(tension_t=t, tension=np.ones((n, 4)), quaternion=None)
+    notes = ["core note"]
+    c = widen_cutoff(ds, sig, {"cutoff_hz": 4.0}, notes)["cutoff_hz"]
+    assert 4.0 < c <= 16.0 and "16 Hz" in notes[-1], c
+
+    from cdprid.core import estimate_noise
+
+    sn = float(np.median(estimate_noise(pos)))
+    d2 = (pos[2:] - 2 * pos[1:-1] + pos[:-2]) / dt ** 2
+    w = np.hanning(len(d2))[:, None]
+    f = np.fft.rfftfreq(len(d2), dt)
+    spec = np.abs(np.fft.rfft((d2 - d2.mean(0)) * w, axis=0)) ** 2
+    psd = 2 * dt * np.sum(spec, 1) / np.sum(w ** 2)
+    noise = 2 * dt * sn ** 2 * (4 * np.sin(np.pi * f * dt) ** 2 / dt ** 2) ** 2 * 3
+
+    def ratio(fc):
+        G = 1 / (1 + (f / fc) ** 4) ** 2
+        return np.sum(noise * G) / np.sum((psd - noise) * G)
+
+    assert ratio(c) <= 1e-3, ratio(c)
+    assert c == 16.0 or ratio(c + 1.0) > 1e-3, (c, ratio(c + 1.0))
