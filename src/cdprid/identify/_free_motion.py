@@ -37,6 +37,7 @@ from cdprid.identify._cells import CellCalibration, calibrate_cells_wrench
 from cdprid.identify._episodes import _trimmed
 from cdprid.identify._free_pushes import left_out
 from cdprid.identify._free_rows import (
+    com_over_thirds,
     fit_rows,
     free_directions,
     projected_filtered_rows,
@@ -242,6 +243,11 @@ def _window_scaled(P, idx, ref_i, names, chunk, t, value, res, notes, warns):
     """The fit with its covariances multiplied by the time thirds' Birge ratio when above 1
     (:func:`cdprid.identify._free_rows.window_disagreement`; its warning and a note added)."""
     w2, r2 = window_disagreement(P, idx, ref_i, names, chunk, t, value)
+    thirds = com_over_thirds(P, idx, ref_i, names, chunk, t)
+    if thirds and w2:  # the data do not decide z_G beyond the thirds' spread: say by how much
+        w2 = [w2[0] + " " + thirds[0].upper() + thirds[1:] + "."]
+    elif thirds:
+        notes.append(thirds)
     warns += w2
     if r2 <= 1.0:
         return res

@@ -39,7 +39,7 @@ from cdprid.core import (
 from cdprid.signal import acceleration_filter
 
 __all__ = ["free_directions", "projected_regressor", "projected_filtered_rows", "fit_rows",
-           "window_disagreement", "widen_cutoff", "WIDEN"]
+           "window_disagreement", "widen_cutoff", "WIDEN", "com_over_thirds"]
 
 #: the free motion's data-chosen cutoff may reach WIDEN times the core grid's widest (4 Hz)
 WIDEN = 4.0
@@ -197,6 +197,35 @@ def window_disagreement(P, idx, ref_i: int, names, chunk: int, t,
             "slows a swing, contact, drag) or a drift bias the fit; the covariance is scaled "
             f"by the thirds' spread (x {r2:.2g}), which may still not cover a bias they share. "
             "Use a push-free release, or --t-start/--t-end on a window you trust."], r2
+
+
+def com_over_thirds(P, idx, ref_i: int, names, chunk: int, t) -> str | None:
+    """One sentence with the centre of mass's height ``z_G`` fitted on each time third of the
+    kept samples (with its HAC std), or None when the model has no ``mzG`` or the reference
+    is not the mass: how much the data decide ``z_G`` beyond the pooled std.
+
+    Parameters
+    ----------
+    P, idx, ref_i, names, chunk : as in :func:`fit_rows`
+    t : (n,) times, s
+    """
+    if "mzG" not in names or ref_i != 0 or names[0] != "m":
+        return None
+    parts = np.array_split(idx, 3)
+    if min(len(p) for p in parts) < 20 * P.shape[2]:
+        return None
+    out = []
+    for part in parts:
+        try:
+            f = fit_rows(P, part, ref_i, names, chunk)
+        except InputError:
+            return None
+        k = list(f.names).index("mzG")
+        out.append((t[part[0]], t[part[-1]], f.x[k], np.sqrt(max(f.cov[k, k], 0.0))))
+    z = [o[2] for o in out]
+    spans = "; ".join(f"{a:.1f}-{b:.1f} s: {c:.4f} +- {d:.4f} m" for a, b, c, d in out)
+    return (f"the time thirds give z_G {spans}: spread {max(z) - min(z):.4f} m "
+            f"({100 * (max(z) - min(z)) / abs(np.mean(z)):.0f} % of their mean)")
 
 
 def widen_cutoff(ds, sig, params: dict, notes: list) -> dict:
