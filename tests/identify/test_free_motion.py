@@ -219,6 +219,7 @@ def test_load_cell_intervals_cover_the_truth_monte_carlo(tmp_path):
         covered += int(np.sum(np.abs(c.gain - g) < 1.96 * c.gain_std))
         covered += int(np.sum(np.abs(c.offset - o) < 1.96 * c.offset_std))
         total += 8
+    print(f"load-cell intervals covering: {covered} of {total}")
     assert covered >= 28, (covered, total)
 
 
