@@ -335,7 +335,7 @@ def test_free_sim_brake_dissipates_exactly_its_power():
     cables: the platform's energy (kinetic, weight, cable springs) falls by the brake's work
     integral(c |v_G|^2 + c_w |omega|^2) dt, to the integrator's accuracy; without the brake it
     is conserved."""
-    from tests.identify.free_sim import G, FreePlatform, _qmat
+    from tests.identify.free_sim import FreePlatform, G, _qmat
 
     plant = FreePlatform(A, B, MASS, SG, IG, [0.0, 0.0, 0.6], c=0.0)
 
