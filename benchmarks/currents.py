@@ -213,6 +213,10 @@ def compare(name, seeds, duration, write):
             print(f"{name} seed {seed}: " + "; ".join(
                 f"{k} mass {100 * v[1]:+.2f} % (eff {v[4]:.2f}) m s_G {100 * v[2]:.1f} %"
                 for k, v in out.items() if k in ("cls", "oe")), flush=True)
+            dz, m = out["oe"][3], len(out["oe"][3]) // 5
+            print(f"{name} seed {seed}: oe drive intervals missing: " + (", ".join(
+                f"{KINDS[j // m]}_{j % m + 1} (z {dz[j]:+.2f})" for j in np.flatnonzero(
+                    np.abs(dz) > 1.96)) or "none"), flush=True)
             write([compare_row(name, k, v, names) for k, v in res.items()])
 
 

@@ -61,19 +61,24 @@ class FreePlatform:
         Ld = -np.sum(u * (vG + _cross(om, rel)), axis=1)
         return np.maximum(0.0, self.k * (L - self.L0) + self.c * Ld), u, rel, R
 
-    def deriv(self, y, w_ext):
+    def deriv(self, y, w_ext, brake=(0.0, 0.0)):
+        """State derivative; ``brake`` = (N s/m, N m s/rad): a hand slowing the platform,
+        force ``-c v_G`` at G and moment ``-c_w omega``."""
         pG, vG, q, om = y[:3], y[3:6], y[6:10], y[10:]
         tau, u, rel, R = self.cables(pG, vG, q, om)
         f = tau[:, None] * u
-        F = f.sum(0) + self.m * G + w_ext[:3]
-        M = _cross(rel, f).sum(0) + w_ext[3:] - _cross(R @ self.sG, w_ext[:3])
+        F = f.sum(0) + self.m * G + w_ext[:3] - brake[0] * vG
+        M = (_cross(rel, f).sum(0) + w_ext[3:] - _cross(R @ self.sG, w_ext[:3])
+             - brake[1] * om)
         Lw = R @ (self.IG @ (R.T @ om))
         dom = R @ (self.IGinv @ (R.T @ (M - _cross(om, Lw))))
         return np.concatenate([vG, F / self.m, 0.5 * _qmul(np.r_[0.0, om], q), dom])
 
-    def run(self, duration, pushes=(), rate=100.0, steps=4, p_start=None, om_start=None):
+    def run(self, duration, pushes=(), rate=100.0, steps=4, p_start=None, om_start=None,
+            brakes=()):
         """Integrate; return times (n,), P positions (n, 3), quaternions (n, 4) and the
-        tensions (n, m) at ``rate`` Hz (``steps`` RK4 steps per sample)."""
+        tensions (n, m) at ``rate`` Hz (``steps`` RK4 steps per sample). ``brakes``: tuples
+        ``(start_s, end_s, c_lin, c_ang)``, a hand braking the swing (:meth:`deriv`)."""
         from cdprid.effects import Effect, external_wrench
 
         effs = [Effect("external_wrench", dict(p)) for p in pushes]
@@ -95,10 +100,12 @@ class FreePlatform:
                 T[j] = self.cables(y[:3], y[3:6], y[6:10], y[10:])[0]
             w0, wh, w1 = ((np.zeros(6),) * 3 if wext is None else
                           (wext[i], wext[len(tt) + i], wext[i + 1]))
-            k1 = self.deriv(y, w0)
-            k2 = self.deriv(y + h / 2 * k1, wh)
-            k3 = self.deriv(y + h / 2 * k2, wh)
-            k4 = self.deriv(y + h * k3, w1)
+            ti = i * h
+            br = next(((c1, c2) for a, b, c1, c2 in brakes if a <= ti < b), (0.0, 0.0))
+            k1 = self.deriv(y, w0, br)
+            k2 = self.deriv(y + h / 2 * k1, wh, br)
+            k3 = self.deriv(y + h / 2 * k2, wh, br)
+            k4 = self.deriv(y + h * k3, w1, br)
             y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             y[6:10] /= np.linalg.norm(y[6:10])
         return ts, P, Q, T

@@ -37,10 +37,12 @@ from cdprid.identify._cells import CellCalibration, calibrate_cells_wrench
 from cdprid.identify._episodes import _trimmed
 from cdprid.identify._free_pushes import left_out
 from cdprid.identify._free_rows import (
+    com_over_thirds,
     fit_rows,
     free_directions,
     projected_filtered_rows,
     projected_regressor,
+    widen_cutoff,
     window_disagreement,
 )
 from cdprid.identify._scale import ScaleReference, choose_reference, scaled_estimate
@@ -141,6 +143,14 @@ def _placeholder_tensions(ds):
                                tension=np.ones((len(ds.pose_t), ds.robot.n_cables)))
 
 
+def _lagged(ds, tension_lag: float):
+    """The dataset with its tension clock shifted by ``tension_lag`` s, and the same with
+    placeholder tensions when it has none (:func:`_placeholder_tensions`)."""
+    if ds.tension is not None and tension_lag:
+        ds = dataclasses.replace(ds, tension_t=np.asarray(ds.tension_t) + float(tension_lag))
+    return ds, _placeholder_tensions(ds)
+
+
 def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
                          params: dict | None = None, t_start: float | None = None,
                          t_end: float | None = None, trim: float = TRIM_S,
@@ -183,17 +193,16 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
         raise InputError(f"--source free-motion needs fewer than 6 cables (this robot has {m}): "
                          "locked cables leave the platform no free direction to swing in.")
     ref = choose_reference(reference, ds.robot, None, allow_drive=False)
-    if ds.tension is not None and tension_lag:
-        ds = dataclasses.replace(ds, tension_t=np.asarray(ds.tension_t) + float(tension_lag))
-    dsa, diff = _placeholder_tensions(ds), "euler-filtfilt"
+    (ds, dsa), diff = _lagged(ds, tension_lag), "euler-filtfilt"
     sig, fix = align(dsa, t_start, t_end), cutoff_from_data(diff, params)
     notes = list(sig.notes) if ds.tension is not None else []
     params, w0 = resolve_params(dsa, sig, diff, params, notes)
+    params = widen_cutoff(dsa, sig, params, notes) if fix else params
     model, _, warns = _choose_model(model, sig, ds.path, w0)
     motion = estimate_motion(sig, diff, params, angular=(model == "full"))
     rho, names = platform_radius(ds.robot), PARAMETER_NAMES[model]
-    ref_i = ref.index(len(names))
     P = projected_filtered_rows(ds.robot, sig, motion, model, params, rho, int(chunk))
+    ref_i = ref.index(len(names))
     use = segment_mask(motion.t, motion.segments, trim) & _trimmed(motion.t, trim, ds.path)
     excl, eps, extra = _left_out(ds, sig, P, ref, ref_i, names, params, trim, far_per_hour,
                                  keep_episodes, use, chunk)
@@ -234,6 +243,11 @@ def _window_scaled(P, idx, ref_i, names, chunk, t, value, res, notes, warns):
     """The fit with its covariances multiplied by the time thirds' Birge ratio when above 1
     (:func:`cdprid.identify._free_rows.window_disagreement`; its warning and a note added)."""
     w2, r2 = window_disagreement(P, idx, ref_i, names, chunk, t, value)
+    thirds = com_over_thirds(P, idx, ref_i, names, chunk, t)
+    if thirds and w2:  # the data do not decide z_G beyond the thirds' spread: say by how much
+        w2 = [w2[0] + " " + thirds[0].upper() + thirds[1:] + "."]
+    elif thirds:
+        notes.append(thirds)
     warns += w2
     if r2 <= 1.0:
         return res

@@ -29,7 +29,9 @@ import numpy as np
 
 from cdprid.base import InputError
 from cdprid.core import (
+    choose_cutoff,
     least_squares_blocks,
+    noise_levels,
     reference_rates,
     regressors,
     wrench_matrices,
@@ -37,7 +39,10 @@ from cdprid.core import (
 from cdprid.signal import acceleration_filter
 
 __all__ = ["free_directions", "projected_regressor", "projected_filtered_rows", "fit_rows",
-           "window_disagreement"]
+           "window_disagreement", "widen_cutoff", "WIDEN", "com_over_thirds"]
+
+#: the free motion's data-chosen cutoff may reach WIDEN times the core grid's widest (4 Hz)
+WIDEN = 4.0
 
 #: window disagreement (combined std) beyond which the command warns
 WINDOW_Z = 3.0
@@ -192,3 +197,78 @@ def window_disagreement(P, idx, ref_i: int, names, chunk: int, t,
             "slows a swing, contact, drag) or a drift bias the fit; the covariance is scaled "
             f"by the thirds' spread (x {r2:.2g}), which may still not cover a bias they share. "
             "Use a push-free release, or --t-start/--t-end on a window you trust."], r2
+
+
+def com_over_thirds(P, idx, ref_i: int, names, chunk: int, t) -> str | None:
+    """One sentence with the centre of mass's height ``z_G`` fitted on each time third of the
+    kept samples (with its HAC std), or None when the model has no ``mzG`` or the reference
+    is not the mass: how much the data decide ``z_G`` beyond the pooled std.
+
+    Parameters
+    ----------
+    P, idx, ref_i, names, chunk : as in :func:`fit_rows`
+    t : (n,) times, s
+    """
+    if "mzG" not in names or ref_i != 0 or names[0] != "m":
+        return None
+    parts = np.array_split(idx, 3)
+    if min(len(p) for p in parts) < 20 * P.shape[2]:
+        return None
+    out = []
+    for part in parts:
+        try:
+            f = fit_rows(P, part, ref_i, names, chunk)
+        except InputError:
+            return None
+        k = list(f.names).index("mzG")
+        out.append((t[part[0]], t[part[-1]], f.x[k], np.sqrt(max(f.cov[k, k], 0.0))))
+    z = [o[2] for o in out]
+    spans = "; ".join(f"{a:.1f}-{b:.1f} s: {c:.4f} +- {d:.4f} m" for a, b, c, d in out)
+    return (f"the time thirds give z_G {spans}: spread {max(z) - min(z):.4f} m "
+            f"({100 * (max(z) - min(z)) / abs(np.mean(z)):.0f} % of their mean)")
+
+
+def widen_cutoff(ds, sig, params: dict, notes: list) -> dict:
+    """The data-chosen cutoff on a grid ``WIDEN`` times wider (4-16 Hz) when the core's grid
+    (1-4 Hz, :func:`cdprid.core.choose_cutoff`) stopped at its cap.
+
+    The core's grid was set for the tension path; a free swing on short locked cables moves
+    faster (UACDPR: 1.6-2.2 Hz, its second harmonic at 3.3-3.9 Hz, angular accelerations up
+    to 5.6 Hz), and a 4 Hz zero-phase low-pass halves the harmonic: the fit loses the rows
+    that carry z_G while the forces it lacks (a hand braking the swing) are slow and stay. The
+    free-motion rows are exact for any cutoff (``F[N^T S Z] x = 0``), so only the same
+    errors-in-variables budget limits it. The wider grid is the core's on a time axis
+    stretched ``WIDEN`` times: the budget's ratio (noise over signal power of the second
+    differences) is invariant under ``dt -> k dt`` with ``f -> f / k``, so
+    ``WIDEN * choose_cutoff(x, q, WIDEN * dt).cutoff_hz`` is the widest cutoff of
+    ``{4, 5, ..., 16}`` Hz within the budget.
+
+    Parameters
+    ----------
+    ds : Dataset
+        Its tensions (or a placeholder) for :func:`cdprid.core.noise_levels`.
+    sig : AlignedSignals
+    params : dict
+        The parameters with the core's data-chosen ``cutoff_hz``.
+    notes : list
+        Its last sentence (the core's choice) is replaced when the cutoff is widened.
+
+    Returns
+    -------
+    dict
+        ``params``, ``cutoff_hz`` widened when the wider grid allows it.
+    """
+    _, _, s_pos, s_rot = noise_levels(ds, sig)
+    rot = sig.quaternion if sig.has_rotation else None
+    segs = getattr(sig, "segments", ()) or ((0, len(sig.t)),)
+    c = choose_cutoff(sig.position, rot, WIDEN * sig.dt, segs, s_pos, s_rot)
+    wide = WIDEN * c.cutoff_hz
+    if not c.within_budget or wide <= float(params["cutoff_hz"]):
+        return params
+    r = ", ".join(f"{k} {v:.1e}" for k, v in c.ratio.items())
+    notes[-1] = (f"differentiator bandwidth chosen from the data: cutoff {wide:g} Hz, the widest "
+                 f"of 1-{4 * WIDEN:g} Hz with a predicted errors-in-variables attenuation below "
+                 f"1e-03 (noise over signal power: {r}); the free-motion rows are exact for any "
+                 "cutoff, and a swing at a few hertz needs the wider grid (set --params "
+                 "cutoff_hz to override)")
+    return dict(params, cutoff_hz=wide)
