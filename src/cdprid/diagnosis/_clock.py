@@ -23,14 +23,17 @@ from __future__ import annotations
 
 import dataclasses
 
-import jax
 import numpy as np
 from scipy import stats
 
-from cdprid.core import CATMULL_ROM, tension_at
 from cdprid.diagnosis._candidates import Candidate, implausible, vocab_interval, vocab_params
 from cdprid.diagnosis._problem import Problem, heldout_rms
-from cdprid.diagnosis._profile import clock_index, joint_profile, profile_interval
+from cdprid.diagnosis._profile import (
+    clock_index,
+    joint_profile,
+    profile_interval,
+    shift_wrenches,
+)
 from cdprid.diagnosis._result import Finding
 from cdprid.diagnosis._selection import Selection, linear_model, model_implausible, refit
 from cdprid.effects import DIAGNOSIS
@@ -53,16 +56,15 @@ def clock_candidate(candidates) -> Candidate | None:
 
 def delay_profile(prob: Problem, base, grid=GRID_S) -> np.ndarray:
     """Held-out RMS (weighted units) of the base model with the tension stream shifted by
-    each delay of ``grid`` (the exact shift, the model refitted at each)."""
-    shifted = jax.jit(lambda s: tension_at(prob.d.stream, prob.d.t + s, CATMULL_ROM))
-    tau0 = np.asarray(shifted(0.0))
+    each delay of ``grid`` (the exact shift, the model refitted at each).
+
+    The shifted wrenches are those the joint profile uses
+    (:func:`cdprid.diagnosis._profile.shift_wrenches`, kept in ``prob.cache`` for the grid;
+    compiled once per shape, not once per call)."""
+    S = shift_wrenches(prob, list(grid) + [0.0])
     Z = base.A * prob.wrow[None, :, None]
-    out = []
-    for dly in grid:
-        dtau = np.asarray(shifted(float(dly))) - tau0
-        y = base.y + prob.filt(np.einsum("nij,nj->ni", prob.W_all, dtau))
-        out.append(heldout_rms(prob, Z, y * prob.wrow))
-    return np.asarray(out)
+    return np.asarray([heldout_rms(prob, Z, (base.y + S[k] - S[-1]) * prob.wrow)
+                       for k in range(len(grid))])
 
 
 def _vertex(grid, prof) -> float:
