@@ -26,7 +26,7 @@ from cdprid.core import refuse_implausible, rest_mask
 from cdprid.diagnosis._base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from cdprid.diagnosis._budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis._candidates import alias_label, candidate_list
-from cdprid.diagnosis._clock import clock_check, clock_interval, clock_stage
+from cdprid.diagnosis._clock import INTERVAL_CAVEAT, clock_check, clock_interval, clock_stage
 from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis._problem import Problem, force_heldout_rms, measured, prepare
@@ -51,6 +51,7 @@ from cdprid.diagnosis._unexplained import (
     unexplained_stage,
 )
 from cdprid.diagnosis._verdict import verdict
+from cdprid.effects import DIAGNOSIS
 from cdprid.episodes import find_episodes, winch_lengths
 from cdprid.io import Dataset, align
 from cdprid.model import PARAMETER_NAMES
@@ -261,8 +262,9 @@ def diagnose(
 def _competing_stage(prob, s, candidates, min_gain, extra, say, other, thr, clock_info, notes):
     """Competing models of the final model; one that predicts the held-out data materially
     better replaces it (:func:`cdprid.diagnosis._replace.adopt_better`, with a note), and
-    the competing models are then those of the new model. Returns ``(selection, competing
-    models, alternatives refitted, clock info)``."""
+    the competing models are then those of the new model; a named clock offset's interval
+    gets its note (:data:`cdprid.diagnosis._clock.INTERVAL_CAVEAT`). Returns ``(selection,
+    competing models, alternatives refitted, clock info)``."""
     better: list = []
     competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say, other,
                                         better=better)
@@ -272,6 +274,8 @@ def _competing_stage(prob, s, candidates, min_gain, extra, say, other, thr, cloc
         notes.append(note)
         competing, n_more = competing_models(prob, s, candidates, min_gain, extra, say, other)
         n_alt += n_more
+    if any(DIAGNOSIS[c.effect].clock for c in s.accepted):  # what its interval holds
+        notes.append(INTERVAL_CAVEAT)
     return s, competing, n_alt, clock_info
 
 
