@@ -78,6 +78,10 @@ def test_six_cable_upfed_delay_and_friction_on_every_pulley(tmp_path):
     fr = next(f for f in res.findings if f.effect == "pulley_friction")
     assert fr.parameters["cable"] == "all"
     assert res.info["base_model"] == "full"  # the rotation is in the base model
+    # a named clock offset says what its interval holds (issue 37: a bias over the whole
+    # recording from the noise is not in it)
+    assert sum("clock offset's 95 % interval" in n for n in res.notes) == 1, res.notes
+    assert "interval_caveat" in res.info["clock_profile"]
 
 
 @pytest.mark.slow

@@ -26,10 +26,11 @@ from cdprid.core import refuse_implausible, rest_mask
 from cdprid.diagnosis._base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from cdprid.diagnosis._budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis._candidates import alias_label, candidate_list
-from cdprid.diagnosis._clock import clock_check, clock_interval, clock_stage
+from cdprid.diagnosis._clock import INTERVAL_CAVEAT, clock_check, clock_interval, clock_stage
 from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis._problem import Problem, force_heldout_rms, measured, prepare
+from cdprid.diagnosis._regeometry import geometry_reselection
 from cdprid.diagnosis._replace import adopt_better
 from cdprid.diagnosis._restart import MIN_FINDINGS, choose, pair_start
 from cdprid.diagnosis._result import DiagnosisResult
@@ -50,6 +51,7 @@ from cdprid.diagnosis._unexplained import (
     unexplained_stage,
 )
 from cdprid.diagnosis._verdict import verdict
+from cdprid.effects import DIAGNOSIS
 from cdprid.episodes import find_episodes, winch_lengths
 from cdprid.io import Dataset, align
 from cdprid.model import PARAMETER_NAMES
@@ -236,10 +238,10 @@ def diagnose(
     prob, base, noise, extra = _base_stage(prob, notes, say)
     candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot)
     s, (other, second), clock_info, ranking, thr_first = _search(
-        prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain,
-        np.random.default_rng(seed), say)
-    s, hints, withdrawn, clock_info = _checks(prob, s, candidates, feats := _structure(prob),
-                                              alpha, min_gain, thr_first, extra, say, clock_info)
+        prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain, seed, say)
+    s, hints, withdrawn, clock_info, regeo = _checks(
+        prob, base, s, candidates, feats := _structure(prob), alpha, min_gain, thr_first,
+        max_effects, extra, say, clock_info)
     s, competing, n_alt, clock_info = _competing_stage(prob, s, candidates, min_gain, extra, say,
                                                        other, thr_first, clock_info, notes)
     unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say)
@@ -248,7 +250,7 @@ def diagnose(
         "train_until": train_until, "taut_threshold_N": taut_N,
         "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
     _complete_info(info, not_named_sizes(prob, base, s, candidates, extra, thr_first), rule,
-                   el_info, clock_info, second, t0, sub)
+                   el_info, clock_info, second, t0, sub, regeo)
     info["verdict"] = verdict(prob, noise, s.x, ext_ho, len(findings), seed)
     say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
     res = DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
@@ -260,8 +262,9 @@ def diagnose(
 def _competing_stage(prob, s, candidates, min_gain, extra, say, other, thr, clock_info, notes):
     """Competing models of the final model; one that predicts the held-out data materially
     better replaces it (:func:`cdprid.diagnosis._replace.adopt_better`, with a note), and
-    the competing models are then those of the new model. Returns ``(selection, competing
-    models, alternatives refitted, clock info)``."""
+    the competing models are then those of the new model; a named clock offset's interval
+    gets its note (:data:`cdprid.diagnosis._clock.INTERVAL_CAVEAT`). Returns ``(selection,
+    competing models, alternatives refitted, clock info)``."""
     better: list = []
     competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say, other,
                                         better=better)
@@ -271,13 +274,16 @@ def _competing_stage(prob, s, candidates, min_gain, extra, say, other, thr, cloc
         notes.append(note)
         competing, n_more = competing_models(prob, s, candidates, min_gain, extra, say, other)
         n_alt += n_more
+    if any(DIAGNOSIS[c.effect].clock for c in s.accepted):  # what its interval holds
+        notes.append(INTERVAL_CAVEAT)
     return s, competing, n_alt, clock_info
 
 
-def _complete_info(info, not_named, rule, el_info, clock_info, second, t0, sub) -> None:
+def _complete_info(info, not_named, rule, el_info, clock_info, second, t0, sub, regeo) -> None:
     """The stages' remaining entries of ``info`` (the budgeted subset's when there is one)."""
     info.update({"not_named": not_named, "unexplained_rule": rule, "lengths": el_info,
                  "clock_profile": clock_info, "second_start": second,
+                 "geometry_reselection": regeo,
                  "wall_time_s": time.perf_counter() - t0})
     if sub is not None:
         info["subset"] = sub.as_json()
@@ -292,16 +298,20 @@ def _with_episodes(res: DiagnosisResult, eps, prob: Problem, prob_with: Problem,
                                extended_heldout_rms_with_episodes=force_heldout_rms(kept, Z, y))
 
 
-def _checks(prob, s, candidates, feats, alpha, min_gain, thr_first, extra, say, clock_info):
-    """The stages that may take a finding back: backward elimination, stability over halves
+def _checks(prob, base, s, candidates, feats, alpha, min_gain, thr_first, max_effects, extra,
+            say, clock_info):
+    """The stages that may take a finding back: backward elimination, geometry selected again
+    given the complete sensor side (:mod:`cdprid.diagnosis._regeometry`), stability over halves
     of the recording and groups of cables (an unstable geometry error is withdrawn before it
     is weighed against the sensor side), geometry beyond the survey tolerance against the
     sensor-side alternatives, and the plausibility of what remains (and backward elimination
     again after a withdrawal, given the model alone: a finding may only have been needed
     beside it); then the clock's
     interval from the final model's joint profile. Returns ``(selection, hints, withdrawn
-    findings for unexplained, clock info)``."""
+    findings for unexplained, clock info, info["geometry_reselection"])``."""
     s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
+    s, regeo = geometry_reselection(prob, base, s, candidates, alpha, min_gain, thr_first,
+                                    max_effects, extra, say)
     s, unstable = stability_stage(prob, s, extra, say)
     s, withdrawn = geometry_stage(prob, s, candidates, min_gain, extra, say)
     s, implausible_now = plausibility_stage(prob, s, extra, say)
@@ -310,7 +320,7 @@ def _checks(prob, s, candidates, feats, alpha, min_gain, thr_first, extra, say, 
         # first pass; here a generic sign-of-velocity signal would displace friction)
         s, _ = backward_stage(prob, s, {}, alpha, min_gain, thr_first, extra, say)
     s, joint_clock = clock_interval(prob, s, extra)
-    return s, hints, unstable + withdrawn + implausible_now, {**clock_info, **joint_clock}
+    return s, hints, unstable + withdrawn + implausible_now, {**clock_info, **joint_clock}, regeo
 
 
 def _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say):
@@ -378,7 +388,7 @@ def _base_stage(prob, notes: list, say):
     return prob, base, noise, extra
 
 
-def _search(prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain, rng,
+def _search(prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain, seed,
             say):
     """The clock stage, the greedy forward steps and the swap stage:
     ``(selection, clock_info, first step's ranking, first step's threshold)``."""
@@ -386,6 +396,7 @@ def _search(prob, base, noise, extra, candidates, alpha, n_null, max_effects, mi
                                  extra, say)
     s = s0
     ranking, thr_first = [], alpha / len(candidates)
+    rng = np.random.default_rng(seed)
     for step in range(1, max_effects + 1):
         # null replicates calibrate the first step's threshold; later steps reuse it
         nulls = null_residuals(prob, noise, s.x[:4], n_null, rng) if step == 1 else ()
