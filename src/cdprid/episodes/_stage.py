@@ -29,7 +29,7 @@ import jax
 import numpy as np
 from scipy import stats
 
-from cdprid.base import CUTOFF_HZ, TRIM_S, InputError
+from cdprid.base import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S, InputError
 from cdprid.core import (
     ROTATION_WARN_DEG,
     estimate_motion,
@@ -47,7 +47,7 @@ from cdprid.episodes._energy import (
     winch_power,
 )
 from cdprid.episodes._glitches import find_glitches
-from cdprid.episodes._null import cells, persistent_null
+from cdprid.episodes._null import cells, persistent_null, speed_noise
 from cdprid.episodes._scan import (
     SCALES_S,
     filter_autocorrelation,
@@ -67,7 +67,7 @@ PASSES = 3
 #: the robust fit leaves out samples beyond this many robust std (MAD) in any row
 REJECT_SIGMAS = 5.0
 #: episodes covering more than this share of the recording are not local in time
-MAX_SHARE = 0.3
+MAX_SHARE = 0.5
 #: share of an episode's mean residual one load cell's column must explain to be a step
 STEP_SHARE = 0.95
 
@@ -222,7 +222,8 @@ def _data(robot, sig, cutoff_hz):
         model, mo.B_R_P, mo.acceleration, mo.omega, mo.alpha, np.asarray(robot.gravity)))
     twist = np.concatenate([np.asarray(mo.velocity), np.asarray(mo.omega)], axis=1)
     c = cells(W, twist, sig.tension, float(sig.dt), sig.segments,
-              lambda x: _filtered(x, sig, cutoff_hz), cutoff_hz)
+              lambda x: _filtered(x, sig, cutoff_hz), np.asarray(sig.t, float),
+              speed_noise(sig.position, float(sig.dt), cutoff_hz))
     return y, A, Wf, model, mo, c
 
 
@@ -293,9 +294,10 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     y, A, Wf, model, mo, c = _data(robot, sig, cutoff_hz)
     rows = np.std(y, 0) > 1e-9 * np.std(y, 0).max()  # nil rows (point mass): no test there
     y, A, Wf = y[:, rows], A[:, rows], Wf[:, rows]
-    scan_use = keep & ~gl_excl
+    slack = _dilate(np.any(np.asarray(sig.tension) < TAUT_THRESHOLD_N, axis=1), margin)
+    scan_use = keep & ~gl_excl & ~slack
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
-    Z = persistent_null(A, c, rows, lambda Z1: _robust_fit(y, Z1, scan_use, whiten)[1])
+    Z = persistent_null(A, c, rows, lambda Z1: _robust_fit(y, Z1, scan_use, whiten))
     found, excl, nm, beta, passes, caveat = _wrench_passes(y, Z, scan_use, gl_excl, dt, margin,
                                                            cutoff_hz, far_per_hour, A.shape[2])
     n_windows = (t[-1] - t[0]) * sum(2.0 / s for s in SCALES_S)
