@@ -30,8 +30,18 @@ the whole recording, these columns take the reversals of the cables' velocities 
 rates, where a rigid body alone leaves a step at every reversal; a push is local in time and
 not aligned with the reversals, and stays in the residual.
 
-Not among them: a relative gain (``(g_j - 1) W_j tau_j``; the columns ``W_j tau~_j`` sum
-to the measured wrench itself, so they would explain anything) and the winches' own work.
+Two more terms a real recording needs (the UACDPR's cells): a relative gain per cell (a cell
+reading ``g_j tau_j``: ``(g_j - 1) W_j tau~_j`` to first order; the gains' common part is the
+rigid body's scale, so ``m - 1`` columns ``W_j tau~_j - W_m tau~_m``; with all m the columns
+would sum to the measured wrench and explain anything) and a zero that drifts slowly (strain
+gauges creep and warm): per cell ``W_j P_k(t)``, Legendre polynomials of degree 1..K over the
+recording, its shortest time scale :data:`ZERO_DRIFT_S`, three times the longest push the
+scan is for, so a push stays in the residual. The winches' own work is not among them.
+
+The friction column takes the expected sign of the sliding (:func:`expected_sign`: the
+estimated speed's noise makes the sign uncertain near a stop), and the reading's motion is
+told from its noise by a play operator whose width follows from :data:`REVERSAL_P`
+(:func:`motion`), never from a tuned rate floor.
 """
 
 from __future__ import annotations

@@ -9,13 +9,17 @@ the robot; ``identify`` and ``diagnose`` call it before their fits and leave the
    ``W tau`` and each cable's column of W go through the same zero-phase filter (matched).
 3. The paper's model (the full model when the platform rotates) plus the load-cell effects
    that persist over the whole recording (:mod:`cdprid.episodes._null`: per cable a zero
-   offset, Coulomb friction on its pulley, a hysteretic band, and one clock offset; a few
-   columns per cable, their hysteresis columns from a first fit) is fitted by least squares
-   on the samples outside the episodes, whitened by the residual's noise model (the energy
-   test of step 4 takes the rigid body fitted alone); the residual is scanned
+   offset, Coulomb friction on its pulley, a hysteretic band, a relative gain and a slowly
+   drifting zero, and one clock offset; a few columns per cable, their hysteresis columns
+   from a first fit) is fitted by least squares on the samples outside the episodes,
+   whitened by the residual's noise model (the energy test of step 4 takes the rigid body
+   fitted alone); the residual is scanned
    (:mod:`cdprid.episodes._scan`) at the stated false-alarm rate; each flagged stretch is
    refined to the interval where a constant wrench explains the most. Repeated until the
    episodes stop changing (at most :data:`PASSES` passes).
+   Samples where a cable reads below ``TAUT_THRESHOLD_N`` (and the matched filter's
+   transient around them) are not scanned: a slack cable is not the straight taut line of
+   the wrench model, and its snap is not an outside wrench.
 4. When the winches are locked, the energy balance is a second, independent test
    (:mod:`cdprid.episodes._energy`).
 """
@@ -66,7 +70,9 @@ FAR_PER_HOUR = 0.5
 PASSES = 3
 #: the robust fit leaves out samples beyond this many robust std (MAD) in any row
 REJECT_SIGMAS = 5.0
-#: episodes covering more than this share of the recording are not local in time
+#: episodes covering more than this share of the scanned samples are not local in time: the
+#: robust fit (median and MAD) breaks down at half the samples, beyond which the null is not
+#: what most of the recording follows
 MAX_SHARE = 0.5
 #: share of an episode's mean residual one load cell's column must explain to be a step
 STEP_SHARE = 0.95
