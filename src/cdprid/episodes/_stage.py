@@ -21,7 +21,9 @@ the robot; ``identify`` and ``diagnose`` call it before their fits and leave the
    transient around them) are not scanned: a slack cable is not the straight taut line of
    the wrench model, and its snap is not an outside wrench.
 4. When the winches are locked, the energy balance is a second, independent test
-   (:mod:`cdprid.episodes._energy`).
+   (:mod:`cdprid.episodes._energy`): outside work where the energy rises (a push), and
+   where it falls faster than the passive losses fitted on the recording take it (a hand
+   that stops the platform; ``energy_J`` < 0).
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from cdprid.core import (
 )
 from cdprid.effects import EXTERNAL_WRENCH
 from cdprid.episodes._energy import (
+    braking_runs,
     energy_runs,
     locked,
     mechanical_energy,
@@ -97,7 +100,8 @@ class Episode:
         Adjusted for the number of windows scanned (Bonferroni; 0 when below 1e-300).
     detail : dict
         Kind-specific: ``cable`` and ``step_N`` of a load-cell step, ``n_samples`` and
-        ``largest_m`` of glitches, ``energy_J`` of an energy episode.
+        ``largest_m`` of glitches, ``energy_J`` of an energy episode (the outside work, J:
+        negative where a hand takes energy out faster than the passive losses).
     """
 
     start_s: float
@@ -377,6 +381,11 @@ def _energy_episodes(robot, sig, mo, beta, model, use, excl, margin, far_per_hou
     for a, b, work, p in energy_runs(t, E, use, excl, far_per_hour):
         out.append(Episode(float(t[a]), float(t[b - 1]), "energy", None, None, None, None, p,
                            {"energy_J": work}))
+        new[a:b] = True
+    speed = np.linalg.norm(np.asarray(mo.velocity, float), axis=1)
+    for a, b, work, p in braking_runs(t, E, speed, use, excl | new, far_per_hour):
+        out.append(Episode(float(t[a]), float(t[b - 1]), "energy", None, None, None, None, p,
+                           {"energy_J": work}))  # < 0: taken out faster than passive losses
         new[a:b] = True
     return out, _dilate(new, margin) | excl
 
