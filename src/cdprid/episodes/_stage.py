@@ -263,6 +263,11 @@ def _fit(y, Z, rows, whiten):
     return y - np.einsum("nip,p->ni", Z, beta), beta
 
 
+TAUT_SHARE_MIN = 0.2
+"""Below this share of taut samples among the scanned ones the slack ones are scanned too
+(e.g. tensions in kN read as N: every sample would be left out and nothing tested)."""
+
+
 def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float = FAR_PER_HOUR,
                   trim: float = TRIM_S, use=None, lengths=None) -> Episodes:
     """Locate the episodes of a recording (see the module docstring).
@@ -306,10 +311,18 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     y, A, Wf = y[:, rows], A[:, rows], Wf[:, rows]
     slack = _dilate(np.any(np.asarray(sig.tension) < TAUT_THRESHOLD_N, axis=1), margin)
     scan_use = keep & ~gl_excl & ~slack
+    few_taut = scan_use.sum() < TAUT_SHARE_MIN * max(int((keep & ~gl_excl).sum()), 1)
+    if few_taut:  # (almost) every sample below the taut threshold: scan them all, say so
+        scan_use = keep & ~gl_excl
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
     Z = persistent_null(A, c, rows, lambda Z1: _robust_fit(y, Z1, scan_use, whiten))
     found, excl, nm, beta, passes, caveat = _wrench_passes(y, Z, scan_use, gl_excl, dt, margin,
                                                            cutoff_hz, far_per_hour, A.shape[2])
+    if few_taut:
+        caveat = ((caveat + "; ") if caveat else "") + (
+            f"fewer than {TAUT_SHARE_MIN:.0%} of the samples have every tension above "
+            f"{TAUT_THRESHOLD_N:g} N (a tension unit or threshold to check): slack samples "
+            "were scanned too")
     n_windows = (t[-1] - t[0]) * sum(2.0 / s for s in SCALES_S)
     eps = [_wrench_episode(t, a, b, T, mean, Wf, nm, n_windows, rows)
            for a, b, T, mean in found]
