@@ -1,7 +1,12 @@
 """Wall-clock figures of the main commands (cold start included), side by side in one run.
 
-Usage: python -m benchmarks.speed [--only commands|startup|diagnose] [--baseline REV] [--load K]
+Usage: python -m benchmarks.speed [--only commands|startup|diagnose|stages] [--baseline REV]
+[--load K] [--seed S] [--rounds N]
 prints tables and updates results/benchmarks.md (each section replaced, the others kept).
+``--only stages`` times `diagnose` per stage on the floor-winch 8-cable case of issue 37
+(``tests._testbench.floor8_case(S)``, default S = 4), twice in one process (the first run
+with its JIT compile time), at this tree and with ``--baseline REV`` at REV alternated
+(``benchmarks/speed_stages.py``); it writes results/speed.md.
 ``--only diagnose`` times `cdprid diagnose` on two CRAFT-like recordings (the second start of
 the search runs), with ``--baseline REV`` at this tree and at REV alternated in one run, with
 ``--load K`` beside K busy processes (a shared machine; its own section).
@@ -250,11 +255,47 @@ def _merge(path: Path, heading: str, section: str) -> None:
     path.write_text("\n".join(x.rstrip("\n") + "\n" for x in kept) + "\n" + section + "\n")
 
 
+def _stages(d: Path, rev: str | None, seed: int, rounds: int) -> list[str]:
+    """Per-stage table of ``diagnose`` on floor8 (:mod:`benchmarks.speed_stages`)."""
+    from benchmarks.speed_stages import run_trees, same_findings, table
+
+    load0 = os.getloadavg()[0]
+    wt = _baseline_tree(rev, d) if rev else None
+    trees = {"this": ROOT / "src", **({rev: wt / "src"} if wt else {})}
+    try:
+        res = run_trees(d, trees, seed, rounds)
+    finally:
+        if wt:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(wt)],
+                           capture_output=True)
+    diff = same_findings(res)
+    lines = [f"## diagnose per stage, floor8 seed {seed}" + (f" ({rev})" if rev else ""), "",
+             "Command: `python -m benchmarks.speed --only stages"
+             + (f" --baseline {rev}" if rev else "") + f" --seed {seed} --rounds {rounds}` at "
+             f"commit {_head()}, {time.strftime('%Y-%m-%d %H:%M')}; load average {load0:.1f} "
+             f"before and {os.getloadavg()[0]:.1f} after (2 cores, shared). The 8-cable "
+             "floor-winch recording of issue 37 (`tests._testbench.floor8_case`, 52 s) "
+             "diagnosed by `cdprid.diagnosis.diagnose` twice in one fresh process per tree "
+             + ("(the trees alternated, " if rev else "(")
+             + f"{rounds} round(s), least total kept): run 1 pays the JIT compilation (in "
+             "brackets: JAX's trace, lowering and compile events in that stage; the "
+             "persistent cache of each tree filled by its first process), run 2 does not. "
+             "Stage times are exclusive (a stage nested in another counts for the inner "
+             "one).", "", *table(res), "",
+             "Findings (effects, sizes, intervals, held-out rms, unexplained sizes) of every "
+             f"run of every tree: largest relative difference {diff:.2g}."]
+    print("\n".join(lines), flush=True)
+    return lines
+
+
 def main() -> int:
     import argparse
 
     ap = argparse.ArgumentParser(description="Speed of the main commands.")
-    ap.add_argument("--only", choices=["commands", "startup", "diagnose"], default=None)
+    ap.add_argument("--only", choices=["commands", "startup", "diagnose", "stages"],
+                    default=None)
+    ap.add_argument("--seed", type=int, default=4, help="--only stages: floor8 case seed")
+    ap.add_argument("--rounds", type=int, default=1, help="--only stages: alternations")
     ap.add_argument("--baseline", default=None, metavar="REV",
                     help="also time identify (startup) or diagnose (--only diagnose) at this "
                          "git revision, alternated with this tree")
@@ -264,6 +305,13 @@ def main() -> int:
     if args.load < 0:
         ap.error("--load must be >= 0")
     out = ROOT / "results" / "benchmarks.md"
+    if args.only == "stages":
+        out = ROOT / "results" / "speed.md"
+        with tempfile.TemporaryDirectory() as tmp:
+            lines = _stages(Path(tmp), args.baseline, args.seed, args.rounds)
+            _merge(out, lines[0], "\n".join(lines))
+        print(f"wrote {out}")
+        return 0
     if args.only == "diagnose":
         with tempfile.TemporaryDirectory() as tmp:
             _merge(out, _diagnose_heading(args.load, args.baseline),

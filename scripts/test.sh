@@ -17,7 +17,12 @@ bash scripts/setup.sh test,cluster
 # threads take the cores XLA needs when the machine is shared (results/benchmarks.md).
 export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"
 SEL=()
-if [ "${CI:-}" = "true" ]; then SEL=(-m "slow or not slow"); fi
+if [ "${CI:-}" = "true" ]; then
+  SEL=(-m "slow or not slow")
+  # CI compiles as users run cdprid; locally tests/conftest.py asks XLA for little optimization
+  # (compiling is most of the suite's time; the README's "How long")
+  export JAX_DISABLE_MOST_OPTIMIZATIONS="${JAX_DISABLE_MOST_OPTIMIZATIONS:-0}"
+fi
 echo "[test] running the test suite ${SEL[*]:-(slow tests deselected)}"
 PYTEST=(.venv/bin/python -m pytest -q -p no:cacheprovider "${SEL[@]}")
 if [ "$#" -gt 0 ]; then
@@ -41,8 +46,8 @@ for f in tests/test_*.py; do GROUPS_+=("$f"); done
 JOBS="${CDPRID_TEST_JOBS:-$(nproc 2>/dev/null || echo 2)}"
 if [ "$JOBS" -gt 4 ]; then JOBS=4; fi
 if [ "$JOBS" -lt 1 ]; then JOBS=1; fi
-HEAVY=(tests/identify tests/diagnosis tests/notebooks tests/core tests/excitation tests/cli
-       tests/io tests/tuning)
+HEAVY=(tests/identify tests/diagnosis tests/core tests/cli tests/io tests/tuning tests/excitation
+       tests/effects)  # by CPU seconds, 2026-11-28 (README "How long")
 ORDERED=()
 for h in "${HEAVY[@]}"; do
   for g in "${GROUPS_[@]}"; do [ "$g" = "$h" ] && ORDERED+=("$g"); done

@@ -5,11 +5,23 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import jax
-import numpy as np
-import pytest
+# XLA's compiler is most of the suite's time (a JAX monitoring listener, 2026-11-28: 85-95 % of
+# the 10-60 s identify tests is trace + lower + compile, the compiled programs then run for
+# under a second), so the suite asks JAX to compile with little optimization
+# (jax_disable_most_optimizations: LLVM at -O0 without its expensive passes; XLA's HLO passes,
+# hence the computation and its float64 arithmetic, are unchanged): tests/identify/test_eiv.py
+# took 68 s of CPU compiled as users run it and 52 s so. Set before jax is imported, so the
+# commands and notebook kernels the tests start inherit it. scripts/test.sh with CI=true sets
+# it to 0: CI runs every test compiled exactly as users run them.
+os.environ.setdefault("JAX_DISABLE_MOST_OPTIMIZATIONS", "1")
+
+import jax  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_disable_most_optimizations",
+                  os.environ["JAX_DISABLE_MOST_OPTIMIZATIONS"] not in ("", "0", "false", "False"))
 
 # The persistent JAX compilation cache is off for the suite unless the caller sets
 # CDPRID_CACHE_DIR: a whole-suite run (slow tests included) died in JAX's deserialisation of a

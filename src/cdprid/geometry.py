@@ -2,4 +2,4 @@
 
 from cdprid._moved import moved
 
-__getattr__, __dir__ = moved(__name__, "cdprid.model._geometry", "cdprid.model")
+__getattr__, __dir__ = moved(__name__, "cdprid.model", "cdprid.model")

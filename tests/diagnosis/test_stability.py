@@ -192,3 +192,36 @@ def test_a_finding_left_implausible_is_withdrawn(offset_on_cable_2):
     assert len(out) == 1 and out[0]["where"] == gain.label
     assert "gain 3.5" in out[0]["correlates_with"]
     assert abs(u.theta[oi] - 3.0) < 0.5, u.theta[oi]
+
+
+def _losses_pair(rng, n, ratio):
+    """Per-sample held-out squared errors of two models on the same samples: correlated
+    (the same residual plus a small difference), the alternative's mean ``ratio`` times the
+    geometry model's."""
+    e = rng.normal(size=n)
+    geo = e * e + 0.05 * rng.normal(size=n) ** 2
+    alt = ratio * geo * np.exp(0.05 * rng.normal(size=n))
+    alt *= ratio * geo.mean() / alt.mean()
+    return geo, alt
+
+
+@pytest.mark.parametrize("ratio, expected", [
+    (0.998, "cannot tell"),  # floor8 seed 2: 0.2 % apart (p = 0.23): no swap on a coin toss
+    (1.002, "cannot tell"),  # the geometry error better within the noise: not named either
+    (0.80, "alternative"),   # the sensor side predicts much better: it is named instead
+    (1.25, "geometry"),      # the geometry error beats every alternative: named
+])
+def test_geometry_against_its_sensor_side_alternative(ratio, expected):
+    """Issue 37: a geometry error beyond the survey tolerance is named only when it beats its
+    best sensor-side alternative; the alternative only when it is significantly better
+    (one-sided Diebold-Mariano at 5 %); when neither is, neither is named ("cannot tell")."""
+    from cdprid.diagnosis._competing import dm_p_worse
+    from cdprid.diagnosis._stability import ALTERNATIVE_DM_LEVEL, geometry_verdict
+
+    geo, alt = _losses_pair(np.random.default_rng(37), 4000, ratio)
+    p = dm_p_worse(alt, geo, 3)
+    rms_geo, rms_alt = float(np.sqrt(geo.mean())), float(np.sqrt(alt.mean()))
+    if expected == "cannot tell":  # the series are within each other's sampling noise
+        assert ALTERNATIVE_DM_LEVEL < p < 1 - ALTERNATIVE_DM_LEVEL, p
+    assert geometry_verdict(rms_geo, rms_alt, p, 0.01) == expected
+    assert geometry_verdict(rms_geo, None, 0.0, 0.01) == "geometry"  # nothing to weigh

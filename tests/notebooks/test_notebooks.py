@@ -5,7 +5,8 @@ Each notebook runs in a temporary copy of the folder layout (``tmp/notebooks/X.i
 set for the kernel (notebooks may shrink their work) and ``CDPRID_SHARED`` points at the
 shared folder beside the repository. A notebook that reads ``../shared`` without a fallback is
 skipped, with the reason, when that folder is absent (none does today: 02 regenerates its
-dataset with the simulator, 06 says it has nothing to run). Committed notebooks must carry no outputs.
+dataset with the simulator, 06 says it has nothing to run). Committed notebooks must carry no
+outputs.
 """
 
 from __future__ import annotations
@@ -43,14 +44,23 @@ def test_notebook_has_no_outputs(path):
     assert not dirty, f"{path.name}: cells {dirty} carry outputs; commit notebooks without outputs"
 
 
-HEAVY = ("03_differentiators_and_tuning.ipynb", "06_real_data.ipynb")
-"""Notebooks whose execution takes over 1.5 min on 2 cores: run with the slow tests (CI runs
-them all; the default suite's time goal, README "How long")."""
+DEFAULT = ("01_model.ipynb",)
+"""The notebook executed in the default selection: it exercises this harness (a kernel, the temp
+folder layout, a figure written beside it) in 5-10 s. Every other notebook takes 20-100 s on 2
+cores and runs with the slow tests (CI runs them all; the default suite's time goal, README "How
+long"); what each calls stays in the default selection through the tests of that code path:
+02 (replication, Table 1 on the regenerated orbits) tests/test_replication.py;
+03 (tuning) tests/tuning; 04 (optimise_excitation, certificate) tests/excitation/test_design.py;
+05 (a simulated hidden effect diagnosed, report saved) tests/diagnosis/test_diagnose.py
+(test_hidden_effect_named_with_size, test_cli_json_contract); 06 (uaCDPR import, identify_real)
+tests/io/test_uacdpr.py, tests/identify/test_real_results.py; 07 (online_identify, online_step)
+tests/identify/test_online.py; 08 (simulate -> identify -> excite -> identify through cli.main)
+tests/cli, tests/excitation/test_design.py (test_cli_optimised_is_certified_and_better)."""
 
 
 def _executes_params():
-    return [pytest.param(p, id=p.name, marks=pytest.mark.slow) if p.name in HEAVY
-            else pytest.param(p, id=p.name) for p in NOTEBOOKS]
+    return [pytest.param(p, id=p.name) if p.name in DEFAULT
+            else pytest.param(p, id=p.name, marks=pytest.mark.slow) for p in NOTEBOOKS]
 
 
 @pytest.mark.parametrize("path", _executes_params())

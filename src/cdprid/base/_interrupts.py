@@ -46,7 +46,13 @@ _HELD = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if has
 
 
 def pending() -> int | None:
-    """The signal number recorded and not yet acted on, or None."""
+    """The signal number recorded and not yet acted on, or None.
+
+    Returns
+    -------
+    int or None
+        The pending signal's number (e.g. 15 for SIGTERM), None when none is pending.
+    """
     return _STATE["pending"]
 
 
@@ -73,8 +79,22 @@ def _in_gc_callback(frame) -> bool:
 
 
 def deliver(signum: int, frame=None) -> None:
-    """The body of a termination handler: record ``signum``; raise :class:`Terminated` unless
-    inside :func:`held` or a garbage-collection callback (then at the next safe point)."""
+    """The body of a termination handler: record ``signum`` and raise unless it is unsafe.
+
+    Parameters
+    ----------
+    signum : int
+        The signal number; the first one recorded stays pending.
+    frame : frame, optional
+        The interrupted frame (as given to a signal handler); used to detect a
+        garbage-collection callback.
+
+    Raises
+    ------
+    Terminated
+        Outside :func:`held` and outside a garbage-collection callback (otherwise the signal
+        is raised at the next safe point).
+    """
     if _STATE["pending"] is None:
         _STATE["pending"] = int(signum)
     if _STATE["depth"] > 0 or _in_gc_callback(frame):

@@ -58,6 +58,11 @@ def check_output(path: str | os.PathLike, force: bool = False, flag: str = "--ou
         The files and folders the command reads. An output that is one of them or contains one
         is refused, with or without ``force`` (``--force`` never replaces an input).
 
+    Returns
+    -------
+    Path
+        ``path`` as a :class:`~pathlib.Path`.
+
     Raises
     ------
     OutputError
@@ -91,6 +96,18 @@ def input_clash(path: str | os.PathLike, inputs) -> str | None:
 
     An output may not be an input, nor a folder that holds an input (a report written into
     the dataset it reports on, a table import into the folder of its tables).
+
+    Parameters
+    ----------
+    path : path-like
+        The output file or folder.
+    inputs : iterable of path-like or None
+        The files and folders the command reads (None entries are skipped).
+
+    Returns
+    -------
+    str or None
+        ``"is the input X"`` or ``"holds the input X"``, None when there is no clash.
     """
     out = Path(path).resolve()
     for item in inputs or ():
@@ -105,7 +122,18 @@ def input_clash(path: str | os.PathLike, inputs) -> str | None:
 
 
 def check_distinct(outputs: dict) -> None:
-    """Refuse two outputs of one command that are the same file (``{flag: path}``; None skipped)."""
+    """Refuse two outputs of one command that are the same file.
+
+    Parameters
+    ----------
+    outputs : dict
+        ``{flag: path}`` of every output the command writes; None paths are skipped.
+
+    Raises
+    ------
+    OutputError
+        Two flags resolve to the same path (the sentence names both).
+    """
     seen: dict[Path, str] = {}
     for flag, path in outputs.items():
         if path is None:
@@ -121,7 +149,27 @@ def check_distinct(outputs: dict) -> None:
 def atomic_file(path: str | os.PathLike, mode: str = "w", force: bool = True) -> Iterator:
     """Open a temporary file beside ``path``; renamed onto ``path`` only if the block completes.
 
-    ``force`` False refuses an existing ``path`` (checked again at the rename).
+    Parameters
+    ----------
+    path : path-like
+        The target file.
+    mode : str
+        The open mode (``"w"`` text as UTF-8, ``"wb"`` binary).
+    force : bool
+        False refuses an existing ``path`` (checked again at the rename).
+
+    Yields
+    ------
+    file
+        The open temporary file; it is flushed, synced and renamed into place when the block
+        ends without an exception or pending signal, removed otherwise.
+
+    Raises
+    ------
+    OutputExistsError
+        ``path`` exists and ``force`` is False.
+    OutputError
+        ``path`` is a folder, or its folder cannot be written.
     """
     p = Path(path)
     if not force and p.exists():
@@ -168,19 +216,71 @@ def _umask() -> int:
 
 
 def write_text(path: str | os.PathLike, text: str, force: bool = True) -> Path:
-    """Write ``text`` to ``path`` atomically; returns the path."""
+    """Write ``text`` to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        The target file.
+    text : str
+        The content, written as UTF-8.
+    force : bool
+        Replace an existing file (False refuses it).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OutputExistsError, OutputError
+        As :func:`atomic_file`.
+    """
     with atomic_file(path, "w", force=force) as fh:
         fh.write(text)
     return Path(path)
 
 
 def write_json(path: str | os.PathLike, data: dict, force: bool = True) -> Path:
-    """Write ``data`` as indented JSON to ``path`` atomically; returns the path."""
+    """Write ``data`` as indented JSON to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        The target file.
+    data : dict
+        JSON-able data (NaN and infinity are written as ``NaN``/``Infinity``).
+    force : bool
+        Replace an existing file (False refuses it).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     return write_text(path, json.dumps(data, indent=2, allow_nan=True) + "\n", force=force)
 
 
 def save_figure(fig, path: str | os.PathLike, force: bool = True, **kwargs) -> Path:
-    """``fig.savefig`` to a temporary name beside ``path``, renamed into place when complete."""
+    """``fig.savefig`` to a temporary name beside ``path``, renamed into place when complete.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : path-like
+        The target file; its suffix gives the format unless ``format`` is passed.
+    force : bool
+        Replace an existing file (False refuses it).
+    **kwargs
+        Passed to ``fig.savefig`` (e.g. ``dpi``, ``format``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     p = Path(path)
     fmt = kwargs.pop("format", None) or (p.suffix.lstrip(".") or "png")
     with atomic_file(p, "wb", force=force) as fh:
@@ -192,22 +292,41 @@ def save_figure(fig, path: str | os.PathLike, force: bool = True, **kwargs) -> P
 def atomic_dir(path: str | os.PathLike, force: bool = False, owned=()) -> Iterator[Path]:
     """Build a folder under a temporary name beside ``path``; it appears whole or not at all.
 
-    Yields the temporary folder to write into. When the block completes:
+    When the block completes:
 
     * ``path`` did not exist (or was an empty folder): the temporary folder is renamed onto it;
       if another run created it meanwhile, :class:`~cdprid.base.OutputExistsError` (one run wins,
       the other exits 2).
     * ``path`` is a non-empty folder (allowed only with ``force``): each entry this command
-      wrote replaces the entry of the same name, and the entries named in ``owned`` (files
-      this kind of command writes, e.g. a dataset's ``lengths.csv``) that this run did not
-      write are removed. **Nothing else in the folder is touched** (it is hard-linked into the
-      new folder): ``--force`` replaces this command's own files, never a folder's other
-      contents. The replacement is atomic (:func:`cdprid.base._replace.replace_dir`): the
-      folder is the old one or the complete new one, never a mix, even under SIGTERM.
+      wrote replaces the entry of the same name, and the entries named in ``owned`` that this
+      run did not write are removed. **Nothing else in the folder is touched**: ``--force``
+      replaces this command's own files, never a folder's other contents. The replacement is
+      atomic: the folder is the old one or the complete new one, never a mix.
     * ``path`` is a symbolic link to a folder: the folder it points to is written.
 
     When the block fails or is interrupted, the temporary folder is removed and ``path`` is
     left as it was.
+
+    Parameters
+    ----------
+    path : path-like
+        The target folder.
+    force : bool
+        Allow writing into an existing non-empty folder.
+    owned : iterable of str
+        Names of the files this kind of command writes (e.g. a dataset's ``lengths.csv``).
+
+    Yields
+    ------
+    Path
+        The temporary folder to write into.
+
+    Raises
+    ------
+    OutputExistsError
+        ``path`` is a non-empty folder without ``force``, or appeared meanwhile.
+    OutputError
+        ``path`` is a file, or its parent folder cannot be written.
     """
     p = Path(path)
     if p.name in ("", ".", "..") or p.is_symlink():  # ".", "..", a link: the folder itself

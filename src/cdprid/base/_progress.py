@@ -33,12 +33,30 @@ class Progress:
         self.quiet = os.environ.get("CDPRID_QUIET", "").strip() not in ("", "0")
 
     def elapsed(self) -> float:
-        """Seconds since the command started."""
+        """Seconds since the command started.
+
+        Returns
+        -------
+        float
+            Wall-clock time since construction, in s.
+        """
         return time.perf_counter() - self.t0
 
     def say(self, message: str) -> None:
-        """Print one progress line with the elapsed time (a safe point: a signal recorded
-        where it could not be raised ends the command here)."""
+        """Print one progress line with the elapsed time.
+
+        A safe point: a signal recorded where it could not be raised ends the command here.
+
+        Parameters
+        ----------
+        message : str
+            The text after ``cdprid <command>:``; nothing is printed when ``CDPRID_QUIET`` is set.
+
+        Raises
+        ------
+        Terminated
+            A termination signal is pending.
+        """
         check_pending()
         if self.quiet:
             return

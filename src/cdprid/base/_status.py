@@ -17,7 +17,18 @@ class Status(str, enum.Enum):
 
     @classmethod
     def of_optimistix(cls, result) -> Status:
-        """The status of an optimistix solution's ``result`` (``optx.RESULTS``)."""
+        """The status of an optimistix solution's ``result`` (``optx.RESULTS``).
+
+        Parameters
+        ----------
+        result : optimistix.RESULTS
+            The ``result`` field of an optimistix solution.
+
+        Returns
+        -------
+        Status
+            ``CONVERGED`` on success, ``MAX_STEPS`` at the step limit, else ``FAILED``.
+        """
         import optimistix as optx
 
         if result == optx.RESULTS.successful:

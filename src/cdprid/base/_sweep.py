@@ -35,7 +35,18 @@ __all__ = ["load_log", "run_sweep"]
 
 
 def load_log(path) -> dict:
-    """Records of a JSONL log by key (a truncated last line, from a kill, is ignored)."""
+    """Records of a JSONL log by key (a truncated last line, from a kill, is ignored).
+
+    Parameters
+    ----------
+    path : path-like
+        The JSONL log; a missing file is an empty log.
+
+    Returns
+    -------
+    dict
+        ``{key: record}`` of every parseable line that is a dict with a ``"key"``.
+    """
     done = {}
     p = Path(path)
     if not p.exists():
@@ -133,13 +144,19 @@ def run_sweep(specs: list, run: Callable, log, workers: int | None = None,
     scheduler : str, optional
         Address of an existing Dask scheduler (overrides ``workers``); one that cannot be
         reached within :data:`SCHEDULER_TIMEOUT_S` is an :class:`~cdprid.base.InputError`.
+    progress : callable, optional
+        Called with one line per completed run (default ``print``; None is silent).
+
+    Returns
+    -------
+    list of dict
+        The record of every spec (from the log or this run), in spec order, each tagged
+        with its ``"key"``.
 
     Raises
     ------
     InputError
         Repeated spec keys, a worker count below 1, or an unreachable scheduler.
-    progress : callable, optional
-        Called with one line per completed run.
     """
     _check_where(workers, scheduler)
     log = Path(log)

@@ -199,7 +199,14 @@ def console_main() -> int:
     took the cores XLA needed (``cdprid diagnose`` 56-60 s instead of 30-32 s beside two
     busy processes on 2 cores; on a quiet machine the same wall time and 15 % less CPU;
     ``benchmarks/speed.py --only diagnose --baseline 47722e3 [--load 2]``). Set before
-    NumPy is imported, which the parser does not do."""
+    NumPy is imported, which the parser does not do.
+
+    Returns
+    -------
+    int
+        The exit code (0 success, 1 internal error, 2 user mistake); after an interruption
+        (128 + the signal number) the process exits instead of returning.
+    """
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     rc = main()
     if rc >= 128:

@@ -96,6 +96,14 @@ def run_online_cli(ds, args, params) -> int:
     beside it, prints the final table and writes the JSON of ``cdprid identify --json`` plus
     ``"online": {"forgetting", "csv", "figure", ...}``.
 
+    Parameters
+    ----------
+    ds : Dataset
+    args : argparse.Namespace
+        The parsed ``identify`` options.
+    params : dict or None
+        The SIHD-2 cascade's parameters (ignored when another differentiator was asked for).
+
     Returns
     -------
     int

@@ -30,8 +30,17 @@ def _quiet_terminated(hook):
 
 
 def install_termination_handlers() -> dict:
-    """SIGINT, SIGTERM and SIGHUP handled by :func:`cdprid.base._interrupts.deliver` (main
-    thread only); returns what :func:`restore_handlers` needs."""
+    """SIGINT, SIGTERM and SIGHUP handled by :func:`cdprid.base._interrupts.deliver`.
+
+    Main thread only; also installs an unraisable-exception hook that prints nothing for a
+    :class:`Terminated` raised where it cannot propagate (it stays pending).
+
+    Returns
+    -------
+    dict
+        The replaced handlers by signal (and ``"unraisablehook"``), for
+        :func:`restore_handlers`; empty outside the main thread.
+    """
     import threading
 
     if threading.current_thread() is not threading.main_thread():
@@ -48,7 +57,13 @@ def install_termination_handlers() -> dict:
 
 
 def restore_handlers(previous: dict) -> None:
-    """Put back the handlers :func:`install_termination_handlers` replaced."""
+    """Put back the handlers :func:`install_termination_handlers` replaced.
+
+    Parameters
+    ----------
+    previous : dict
+        What :func:`install_termination_handlers` returned; a pending signal is forgotten.
+    """
     for sig, handler in previous.items():
         if sig == "unraisablehook":
             sys.unraisablehook = handler

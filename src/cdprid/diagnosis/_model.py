@@ -199,39 +199,41 @@ def local_blocks(local) -> dict:
     return out
 
 
-def cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c, ldot_c,
-                       t_c=0.0, slide_c=None):
-    """Wrench (6,) of one cable on the platform, with its own effect parameters.
+def _context(local_c, p, R, k, ref, taud_c, ldot_c, t_c, slide_c) -> dict:
+    """The hooks' context of one cable and sample (:mod:`cdprid.effects._context`)."""
+    return {"at": local_blocks(local_c), "taud": taud_c, "ldot": ldot_c, "R": R, "p": p,
+            "k": k, "ref": ref, "t": t_c, "slide": jnp.sign(ldot_c) if slide_c is None
+            else slide_c}
 
-    ``local``: every theta block for this cable (:data:`LOCAL_BLOCKS`; per-cable blocks hold
-    this cable's values, global blocks the common ones); ``local_c`` the same at the
-    linearisation point. The effects act through the hooks of
-    :data:`cdprid.effects.DIAGNOSIS`, in table order: ``tension`` on the reading ``tau_c``
-    (its rate ``taud_c``, the cable rate ``ldot_c``, the clock ``t_c``, the friction sign
-    ``slide_c``, by default ``sign(ldot_c)``), ``geometry`` on
-    the exit point, the
-    attachment and the pulley radius, ``leave`` on the leave point, ``gravity`` and ``load``
-    (a force at the attachment).
-    """
+
+def cable_tension(local, tau_c, c):
+    """The tension behind one cable's reading ``tau_c``: the ``tension`` hooks in table
+    order (they read the context ``c``, never the geometry)."""
     q = local_blocks(local)
-    c = {"at": local_blocks(local_c), "taud": taud_c, "ldot": ldot_c, "R": R, "p": p, "k": k,
-         "ref": ref, "t": t_c, "slide": jnp.sign(ldot_c) if slide_c is None else slide_c}
-    forms = DIAGNOSIS.values()
     tau = tau_c
-    for form in forms:
+    for form in DIAGNOSIS.values():
         if form.tension is not None:
             tau = form.tension(tau, q, c)
+    return tau
+
+
+def cable_geometry(local, A, b, r, g0, c):
+    """One cable's unit vector ``u`` (attachment to leave point), attachment ``bb`` (base
+    frame, from P) and load at the attachment: the ``geometry``, ``leave``, ``gravity`` and
+    ``load`` hooks in table order (they never read the tension)."""
+    q = local_blocks(local)
+    forms = DIAGNOSIS.values()
     geo = {"A": A, "b": b, "r": r}
     for form in forms:
         if form.geometry is not None:
             geo = form.geometry(geo, q)
-    bb = R @ geo["b"]
-    c["bb"] = bb
-    T, _, _ = pulley_leave_point(geo["A"], bb, p, geo["r"], k, ref)
+    bb = c["R"] @ geo["b"]
+    c = {**c, "bb": bb}
+    T, _, _ = pulley_leave_point(geo["A"], bb, c["p"], geo["r"], c["k"], c["ref"])
     for form in forms:
         if form.leave is not None:
             T = form.leave(T, geo, q, c)
-    L = T - (p + bb)
+    L = T - (c["p"] + bb)
     Ln = jnp.linalg.norm(L)
     u = L / Ln
     g = g0
@@ -242,7 +244,27 @@ def cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c,
     for form in forms:
         if form.load is not None:
             load = form.load(load, Ln, g, q)
-    return jnp.concatenate([u * tau + load, jnp.cross(bb, u * tau + load)])
+    return u, bb, load
+
+
+def cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c, ldot_c,
+                       t_c=0.0, slide_c=None):
+    """Wrench (6,) of one cable on the platform, with its own effect parameters.
+
+    ``local``: every theta block for this cable (:data:`LOCAL_BLOCKS`; per-cable blocks hold
+    this cable's values, global blocks the common ones); ``local_c`` the same at the
+    linearisation point. The effects act through the hooks of
+    :data:`cdprid.effects.DIAGNOSIS`, in table order: ``tension`` on the reading ``tau_c``
+    (its rate ``taud_c``, the cable rate ``ldot_c``, the clock ``t_c``, the friction sign
+    ``slide_c``, by default ``sign(ldot_c)``; :func:`cable_tension`), ``geometry`` on the
+    exit point, the attachment and the pulley radius, ``leave`` on the leave point,
+    ``gravity`` and ``load`` (a force at the attachment; :func:`cable_geometry`).
+    """
+    c = _context(local_c, p, R, k, ref, taud_c, ldot_c, t_c, slide_c)
+    tau = cable_tension(local, tau_c, c)
+    u, bb, load = cable_geometry(local, A, b, r, g0, c)
+    f = u * tau + load
+    return jnp.concatenate([f, jnp.cross(bb, f)])
 
 
 def cable_locals(d: DiagData, th, layout: ThetaLayout):
@@ -257,46 +279,167 @@ def cable_locals(d: DiagData, th, layout: ThetaLayout):
     return jnp.concatenate(cols, axis=1)
 
 
+class _Scalars(tuple):
+    """A parameter vector given as scalars, read block by block (a slice stacks its
+    elements), so that a jaxpr tells which blocks a function reads (:func:`_used_inputs`)."""
+
+    def __getitem__(self, i):
+        return jnp.stack(tuple.__getitem__(self, i)) if isinstance(i, slice) \
+            else tuple.__getitem__(self, i)
+
+
+def _used_inputs(fn, args) -> set:
+    """Indices of ``args`` (scalars) that the jaxpr of ``fn(*args)`` reads (a conservative
+    dead-code analysis: an input read by an equation whose result is unused still counts)."""
+    jaxpr = jax.make_jaxpr(fn)(*args).jaxpr
+
+    def var(v):  # a variable, not a literal constant
+        return type(v).__name__ != "Literal"
+
+    live = {v for v in jaxpr.outvars if var(v)}
+    for eqn in reversed(jaxpr.eqns):
+        if any(v in live for v in eqn.outvars):
+            live |= {v for v in eqn.invars if var(v)}
+    return {i for i, v in enumerate(jaxpr.invars) if v in live}
+
+
+@functools.lru_cache(maxsize=1)
+def geometry_locals() -> tuple:
+    """Positions in :data:`LOCAL_BLOCKS`' vector that :func:`cable_geometry` reads, as a
+    parameter or at the linearisation point (found from its jaxpr, so no effect is named):
+    the geometry's Jacobian is zero in every other position and its value depends on these
+    alone (with the data).
+
+    Raises
+    ------
+    RuntimeError
+        A geometry hook reads the tension rate (the geometry would depend on the delay).
+    """
+    n = sum(size for _, size in LOCAL_BLOCKS)
+
+    def fn(*xs):
+        loc, loc_c = _Scalars(xs[:n]), _Scalars(xs[n:2 * n])
+        c = _context(loc_c, jnp.ones(3), jnp.eye(3), jnp.array([0.0, 0.0, -1.0]),
+                     jnp.array([1.0, 0.0, 0.0]), xs[-1], 1.0, 1.0, 1.0)
+        return cable_geometry(loc, jnp.array([1.0, 2.0, 3.0]), jnp.array([0.1, 0.2, 0.3]),
+                              0.05, jnp.array([0.0, 0.0, -9.81]), c)
+
+    used = _used_inputs(fn, [0.0] * (2 * n + 1))
+    if 2 * n in used:
+        raise RuntimeError("a geometry, leave, gravity or load hook reads the tension rate; "
+                           "cdprid.diagnosis._model.geometry_jac assumes it does not")
+    return tuple(sorted({i % n for i in used}))
+
+
+def geometry_blocks() -> tuple:
+    """Theta block names whose values :func:`geometry_jac` depends on."""
+    out, i = [], 0
+    used = set(geometry_locals())
+    for name, size in LOCAL_BLOCKS:
+        if used & set(range(i, i + size)):
+            out.append(name)
+        i += size
+    return tuple(out)
+
+
+def _tension_inputs(d: DiagData, th):
+    """Readings and their rates at the pose times shifted by theta's delay, ``(n, m)`` each."""
+    return (tension_at(d.stream, d.t + th["delay"], CATMULL_ROM),
+            tension_rate_at(d.stream, d.t + th["delay"], CATMULL_ROM))
+
+
+@functools.partial(jax.jit, static_argnums=(2,))
+def geometry_jac(d, theta, layout):
+    """Every cable's ``(u, bb, load)`` (n, m, 3) and their Jacobians (n, m, 3, g) with respect
+    to the local positions :func:`geometry_locals` (zero in every other), at theta."""
+    th = layout.unpack(theta)
+    loc = cable_locals(d, th, layout)
+    gi = jnp.asarray(geometry_locals(), int)
+    rob = d.robot
+
+    def per_sample(p, R, ld, clk, sl):
+        def per_cable(lc, A, b, r, k, ref, li, si):
+            c = _context(lc, p, R, k, ref, 0.0, li, clk, si)
+
+            def f(qs):
+                out = cable_geometry(lc.at[gi].set(qs), A, b, r, rob.gravity, c)
+                return out, out
+
+            return jax.jacfwd(f, has_aux=True)(lc[gi])
+
+        return jax.vmap(per_cable)(loc, rob.B_A, rob.P_b, rob.pulley_radius, rob.pulley_axis,
+                                   rob.pulley_reference, ld, sl)
+
+    jac, val = jax.vmap(per_sample)(d.p, d.R, d.ldot, d.clock, slide_of(d))
+    return val, jac
+
+
+@functools.partial(jax.jit, static_argnums=(2,))
+def tension_jac(d, theta, layout):
+    """Every cable's tension behind its reading (n, m) and its Jacobian (n, m, len) with
+    respect to the local parameters (:data:`LOCAL_BLOCKS`), at theta."""
+    th = layout.unpack(theta)
+    loc = cable_locals(d, th, layout)
+    tau_c, taud_c = _tension_inputs(d, th)
+    rob = d.robot
+
+    def per_sample(p, R, tc, tdc, ld, clk, sl):
+        def per_cable(lc, k, ref, ti, tdi, li, si):
+            c = _context(lc, p, R, k, ref, tdi, li, clk, si)
+            f = functools.partial(cable_tension, tau_c=ti, c=c)
+            return f(lc), jax.jacfwd(f)(lc)
+
+        return jax.vmap(per_cable)(loc, rob.pulley_axis, rob.pulley_reference, tc, tdc, ld, sl)
+
+    return jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot, d.clock, slide_of(d))
+
+
+@functools.partial(jax.jit, static_argnums=(0,))
+def assemble_jac(layout, geometry, tension):
+    """Measured side (n, 6) and its theta-Jacobian (n, 6, ntheta) from
+    :func:`geometry_jac` and :func:`tension_jac` (the chain rule of ``f = u tau + load``,
+    ``[f, bb x f]``, summed over the cables), laid out on theta block by block: a local
+    position the geometry does not read has ``df = u dtau`` and ``dm = (bb x u) dtau``."""
+    (u, bb, load), (du_g, dbb_g, dload_g) = geometry
+    tau, dtau = tension
+    n, m = tau.shape
+    f = u * tau[..., None] + load
+    w = jnp.concatenate([f, jnp.cross(bb, f)], axis=-1).sum(1)
+    bu = jnp.cross(bb, u)
+    gpos = {p: j for j, p in enumerate(geometry_locals())}
+    cols, o = [], 0
+    for name, size in LOCAL_BLOCKS:
+        dt = dtau[..., None, o:o + size]  # (n, m, 1, size)
+        gj = [gpos.get(o + i) for i in range(size)]
+        if all(j is None for j in gj):
+            blk = jnp.concatenate([u[..., None] * dt, bu[..., None] * dt], axis=2)
+        else:  # a geometry block (the geometry reads every position of a block it reads)
+            if None in gj:
+                raise RuntimeError(f"the geometry reads part of the theta block {name!r}")
+            sl = jnp.asarray(gj, int)
+            df = u[..., None] * dt + du_g[..., sl] * tau[..., None, None] + dload_g[..., sl]
+            dm = jnp.cross(dbb_g[..., sl], f[..., None], axisa=2, axisb=2, axisc=2) \
+                + jnp.cross(bb[..., None], df, axisa=2, axisb=2, axisc=2)
+            blk = jnp.concatenate([df, dm], axis=2)  # (n, m, 6, size)
+        if layout.block_shapes[name][0]:  # per cable: cable-major, components inside
+            cols.append(jnp.moveaxis(blk, 1, 2).reshape(n, 6, m * size))
+        else:  # global: the sum over the cables
+            cols.append(blk.sum(1))
+        o += size
+    return w, jnp.concatenate(cols, axis=2)
+
+
 @functools.partial(jax.jit, static_argnums=(2,))
 def meas_and_jac(d, theta, layout):
     """Unfiltered measured side (n, 6) and its Jacobian (n, 6, ntheta) at theta.
 
-    Computed cable by cable (:data:`LOCAL_BLOCKS` local parameters each, through
-    :func:`cable_contribution`) instead of through all theta at once; the ``delay`` block
-    also sets where the tension stream is interpolated.
+    Computed cable by cable through :func:`cable_contribution`'s two parts: the tension
+    behind the reading (:func:`tension_jac`, differentiated in every local parameter) and the
+    geometry (:func:`geometry_jac`, differentiated only in the local parameters it reads),
+    joined by :func:`assemble_jac`. The diagnosis keeps the geometry part of a theta whose
+    geometry blocks are unchanged (:func:`cdprid.diagnosis._problem.cable_side`).
     """
-    th = layout.unpack(theta)
-    m = layout.m
-    loc = cable_locals(d, th, layout)
-    tau_c = tension_at(d.stream, d.t + th["delay"], CATMULL_ROM)  # (n, m)
-    taud_c = tension_rate_at(d.stream, d.t + th["delay"], CATMULL_ROM)
-    rob = d.robot
-
-    def per_sample(p, R, tc, tdc, ld, clk, sl):
-        def per_cable(lc, A, b, r, k, ref, ti, tdi, li, si):
-            f = functools.partial(cable_contribution, A=A, b=b, r=r, k=k, ref=ref, p=p, R=R,
-                                  tau_c=ti, taud_c=tdi, g0=rob.gravity, local_c=lc, ldot_c=li,
-                                  t_c=clk, slide_c=si)
-            return f(lc), jax.jacfwd(f)(lc)
-
-        w, J = jax.vmap(per_cable)(loc, rob.B_A, rob.P_b, rob.pulley_radius, rob.pulley_axis,
-                                   rob.pulley_reference, tc, tdc, ld, sl)
-        return w.sum(0), J  # (6,), (m, 6, len)
-
-    y, Jl = jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot, d.clock, slide_of(d))
-    n = y.shape[0]
-    J = jnp.zeros((n, 6, layout.size))
-    Jl = jnp.moveaxis(Jl, 1, 3)  # (n, 6, len, m)
-    o = 0
-    for name, size in LOCAL_BLOCKS:
-        blk = Jl[:, :, o:o + size, :]
-        if layout.block_shapes[name][0]:  # per cable: cable-major, components inside
-            J = J.at[:, :, layout.slices[name]].set(
-                jnp.moveaxis(blk, 3, 2).reshape(n, 6, size * m))
-        else:  # global: the sum over the cables
-            J = J.at[:, :, layout.slices[name]].set(blk.sum(-1))
-        o += size
-    return y, J
+    return assemble_jac(layout, geometry_jac(d, theta, layout), tension_jac(d, theta, layout))
 
 
 @functools.partial(jax.jit, static_argnums=(3, 4))
@@ -305,10 +448,39 @@ def model_jit(d, theta, x, layout, rotational):
     return model_side(d, layout.unpack(theta), x, rotational)
 
 
-@functools.partial(jax.jit, static_argnums=(3, 4))
+_MODEL_INDICES: dict = {}
+
+
+def model_theta_indices(d: DiagData, layout: ThetaLayout, rotational: bool) -> tuple:
+    """Theta indices that :func:`model_side` reads (its jaxpr; whole blocks), per number of
+    cables and model: its Jacobian is zero in every other column."""
+    key = (layout.m, layout.size, bool(rotational))
+    if key not in _MODEL_INDICES:
+        x = jnp.zeros(10 if rotational else 4)
+
+        def fn(*xs):
+            return model_side(d, layout.unpack(_Scalars(xs)), x, rotational)
+
+        _MODEL_INDICES[key] = tuple(sorted(_used_inputs(fn, [0.0] * layout.size)))
+    return _MODEL_INDICES[key]
+
+
 def model_jac_jit(d, theta, x, layout, rotational):
-    """Jitted Jacobian of :func:`model_side` with respect to theta."""
-    return jax.jacfwd(lambda th: model_side(d, layout.unpack(th), x, rotational))(theta)
+    """Jitted Jacobian of :func:`model_side` with respect to theta (differentiated only in
+    the columns :func:`model_theta_indices` finds, zero in the others)."""
+    return _model_jac(d, theta, x, layout, rotational,
+                      model_theta_indices(d, layout, rotational))
+
+
+@functools.partial(jax.jit, static_argnums=(3, 4, 5))
+def _model_jac(d, theta, x, layout, rotational, idx):
+    ix = jnp.asarray(idx, int)
+
+    def f(sub):
+        return model_side(d, layout.unpack(theta.at[ix].set(sub)), x, rotational)
+
+    J = jax.jacfwd(f)(theta[ix])
+    return jnp.zeros(J.shape[:-1] + (layout.size,)).at[..., ix].set(J)
 
 
 @functools.partial(jax.jit, static_argnums=(2, 3))

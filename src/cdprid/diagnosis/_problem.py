@@ -32,12 +32,15 @@ from cdprid.core import (
 from cdprid.diagnosis._model import (
     DiagData,
     ThetaLayout,
-    meas_and_jac,
+    assemble_jac,
+    geometry_blocks,
+    geometry_jac,
     model_jac_jit,
     model_jit,
     regs_jit,
+    tension_jac,
 )
-from cdprid.diagnosis._testing import blocks, cv_sse, fold_sse
+from cdprid.diagnosis._testing import blocks, fold_sse
 from cdprid.io import Dataset, align
 from cdprid.model import cable_lengths
 from cdprid.signal import zero_phase_filter
@@ -204,7 +207,7 @@ def _design_key(theta, x_cur, rotational: bool):
 
 
 #: entries kept per kind in ``Problem.cache`` (a "jac" entry holds a (n, 6, ntheta) Jacobian)
-_CACHE_SIZES = {"design": DESIGN_CACHE_SIZE, "jac": 2, "measured": 32}
+_CACHE_SIZES = {"design": DESIGN_CACHE_SIZE, "jac": 2, "measured": 32, "geometry": 2}
 
 
 def _remember(prob: Problem, key, value, kind: str = "design"):
@@ -219,8 +222,9 @@ def measured(prob: Problem, theta) -> np.ndarray:
     """Unfiltered measured side (n, 6) at theta (kept when computed by :func:`cable_side`)."""
     key = np.asarray(theta, float).tobytes()
     hit = prob.cache.get("measured", {}).get(key)
-    if hit is None:
-        hit = np.asarray(meas_and_jac(prob.d, jnp.asarray(theta), prob.layout)[0])
+    if hit is None:  # the parts cable_side uses (compiled once; meas_and_jac joins them)
+        hit = np.asarray(assemble_jac(prob.layout, _geometry(prob, theta), tension_jac(
+            prob.d, jnp.asarray(theta), prob.layout))[0])
         _remember(prob, key, hit, "measured")
     return hit
 
@@ -229,18 +233,33 @@ def cable_side(prob: Problem, theta):
     """Matched-filtered measured side (n, 6) and its theta-Jacobian (n, 6, ntheta) at theta.
 
     Kept in ``prob.cache`` (read-only arrays): the base fit and the first selection step use
-    the same one.
+    the same one. The geometry part (pulleys, attachments, cable weight; the expensive
+    derivatives) is kept apart and reused while theta's geometry blocks are unchanged
+    (:func:`_geometry`).
     """
     key = np.asarray(theta, float).tobytes()
     hit = prob.cache.get("jac", {}).get(key)
     if hit is None:
-        ym, Jm = meas_and_jac(prob.d, jnp.asarray(theta), prob.layout)
+        ym, Jm = assemble_jac(prob.layout, _geometry(prob, theta),
+                              tension_jac(prob.d, jnp.asarray(theta), prob.layout))
         ym = np.asarray(ym)
         _remember(prob, key, ym, "measured")
         hit = (prob.filt(ym), prob.filt(Jm))
         for a in hit:
             a.setflags(write=False)
         _remember(prob, key, hit, "jac")
+    return hit
+
+
+def _geometry(prob: Problem, theta):
+    """:func:`cdprid.diagnosis._model.geometry_jac` at theta, kept in ``prob.cache`` under the
+    values of the theta blocks it depends on (a refit of sensor-side effects moves none)."""
+    th = np.asarray(theta, float)
+    key = b"".join(th[prob.layout.slices[name]].tobytes() for name in geometry_blocks())
+    hit = prob.cache.get("geometry", {}).get(key)
+    if hit is None:
+        hit = geometry_jac(prob.d, jnp.asarray(th), prob.layout)
+        _remember(prob, key, hit, "geometry")
     return hit
 
 
@@ -289,15 +308,46 @@ def seed_design(prob: Problem, theta, x_cur, rotational: bool, lin) -> None:
 
 def heldout_rms(prob: Problem, Z, y) -> float:
     """Held-out RMS (weighted units): blocked CV over the used samples, or train/test split."""
-    if prob.test is None:
-        use = prob.use
-        sse, cnt = cv_sse(Z[use], y[use], blocks(int(use.sum()), prob.n_folds), prob.lags)
-        return math.sqrt(sse / cnt)
+    if prob.test is None:  # cdprid.diagnosis._testing.cv_sse, by segments' Gram matrices
+        parts, count = _fold_grams(prob, Z, y)
+        return math.sqrt(sum(fold_sse(*part) for part in parts) / count)
     p = Z.shape[2]
     beta, *_ = np.linalg.lstsq(Z[prob.train].reshape(-1, p), y[prob.train].reshape(-1),
                                rcond=None)
     r = y[prob.test] - np.einsum("nip,p->ni", Z[prob.test], beta)
     return float(np.sqrt(np.mean(r * r)))
+
+
+def _fold_grams(prob: Problem, Z, y):
+    """Gram matrices of the blocked CV over the used samples (:func:`heldout_rms`): for each
+    fold ``(Z^T Z, Z^T y)`` of its training rows (outside the fold and its guard of ``lags``
+    samples) and ``(Z^T Z, Z^T y, y^T y)`` of its rows, from sums over the contiguous segments
+    between the folds' edges and guards; and the number of held-out values."""
+    Zu, yu = Z[prob.use], y[prob.use]
+    n, _, p = Zu.shape
+    folds = blocks(n, prob.n_folds)
+    edges = sorted({0, n} | {min(n, max(0, e)) for lo, hi in folds
+                             for e in (lo - prob.lags, lo, hi, hi + prob.lags)})
+    seg = {}
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        Zs, ys = Zu[a:b].reshape(-1, p), yu[a:b].reshape(-1)
+        seg[a] = (Zs.T @ Zs, Zs.T @ ys, float(ys @ ys), b)
+    G = sum(v[0] for v in seg.values())
+    g = sum(v[1] for v in seg.values())
+
+    def part(a, b):
+        out = [np.zeros_like(G), np.zeros_like(g), 0.0]
+        for s0, (Gs, gs, ys, s1) in seg.items():
+            if s0 >= a and s1 <= b:
+                out[0], out[1], out[2] = out[0] + Gs, out[1] + gs, out[2] + ys
+        return out
+
+    parts = []
+    for lo, hi in folds:
+        Gx, gx, _ = part(max(0, lo - prob.lags), min(n, hi + prob.lags))
+        Gb, gb, yb = part(lo, hi)
+        parts.append((G - Gx, g - gx, Gb, gb, yb))
+    return parts, n * y.shape[1]
 
 
 def subset_heldout_rms(prob: Problem, Z, y, subsets) -> np.ndarray:
@@ -311,32 +361,7 @@ def subset_heldout_rms(prob: Problem, Z, y, subsets) -> np.ndarray:
     every candidate's.
     """
     if prob.test is None:
-        Zu, yu = Z[prob.use], y[prob.use]
-        n = Zu.shape[0]
-        folds = blocks(n, prob.n_folds)
-        edges = sorted({0, n} | {min(n, max(0, e)) for lo, hi in folds
-                                 for e in (lo - prob.lags, lo, hi, hi + prob.lags)})
-        seg = {}
-        for a, b in zip(edges[:-1], edges[1:], strict=True):
-            seg[a] = (np.einsum("nip,niq->pq", Zu[a:b], Zu[a:b]),
-                      np.einsum("nip,ni->p", Zu[a:b], yu[a:b]),
-                      float(np.sum(yu[a:b] ** 2)), b)
-        G = sum(v[0] for v in seg.values())
-        g = sum(v[1] for v in seg.values())
-
-        def part(a, b):
-            out = [np.zeros_like(G), np.zeros_like(g), 0.0]
-            for s0, (Gs, gs, ys, s1) in seg.items():
-                if s0 >= a and s1 <= b:
-                    out[0], out[1], out[2] = out[0] + Gs, out[1] + gs, out[2] + ys
-            return out
-
-        parts = []
-        for lo, hi in folds:
-            Gx, gx, _ = part(max(0, lo - prob.lags), min(n, hi + prob.lags))
-            Gb, gb, yb = part(lo, hi)
-            parts.append((G - Gx, g - gx, Gb, gb, yb))
-        count = n * y.shape[1]
+        parts, count = _fold_grams(prob, Z, y)
     else:
         Zt, yt, Ze, ye = Z[prob.train], y[prob.train], Z[prob.test], y[prob.test]
         parts = [(np.einsum("nip,niq->pq", Zt, Zt), np.einsum("nip,ni->p", Zt, yt),

@@ -41,10 +41,17 @@ def clock_index(prob: Problem) -> int | None:
     return None
 
 
+@jax.jit
+def _shifted(d, s):
+    """The tension stream read at the pose times shifted by ``s`` (n, m); the data are an
+    argument (compiled once per shape, not once per problem with the data as constants)."""
+    return tension_at(d.stream, d.t + s, CATMULL_ROM)
+
+
 def _shift_fn(prob: Problem):
     store = prob.cache.setdefault("clock_shift", {})
     if "fn" not in store:
-        store["fn"] = jax.jit(lambda s: tension_at(prob.d.stream, prob.d.t + s, CATMULL_ROM))
+        store["fn"] = lambda s: _shifted(prob.d, s)
     return store
 
 
@@ -78,8 +85,16 @@ def _projector(Z_train):
 def _costs(prob: Problem, Q, target_tr, d_cur: float, delays) -> np.ndarray:
     """Training cost (weighted units) of the model with the tension stream at each delay."""
     tr = prob.train
-    S = shift_wrenches(prob, list(delays) + [d_cur])
-    dY = (S[:-1] - S[-1][None])[:, tr] * prob.wrow[None, None, :]  # (k, ntr, 6)
+    if len(delays) == len(GRID_S) and np.array_equal(delays, GRID_S):
+        # the grid's shifts at the training rows are kept (stacked once per problem)
+        store = _shift_fn(prob)
+        if "grid_train" not in store:
+            store["grid_train"] = shift_wrenches(prob, GRID_S)[:, tr]
+        now = shift_wrenches(prob, [d_cur])[0][tr]
+        dY = (store["grid_train"] - now[None]) * prob.wrow[None, None, :]
+    else:
+        S = shift_wrenches(prob, list(delays) + [d_cur])
+        dY = (S[:-1] - S[-1][None])[:, tr] * prob.wrow[None, None, :]  # (k, ntr, 6)
     T = (target_tr[None] + dY).reshape(len(delays), -1).T  # (ntr*6, k)
     R = T - Q @ (Q.T @ T)
     return np.einsum("ik,ik->k", R, R)

@@ -14,7 +14,10 @@ not accepted (a hysteretic load cell acts like a 25 ms clock offset on its own c
 tolerance (robot.toml ``survey_tolerance``) only when it predicts the held-out data better
 than every sensor-side alternative on its cable and in common (offset, gain, drift,
 friction, the clock offset, and their pairs on the cable): several sensor errors at once were
-read as 9-12 cm exit-point errors.
+read as 9-12 cm exit-point errors. The sensor-side alternative replaces the geometry error only
+when it predicts the held-out data significantly better (:func:`geometry_verdict`); when
+neither is significantly better, neither is named and both readings go under ``unexplained``
+("cannot tell").
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from scipy import stats
 
 from cdprid.core import CATMULL_ROM, tension_rate_at
 from cdprid.diagnosis._candidates import Candidate, alias_label, implausible, vocab_params
-from cdprid.diagnosis._competing import dm_p_worse
+from cdprid.diagnosis._competing import DM_LEVEL, dm_p_worse
 from cdprid.diagnosis._problem import Problem, heldout_residuals, heldout_rms
 from cdprid.diagnosis._result import Finding
 from cdprid.diagnosis._selection import (
@@ -61,6 +64,10 @@ SURVEY_TOLERANCE_M = 0.02
 #: predicts the held-out data worse by the search's gate, or significantly worse at this
 #: one-sided level (Diebold-Mariano test on the held-out losses)
 GEOMETRY_DM_LEVEL = 0.01
+#: the best sensor-side alternative replaces a geometry error only when the one-sided
+#: Diebold-Mariano test finds it predicting the held-out data better at this level (the
+#: competing-model stage's level, :data:`cdprid.diagnosis._competing.DM_LEVEL`)
+ALTERNATIVE_DM_LEVEL = DM_LEVEL
 
 
 def _fit(Z, y, lags):
@@ -357,13 +364,71 @@ def restated(prob: Problem, t: Selection, alt: tuple, f: Finding, n_tests: int,
     return tuple(out)
 
 
+def geometry_verdict(rms_geo: float, rms_alt: float | None, p_alt_worse: float,
+                     min_gain: float) -> str:
+    """What the geometry stage names: a geometry error beyond the survey tolerance or its best
+    sensor-side alternative.
+
+    Issue 37's rule: a geometry error beyond the survey tolerance must beat every sensor-side
+    alternative on held-out prediction before it is named. It is named (``"geometry"``) when
+    there is no alternative, when it predicts better by the search's gate ``min_gain``, or
+    when the one-sided Diebold-Mariano test finds the alternative worse at
+    :data:`GEOMETRY_DM_LEVEL`. The alternative is named in its place (``"alternative"``)
+    only when the test finds it *better* at :data:`ALTERNATIVE_DM_LEVEL`. Otherwise the data
+    cannot tell the two apart (``"cannot tell"``): neither is named and both readings are
+    reported under ``unexplained``. Naming the alternative on a held-out difference within
+    its sampling noise would be a coin toss that gives a confident wrong finding when the
+    geometry error is the truth (floor8 seed 2: a 3 cm exit-point error on cable 2 swapped
+    for a 0.5 % gain on a 0.2 % held-out difference, p = 0.23), and naming the geometry error
+    would break the rule; a recording that cannot tell them apart is reported as such, with
+    what would tell (a survey of the point, a calibration of the cell).
+
+    Parameters
+    ----------
+    rms_geo : float
+        Held-out rms of the model with the geometry error (weighted units).
+    rms_alt : float or None
+        Held-out rms of the model with the best sensor-side alternative in its place (same
+        units); ``None``: no alternative could be fitted.
+    p_alt_worse : float
+        One-sided Diebold-Mariano p-value of "the alternative predicts worse"
+        (:func:`cdprid.diagnosis._competing.dm_p_worse`).
+    min_gain : float
+        The search's held-out gate (relative).
+
+    Returns
+    -------
+    str
+        ``"geometry"``, ``"alternative"`` or ``"cannot tell"``.
+    """
+    if rms_alt is None or rms_geo < rms_alt * (1 - min_gain) or p_alt_worse < GEOMETRY_DM_LEVEL:
+        return "geometry"
+    if p_alt_worse > 1.0 - ALTERNATIVE_DM_LEVEL:
+        return "alternative"
+    return "cannot tell"
+
+
+def _cannot_tell(prob, s, c, alt, t, what, extra) -> dict:
+    """The ``unexplained`` entry of a geometry error the data cannot tell from its best
+    sensor-side alternative (both readings, with what would tell)."""
+    readings = "; ".join(f"{a.label} {vocab_params(a, t.theta, prob.layout, extra, t.th_cov)}"
+                         for a in alt)
+    return {"where": c.label, "size": effect_size_N(prob, s, c), "p_value": 1.0,
+            "test": "geometry against sensor-side alternatives (held-out)",
+            "withdrawn_finding": alias_label(c),
+            "correlates_with": f"{what}; the other reading: {readings}. The data cannot tell "
+                               "them apart: neither is named; a survey of the point or a "
+                               "calibration of the cell would tell"}
+
+
 def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: float,
                    extra: dict, say) -> tuple[Selection, list]:
     """Geometry findings beyond the survey tolerance must beat every sensor-side alternative
-    on held-out prediction: by ``min_gain``, or significantly (one-sided Diebold-Mariano at
-    :data:`GEOMETRY_DM_LEVEL`); otherwise the best alternative replaces it (when it predicts
-    at least as well; its findings restated with their own tests, :func:`restated`) or it is
-    withdrawn and reported under ``unexplained``. Returns the model and the entries."""
+    on held-out prediction (:func:`geometry_verdict`): by ``min_gain``, or significantly
+    (one-sided Diebold-Mariano at :data:`GEOMETRY_DM_LEVEL`); the best alternative replaces it
+    only when it predicts significantly better (at :data:`ALTERNATIVE_DM_LEVEL`; its findings
+    restated with their own tests, :func:`restated`); otherwise it is withdrawn and reported
+    under ``unexplained`` with both readings. Returns the model and the entries."""
     tol = survey_tolerance_m(prob.d.robot)
     out = []
     k = 0
@@ -376,7 +441,8 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
         rms_geo = heldout_rms(prob, Z, y)
         best = _best_alternative(prob, s, k, candidates, extra)
         p_worse = 0.0 if best is None else dm_p_worse(best[3], _losses(prob, Z, y), prob.lags)
-        if best is None or rms_geo < best[0] * (1 - min_gain) or p_worse < GEOMETRY_DM_LEVEL:
+        verdict = geometry_verdict(rms_geo, None if best is None else best[0], p_worse, min_gain)
+        if verdict == "geometry":
             k += 1  # the geometry error beats every sensor-side alternative: named
             continue
         r, alt, t, _ = best
@@ -386,26 +452,25 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
                 f"the survey tolerance {100 * tol:.3g} cm), but {label} predicts the held-out "
                 f"data {'as well' if r > rms_geo else 'better'} ({rms_geo:.4g} against "
                 f"{r:.4g}, weighted units; p = {p_worse:.2g} that it predicts worse)")
-        if r <= rms_geo:  # the sensor-side explanation predicts at least as well: named
+        if verdict == "alternative":  # the sensor-side explanation predicts significantly
+            # better: named in its place
             say(f"geometry: {c.label} ({100 * size:.3g} cm) does not beat {label} on "
-                f"held-out prediction ({rms_geo:.4f} against {r:.4f}); replaced by it")
+                f"held-out prediction ({rms_geo:.4f} against {r:.4f}, p = {1 - p_worse:.2g} "
+                "that it is not better); replaced by it")
             fs = restated(prob, t, alt, dataclasses.replace(
                 f, aliases=sorted(set(f.aliases) | {alias_label(c)})), len(candidates), r)
             s = with_vocabulary(prob, dataclasses.replace(
                 t, accepted=s.accepted[:k] + tuple(alt) + s.accepted[k + 1:],
                 findings=s.findings[:k] + fs + s.findings[k + 1:]), extra)
             k += len(alt)  # (the finding keeps the geometry error among its aliases)
-        else:  # within the gate: neither is named
-            say(f"geometry: {c.label} ({100 * size:.3g} cm) beats {label} by less than "
-                f"{100 * min_gain:g} % on held-out prediction, not significantly "
-                f"(p = {p_worse:.2g}); withdrawn")
-            out.append({"where": c.label, "size": effect_size_N(prob, s, c), "p_value": 1.0,
-                        "test": "geometry against sensor-side alternatives (held-out)",
-                        "withdrawn_finding": alias_label(c),
-                        "correlates_with": f"{what}: not named; a survey of the point would tell"})
+        else:  # neither predicts significantly better: neither is named ("cannot tell")
+            say(f"geometry: {c.label} ({100 * size:.3g} cm) and {label} predict the held-out "
+                f"data alike ({rms_geo:.4f} against {r:.4f}, p = {p_worse:.2g} that {label} "
+                "is worse): the data cannot tell them apart; neither is named")
+            out.append(_cannot_tell(prob, s, c, alt, t, what, extra))
             s = withdraw(prob, s, k, extra)
     return s, out
 
 
-__all__ = ["geometry_stage", "plausibility_stage", "restated", "stability_stage",
-           "survey_tolerance_m"]
+__all__ = ["geometry_stage", "geometry_verdict", "plausibility_stage", "restated",
+           "stability_stage", "survey_tolerance_m"]

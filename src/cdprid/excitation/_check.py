@@ -60,9 +60,18 @@ class SafetyCertificate:
 
     @property
     def certified(self) -> bool:
+        """True when no check failed."""
         return not self.failed
 
     def as_json(self) -> dict:
+        """JSON of the certificate.
+
+        Returns
+        -------
+        dict
+            ``peaks``, ``failed_checks``, robust and nominal tension margins (N), worst corner,
+            ``n_corners``, ``n_lp_solved`` and ``certified``.
+        """
         return {"peaks": self.peaks, "failed_checks": list(self.failed),
                 "robust_tension_margin_N": self.robust_margin_N,
                 "nominal_tension_margin_N": self.nominal_margin_N,
@@ -76,7 +85,18 @@ def _tilt(q):
 
 
 def kinematic_peaks(states: TrajectoryState) -> dict:
-    """Largest |a|, |j| (of P), tilt, |omega|, |alpha| over the samples (SI units)."""
+    """Largest |a|, |j| (of P), tilt, |omega|, |alpha| over the samples.
+
+    Parameters
+    ----------
+    states : TrajectoryState
+
+    Returns
+    -------
+    dict
+        ``acceleration_m_s2``, ``jerk_m_s3``, ``tilt_rad``, ``angular_velocity_rad_s``,
+        ``angular_acceleration_rad_s2`` (floats).
+    """
     n = lambda x: float(np.max(np.linalg.norm(np.asarray(x), axis=1)))  # noqa: E731
     return {"acceleration_m_s2": n(states.a), "jerk_m_s3": n(states.j),
             "tilt_rad": float(np.max(_tilt(states.q))),
@@ -158,16 +178,34 @@ def _nominal_tensions(W, w, tmin: float, tmax: float) -> np.ndarray:
 
 def robust_tension_margins(W, A_full, corners, tmin: float, tmax: float,
                            lp_budget: int = _LP_BUDGET):
-    """Proven lower bounds (k, n) of the LP tension margin at every corner and sample, and the
-    number of LPs solved.
+    """Proven lower bounds of the LP tension margin at every corner and sample.
 
     Closed-form margins everywhere; the LP (:func:`cdprid.model.feasibility_margin`) where
     the closed form fails, where it is negative (up to 4096 pairs) and at the ``lp_budget``
     smallest closed-form margins (a closed-form margin >= 0 already proves feasibility: the LP
-    only tightens it). Pairs not
-    solved keep their closed-form margin (a lower bound of the LP one), so the minimum over
-    all pairs is a lower bound of the true worst margin, and equal to it when the smallest
-    LP margin is below the smallest unsolved closed-form margin.
+    only tightens it). Pairs not solved keep their closed-form margin (a lower bound of the LP
+    one), so the minimum over all pairs is a lower bound of the true worst margin, and equal to
+    it when the smallest LP margin is below the smallest unsolved closed-form margin.
+
+    Parameters
+    ----------
+    W : array (n, 6, m)
+        Wrench matrices.
+    A_full : array (n, 6, 10)
+        Full regressors.
+    corners : array (k, 10)
+        Parameter vectors (kg, kg m, kg m^2).
+    tmin, tmax : float
+        Tension limits, N.
+    lp_budget : int
+        Smallest closed-form margins always tightened by the LP.
+
+    Returns
+    -------
+    margins : ndarray (k, n)
+        Margins, N.
+    n_lp : int
+        Number of LPs solved.
     """
     W = np.asarray(W, float)
     w = np.einsum("nip,kp->kni", np.asarray(A_full, float), np.asarray(corners, float))
@@ -228,7 +266,19 @@ class SafetySeries:
 
 def safety_series(robot, states: TrajectoryState, lim: SafetyLimits,
                   box: UncertaintyBox) -> SafetySeries:
-    """Every checked quantity at the samples of ``states`` (exact: numpy and LP)."""
+    """Every checked quantity at the samples of ``states`` (exact: numpy and LP).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    states : TrajectoryState
+    lim : SafetyLimits
+    box : UncertaintyBox
+
+    Returns
+    -------
+    SafetySeries
+    """
     R, W, A = (np.asarray(x) for x in _pose_arrays(
         robot, *(jnp.asarray(x) for x in (states.p, states.q, states.a, states.omega,
                                            states.alpha))))
@@ -247,8 +297,23 @@ def safety_series(robot, states: TrajectoryState, lim: SafetyLimits,
 
 def certify_trajectory(robot, states_grid: TrajectoryState, states_dense: TrajectoryState,
                        lim: SafetyLimits, box: UncertaintyBox) -> SafetyCertificate:
-    """Exact check of every limit (module docstring); tensions and clearances on
-    ``states_grid``, kinematics on ``states_dense`` (and on the grid)."""
+    """Exact check of every limit (module docstring).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    states_grid : TrajectoryState
+        Samples for tensions, clearances, workspace, speeds and kinematics.
+    states_dense : TrajectoryState
+        A denser grid for kinematics and workspace.
+    lim : SafetyLimits
+    box : UncertaintyBox
+
+    Returns
+    -------
+    SafetyCertificate
+        Peaks, failed checks (one sentence each), margins (N) and the worst corner.
+    """
     peaks = {}
     failed = []
 

@@ -16,11 +16,27 @@ def _softmin(x, temperature):
 
 
 def tension_margin_smooth(W, w, tmin: float, tmax: float, temperature: float = 0.5):
-    """Smooth, conservative tension margin (N) of one sample.
+    """Smooth, conservative tension margin of one sample.
 
     ``tau = tau_mid + W^T (W W^T)^-1 (w - W tau_mid)`` (centred least-norm distribution); the
     margin is a soft minimum of ``tau - tmin`` and ``tmax - tau`` (never above the true
     minimum). A positive value proves feasibility; the LP margin can be larger.
+
+    Parameters
+    ----------
+    W : array (6, m)
+        Wrench matrix.
+    w : array (6,)
+        Required wrench, N and N m.
+    tmin, tmax : float
+        Tension limits, N.
+    temperature : float
+        Soft-minimum temperature, N.
+
+    Returns
+    -------
+    scalar array
+        Margin, N.
     """
     mid = 0.5 * (tmin + tmax)
     tau0 = jnp.full(W.shape[1], mid)
@@ -30,12 +46,30 @@ def tension_margin_smooth(W, w, tmin: float, tmax: float, temperature: float = 0
 
 def robust_tension_margin_smooth(W, A_full, x_lo, x_hi, tmin: float, tmax: float,
                                  temperature: float = 0.5):
-    """Smooth, conservative tension margin (N) of one sample over a box of parameters.
+    """Smooth, conservative tension margin of one sample over a box of parameters.
 
     The centred least-norm distribution ``tau(x) = base + G x`` with ``G = W^+ A_full`` is
     linear in ``x = [m, m s_G, I_P]``; over the box ``[x_lo, x_hi]`` its i-th tension ranges
     over ``base_i + G_i x_mid +- |G_i| x_half`` exactly. Soft minimum of the distances of those
     ranges to the bounds (never above the true worst case of that distribution).
+
+    Parameters
+    ----------
+    W : array (6, m)
+        Wrench matrix.
+    A_full : array (6, 10)
+        Full regressor at the sample.
+    x_lo, x_hi : array (10,)
+        Parameter box (kg, kg m, kg m^2).
+    tmin, tmax : float
+        Tension limits, N.
+    temperature : float
+        Soft-minimum temperature, N.
+
+    Returns
+    -------
+    scalar array
+        Margin, N.
     """
     mid = 0.5 * (tmin + tmax)
     tau0 = jnp.full(W.shape[1], mid)

@@ -38,6 +38,7 @@ class DesignReport:
 
     @property
     def certified(self) -> bool:
+        """True when the design passes every safety check."""
         return self.certificate.certified
 
     @property
@@ -46,6 +47,14 @@ class DesignReport:
         return self.certificate.robust_margin_N
 
     def as_json(self) -> dict:
+        """JSON of the design (``initial`` / ``optimised`` of ``cdprid excite --json``).
+
+        Returns
+        -------
+        dict
+            Conditioning, objective, parameters, predicted sigmas, tension margins (N), peaks,
+            failed checks, move and total durations (s), ``certified``.
+        """
         c = self.certificate
         return {
             "cond": self.cond, "cond_scaled": self.cond_scaled, "dopt": self.dopt,
@@ -82,8 +91,24 @@ def _meaningful_rel(sig, x):
 
 def evaluate_design(prob: ExcitationProblem, z, rate_hz: float = 100.0,
                     certify: bool = True, dense_hz: float = 500.0) -> DesignReport:
-    """Metrics of coordinates z (with the home moves) on a ``rate_hz`` grid and the exact
-    certificate (kinematics also on a ``dense_hz`` grid)."""
+    """Metrics of coordinates z (with the home moves) and the exact certificate.
+
+    Parameters
+    ----------
+    prob : ExcitationProblem
+    z : array (n_params,)
+        The family's coordinates.
+    rate_hz : float
+        Grid of the metrics, tensions and clearances, Hz.
+    certify : bool
+        Unused: the certificate is always computed.
+    dense_hz : float
+        Grid of the kinematic checks, Hz.
+
+    Returns
+    -------
+    DesignReport
+    """
     from cdprid.core import condition_number
 
     z = jnp.asarray(z, float)
@@ -127,6 +152,14 @@ class ExcitationResult:
     initial_rule: str = ""
 
     def as_json(self) -> dict:
+        """JSON of ``cdprid excite``.
+
+        Returns
+        -------
+        dict
+            Both designs, timings (s), family, model, objective, limits, uncertainty box, home (m),
+            safety fractions, starts, note and the certificate's scope.
+        """
         prob = self.problem
         return {
             "initial": self.initial.as_json(),

@@ -10,7 +10,9 @@ septic smoothstep of :mod:`cdprid.model._trajectories`):
   small rotation vector, for the 10-parameter model (omega and alpha enter the regressor).
 
 :class:`HomedTrajectory` adds a rest-to-rest move (septic smoothstep: continuous jerk) from
-the home pose to the family's start point, and the same move back at the end.
+the home pose to the family's start point, and the same move back at the end
+(:mod:`cdprid.excitation._homed`); :class:`FourierTrajectory` and the ramped envelopes are in
+:mod:`cdprid.excitation._fourier_trajectory`.
 """
 
 from __future__ import annotations
@@ -21,13 +23,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base import InputError
+from cdprid.excitation._fourier_trajectory import FourierTrajectory, _envelope, _leibniz
+from cdprid.excitation._homed import HomedTrajectory, move_duration
 from cdprid.model import (
-    TimedTrajectory,
     Trajectory,
     TrajectoryState,
-    angular_rates_from_quat,
-    rotvec_to_quat,
-    smoothstep7_derivs,
 )
 
 __all__ = [
@@ -64,22 +64,6 @@ def _plane(azimuth, tilt):
     return e1, e2
 
 
-_BINOM = ((1,), (1, 1), (1, 2, 1), (1, 3, 3, 1))
-
-
-def _envelope(u, T, ramp):
-    """Envelope ``e(u) = S(u / ramp) S((T - u) / ramp)`` and 3 derivatives (Leibniz rule)."""
-    g1 = smoothstep7_derivs(u / ramp, ramp, 1.0, 3)
-    g2 = smoothstep7_derivs((T - u) / ramp, ramp, -1.0, 3)
-    return [sum(_BINOM[n][k] * g1[k] * g2[n - k] for k in range(n + 1)) for n in range(4)]
-
-
-def _leibniz(env, f):
-    """Derivatives 0..3 of ``env * f`` (env[..., None] broadcast against f)."""
-    return [sum(_BINOM[n][k] * env[k][..., None] * f[n - k] for k in range(n + 1))
-            for n in range(4)]
-
-
 class OrbitFamily(eqx.Module):
     """K ramped orbits about a common centre (K = 1: the ``orbit`` family).
 
@@ -98,22 +82,39 @@ class OrbitFamily(eqx.Module):
 
     @property
     def rotates(self) -> bool:
+        """False: orbits do not rotate the platform."""
         return False
 
     @property
     def segment(self) -> float:
+        """Duration of each orbit, s (the rests of :data:`REST_S` excluded)."""
         K = self.n_orbits
         return (self.duration - (K + 1) * _REST) / K
 
     @property
     def ramp(self) -> float:
+        """Ramp-in and ramp-out time of each orbit, s (at most 2 s)."""
         return min(2.0, 0.5 * self.segment)
 
     @property
     def n_params(self) -> int:
+        """Number of coordinates, ``3 + 5 K``."""
         return 3 + 5 * self.n_orbits
 
     def to_params(self, z) -> dict:
+        """Physical parameters of coordinates z (differentiable).
+
+        Parameters
+        ----------
+        z : array (n_params,)
+            Unconstrained coordinates.
+
+        Returns
+        -------
+        dict
+            ``centre`` (3,) m; ``radius`` (K,) m; ``frequency`` (K,) Hz; ``azimuth``, ``tilt``,
+            ``phase`` (K,) rad.
+        """
         K = self.n_orbits
         lo, hi = jnp.asarray(self.box_lo), jnp.asarray(self.box_hi)
         return {
@@ -126,6 +127,18 @@ class OrbitFamily(eqx.Module):
         }
 
     def from_params(self, params: dict) -> np.ndarray:
+        """Coordinates of physical parameters (inverse of :meth:`to_params`).
+
+        Parameters
+        ----------
+        params : dict
+            As returned by :meth:`to_params`; a scalar per-orbit entry is broadcast to K.
+
+        Returns
+        -------
+        ndarray (n_params,)
+            Values at the sigmoid boxes' edges are clipped just inside.
+        """
         K = self.n_orbits
         lo, hi = np.asarray(self.box_lo), np.asarray(self.box_hi)
 
@@ -144,6 +157,20 @@ class OrbitFamily(eqx.Module):
 
         With K > 1 the orbits are in the xy, xz, yz, xy... planes (paper section 7). The radius
         is reduced to fit a small workspace (70 % of the smaller horizontal half extent).
+
+        Parameters
+        ----------
+        robot : CableRobot, optional
+            Unused (the same signature as :meth:`FourierFamily.initial_params`).
+        radius : float
+            Orbit radius before the workspace fit, m.
+        frequency : float
+            Orbit frequency, Hz.
+
+        Returns
+        -------
+        dict
+            Physical parameters (:meth:`to_params`).
         """
         radius = _fitting_radius(self.box_lo, self.box_hi, radius)
         K = self.n_orbits
@@ -160,11 +187,33 @@ class OrbitFamily(eqx.Module):
         }
 
     def scale_amplitude(self, params: dict, k: float) -> dict:
-        """The same design with every radius multiplied by k (peaks scale about linearly)."""
+        """The same design with every radius multiplied by k (peaks scale about linearly).
+
+        Parameters
+        ----------
+        params : dict
+            Physical parameters.
+        k : float
+            Factor; radii are kept at 0.021 m or more.
+
+        Returns
+        -------
+        dict
+        """
         return dict(params, radius=np.maximum(np.asarray(params["radius"], float) * k, 0.021))
 
     def trajectory(self, z) -> Trajectory:
-        """The :class:`cdprid.model.Trajectory` of coordinates z (differentiable)."""
+        """The :class:`cdprid.model.Trajectory` of coordinates z (differentiable).
+
+        Parameters
+        ----------
+        z : array (n_params,)
+            Unconstrained coordinates.
+
+        Returns
+        -------
+        Trajectory
+        """
         P = self.to_params(z)
         K = self.n_orbits
         seg = self.segment
@@ -187,8 +236,23 @@ class OrbitFamily(eqx.Module):
         )
 
     def states(self, z, t) -> TrajectoryState:
-        """Motion at times t (n,): closed-form derivatives (envelope x circle, Leibniz rule,
-        as in :mod:`cdprid.model._trajectories`), vectorised over t and the K orbits."""
+        """Motion at times t, closed-form derivatives, vectorised over t and the K orbits.
+
+        Envelope x circle, Leibniz rule, as in :mod:`cdprid.model._trajectories`.
+
+        Parameters
+        ----------
+        z : array (n_params,)
+            Unconstrained coordinates.
+        t : array (n,)
+            Times, s.
+
+        Returns
+        -------
+        TrajectoryState
+            Position (m), velocity, acceleration, jerk, quaternion, angular velocity (rad/s) and
+            acceleration (rad/s^2), base frame, each with n rows.
+        """
         P = self.to_params(z)
         K = self.n_orbits
         seg = self.segment
@@ -211,74 +275,6 @@ class OrbitFamily(eqx.Module):
         return TrajectoryState(t, P["centre"] + d[0], d[1], d[2], d[3], q, zero, zero)
 
 
-class FourierTrajectory(TimedTrajectory):
-    """Position and small rotation as ramped Fourier series (duck-types ``Trajectory``).
-
-    ``B_p(t) = c + E(t) sum_k (P_cos[k] cos(2 pi k f0 s) + P_sin[k] sin(2 pi k f0 s))`` and the
-    rotation vector ``rho(t)`` likewise (rad), ``s = t - t_a``, ``q = exp(rho)``; E ramps in over
-    ``[t_a, t_a + ramp]`` and out over ``[t_b - ramp, t_b]``.
-    """
-
-    centre: jnp.ndarray
-    P_cos: jnp.ndarray
-    P_sin: jnp.ndarray
-    R_cos: jnp.ndarray
-    R_sin: jnp.ndarray
-    f0: float = eqx.field(static=True)
-    t_a: float = eqx.field(static=True)
-    t_b: float = eqx.field(static=True)
-    ramp: float = eqx.field(static=True)
-    duration: float = eqx.field(static=True)
-    name: str = eqx.field(static=True, default="excitation-fourier")
-
-    @property
-    def has_rotation(self) -> bool:
-        return True
-
-    def _series_derivs(self, C, S, t):
-        """Derivatives 0..3 (each (n, 3)) of ``E(t) sum_k (C_k cos + S_k sin)`` at times t (n,)."""
-        k = jnp.arange(1, C.shape[0] + 1)
-        wk = 2.0 * jnp.pi * self.f0 * k
-        th = wk * (t[:, None] - self.t_a)  # (n, H)
-        g = [(jnp.cos(th + n * jnp.pi / 2) * wk**n) @ C + (jnp.sin(th + n * jnp.pi / 2) * wk**n) @ S
-             for n in range(4)]
-        env = _envelope(t - self.t_a, self.t_b - self.t_a, self.ramp)
-        return _leibniz(env, g)
-
-    def position(self, t):
-        """Position of P (3,) at a scalar time t."""
-        return self.centre + self._series_derivs(self.P_cos, self.P_sin, jnp.atleast_1d(t))[0][0]
-
-    def quat(self, t):
-        """Quaternion (4,), scalar first, platform -> base, at a scalar time t."""
-        return rotvec_to_quat(self._series_derivs(self.R_cos, self.R_sin, jnp.atleast_1d(t))[0][0])
-
-    def states(self, t) -> TrajectoryState:
-        """Motion at times t (n,), closed-form derivatives; q = exp(rho), omega and alpha from
-        dq/dt and d2q/dt2 (nested forward-mode derivatives of exp along rho(t))."""
-        p = self._series_derivs(self.P_cos, self.P_sin, t)
-        r = self._series_derivs(self.R_cos, self.R_sin, t)
-
-        def rot(r0, r1, r2):
-            def dq(x, dx):
-                return jax.jvp(rotvec_to_quat, (x,), (dx,))
-
-            (q, qd), (_, qdd1) = jax.jvp(dq, (r0, r1), (r1, r2))
-            return (q,) + tuple(angular_rates_from_quat(q, qd, qdd1))
-
-        q, om, al = jax.vmap(rot)(r[0], r[1], r[2])
-        return TrajectoryState(t, self.centre + p[0], p[1], p[2], p[3], q, om, al)
-
-    def evaluate(self, t) -> TrajectoryState:
-        """Evaluate the motion at times t (n,) (same contract as ``Trajectory.evaluate``)."""
-        return _fourier_eval(self, jnp.atleast_1d(jnp.asarray(t, float)))
-
-
-@eqx.filter_jit
-def _fourier_eval(traj, t):
-    return traj.states(t)
-
-
 class FourierFamily(eqx.Module):
     """Fourier series of position and rotation vector (``fourier`` family).
 
@@ -296,14 +292,31 @@ class FourierFamily(eqx.Module):
 
     @property
     def rotates(self) -> bool:
+        """True: the family rotates the platform."""
         return True
 
     @property
     def n_params(self) -> int:
+        """Number of coordinates, ``3 + 12 H``."""
         return 3 + 12 * self.harmonics
 
     # coordinates: position coefficients in units of 0.1 m, rotation ones of 0.05 rad
     def to_params(self, z) -> dict:
+        """Physical parameters of coordinates z (differentiable).
+
+        Coordinates: the centre through a sigmoid into the box, position coefficients in units of
+        0.1 m, rotation ones of 0.05 rad.
+
+        Parameters
+        ----------
+        z : array (n_params,)
+            Unconstrained coordinates.
+
+        Returns
+        -------
+        dict
+            ``centre`` (3,) m; ``P_cos``, ``P_sin`` (H, 3) m; ``R_cos``, ``R_sin`` (H, 3) rad.
+        """
         H = self.harmonics
         lo, hi = jnp.asarray(self.box_lo), jnp.asarray(self.box_hi)
         c = z[3:].reshape(4, H, 3)
@@ -311,13 +324,41 @@ class FourierFamily(eqx.Module):
                 "R_cos": 0.05 * c[2], "R_sin": 0.05 * c[3]}
 
     def from_params(self, params: dict) -> np.ndarray:
+        """Coordinates of physical parameters (inverse of :meth:`to_params`).
+
+        Parameters
+        ----------
+        params : dict
+            As returned by :meth:`to_params`.
+
+        Returns
+        -------
+        ndarray (n_params,)
+        """
         lo, hi = np.asarray(self.box_lo), np.asarray(self.box_hi)
         parts = [np.asarray(params[k], float).reshape(self.harmonics, 3) / s
                  for k, s in (("P_cos", 0.1), ("P_sin", 0.1), ("R_cos", 0.05), ("R_sin", 0.05))]
         return np.concatenate([_logit(params["centre"], lo, hi)] + [p.ravel() for p in parts])
 
     def initial_params(self, robot=None, radius=0.4, frequency=None, rotation=0.05) -> dict:
-        """Paper-like horizontal orbit (first harmonic) plus a small rotation (rad) per axis."""
+        """Paper-like horizontal orbit (first harmonic) plus a small rotation per axis.
+
+        Parameters
+        ----------
+        robot : CableRobot, optional
+            Unused (the same signature as :meth:`OrbitFamily.initial_params`).
+        radius : float
+            Orbit radius before the workspace fit (70 % of the smaller horizontal half extent), m.
+        frequency : float, optional
+            Unused: the orbit runs at the family's ``f0``.
+        rotation : float
+            Rotation amplitude per axis, rad.
+
+        Returns
+        -------
+        dict
+            Physical parameters (:meth:`to_params`).
+        """
         radius = _fitting_radius(self.box_lo, self.box_hi, radius)
         H = self.harmonics
         P_cos = np.zeros((H, 3))
@@ -333,11 +374,34 @@ class FourierFamily(eqx.Module):
                 "R_cos": R_cos, "R_sin": R_sin}
 
     def scale_amplitude(self, params: dict, k: float) -> dict:
-        """The same design with every position and rotation coefficient multiplied by k."""
+        """The same design with every position and rotation coefficient multiplied by k.
+
+        Parameters
+        ----------
+        params : dict
+            Physical parameters.
+        k : float
+            Factor.
+
+        Returns
+        -------
+        dict
+        """
         return dict(params, **{key: np.asarray(params[key], float) * k
                                for key in ("P_cos", "P_sin", "R_cos", "R_sin")})
 
     def trajectory(self, z) -> FourierTrajectory:
+        """The :class:`FourierTrajectory` of coordinates z (differentiable).
+
+        Parameters
+        ----------
+        z : array (n_params,)
+            Unconstrained coordinates.
+
+        Returns
+        -------
+        FourierTrajectory
+        """
         P = self.to_params(z)
         return FourierTrajectory(
             centre=P["centre"], P_cos=P["P_cos"], P_sin=P["P_sin"], R_cos=P["R_cos"],
@@ -346,6 +410,21 @@ class FourierFamily(eqx.Module):
         )
 
     def states(self, z, t) -> TrajectoryState:
+        """Motion at times t (:meth:`FourierTrajectory.states` of :meth:`trajectory`).
+
+        Parameters
+        ----------
+        z : array (n_params,)
+            Unconstrained coordinates.
+        t : array (n,)
+            Times, s.
+
+        Returns
+        -------
+        TrajectoryState
+            Position (m), velocity, acceleration, jerk, quaternion, angular velocity (rad/s) and
+            acceleration (rad/s^2), base frame, each with n rows.
+        """
         return self.trajectory(z).states(t)
 
 
@@ -370,6 +449,21 @@ def make_family(name: str, box_lo, box_hi, duration: float | None = None,
         Workspace box of P, base frame, m.
     duration : float, optional
         Duration of the exciting part, s (default 20 orbit, 52 orbits, 30 fourier).
+    n_orbits : int
+        Number of orbits of the ``orbits`` family.
+    harmonics : int
+        Number of harmonics of the ``fourier`` family.
+    f0 : float
+        Base frequency of the ``fourier`` family, Hz.
+
+    Returns
+    -------
+    OrbitFamily or FourierFamily
+
+    Raises
+    ------
+    InputError
+        Unknown ``name``, or a duration too short for the family.
     """
     lo = tuple(float(v) for v in box_lo)
     hi = tuple(float(v) for v in box_hi)
@@ -390,76 +484,3 @@ def make_family(name: str, box_lo, box_hi, duration: float | None = None,
         raise InputError(f"the duration of the {name!r} family must be at least {min_d:g} s, "
                          f"got {d:g} s.")
     return fam
-
-
-# =============================================================================== home moves
-
-
-def move_duration(distance: float, speed_max: float, acceleration_max: float, jerk_max: float,
-                  fraction: float = 0.5, minimum: float = 2.0) -> float:
-    """Duration (s, multiple of 0.1 s) of a septic-smoothstep move over ``distance`` m whose
-    peak speed, acceleration and jerk stay below ``fraction`` of the limits.
-
-    Peaks of ``S(t / T)`` times D: speed 2.1875 D/T, acceleration 7.5133 D/T^2, jerk 52.5 D/T^3.
-    """
-    D = float(distance)
-    T = max(minimum, 2.1875 * D / (fraction * speed_max),
-            np.sqrt(7.5133 * D / (fraction * acceleration_max)),
-            np.cbrt(52.5 * D / (fraction * jerk_max)))
-    return float(np.ceil(T * 10.0 - 1e-9) / 10.0)
-
-
-class HomedTrajectory(TimedTrajectory):
-    """A family's trajectory (coordinates z) preceded by a move from rest at ``home`` to its
-    start point and followed by the move back (rest to rest, continuous jerk).
-
-    Times: the move in over ``[0, t_move]``, the exciting part over
-    ``[t_move, t_move + family.duration]``, the move back until ``t_end``. The same interface
-    as :class:`cdprid.model.Trajectory` (``evaluate``, ``t_start``, ``t_end``,
-    ``has_rotation``, ``name``).
-    """
-
-    family: eqx.Module
-    z: jnp.ndarray
-    home: jnp.ndarray
-    t_move: float = eqx.field(static=True)
-
-    @property
-    def has_rotation(self) -> bool:
-        return bool(self.family.rotates)
-
-    @property
-    def duration(self) -> float:
-        """Whole duration (moves and exciting part), s; ``t_end`` of :class:`TimedTrajectory`."""
-        return float(2.0 * self.t_move + self.family.duration)
-
-    @property
-    def name(self) -> str:
-        return f"excitation-{self.family.name}"
-
-    @property
-    def start_point(self):
-        """Where the exciting part starts and ends (at rest), base frame, m."""
-        return self.family.to_params(self.z)["centre"]
-
-    def states(self, t) -> TrajectoryState:
-        """Motion at times t (n,) (pure JAX)."""
-        T, D = self.t_move, float(self.family.duration)
-        s = self.family.states(self.z, jnp.clip(t - T, 0.0, D))
-        gin = smoothstep7_derivs(t / T, T, 1.0, 3)
-        gout = smoothstep7_derivs((t - T - D) / T, T, 1.0, 3)
-        delta = self.home - self.start_point
-        # p = start + (1 - S_in) (home - start) + S_out (home - start) + exciting displacement
-        k = [(1.0 - gin[0]) + gout[0]] + [gout[n] - gin[n] for n in range(1, 4)]
-        moves = [kn[:, None] * delta[None, :] for kn in k]
-        return TrajectoryState(t, s.p + moves[0], s.v + moves[1], s.a + moves[2], s.j + moves[3],
-                               s.q, s.omega, s.alpha)
-
-    def evaluate(self, t) -> TrajectoryState:
-        """Evaluate the motion at times t (n,), jit-compiled."""
-        return _homed_eval(self, jnp.atleast_1d(jnp.asarray(t, float)))
-
-
-@eqx.filter_jit
-def _homed_eval(traj, t):
-    return traj.states(t)

@@ -13,8 +13,22 @@ OBJECTIVES = ("cond", "cond_scaled", "dopt", "sigma")
 
 
 def stacked_regressor(states: TrajectoryState, gravity, model: str = "translation"):
-    """W_ID (6 n, p) of eq. (11) from analytic motion states
-    (:func:`cdprid.core.regressors`)."""
+    """W_ID of eq. (11) from analytic motion states (:func:`cdprid.core.regressors`).
+
+    Parameters
+    ----------
+    states : TrajectoryState
+        n samples of acceleration (m/s^2), quaternion, angular velocity (rad/s) and
+        acceleration (rad/s^2).
+    gravity : array (3,)
+        Gravity, base frame, m/s^2.
+    model : {"translation", "full"}
+
+    Returns
+    -------
+    array (6 n, p)
+        p = 4 or 10.
+    """
     R = jax.vmap(quat_to_matrix)(states.q)
     A = regressors(model, R, states.a, states.omega, states.alpha, gravity)
     return A.reshape(-1, A.shape[-1])
@@ -26,8 +40,21 @@ def _scale_columns(M):
 
 
 def information_cond(W_ID, scaled: bool = False):
-    """Exact cond(W_ID) from the eigenvalues of ``M = W_ID^T W_ID`` (differentiable when the
-    extreme eigenvalues are simple). ``scaled=True``: columns scaled to unit norm first."""
+    """Exact cond(W_ID) from the eigenvalues of ``M = W_ID^T W_ID``.
+
+    Differentiable when the extreme eigenvalues are simple.
+
+    Parameters
+    ----------
+    W_ID : array (r, p)
+    scaled : bool
+        Scale the columns to unit norm first.
+
+    Returns
+    -------
+    scalar array
+        ``sqrt(lambda_max / lambda_min)`` (dimensionless).
+    """
     M = W_ID.T @ W_ID
     if scaled:
         M = _scale_columns(M)
@@ -49,10 +76,20 @@ def _log_trace_power(M, n_squarings: int):
 
 
 def soft_log_cond(M, n_squarings: int = 5):
-    """Smooth upper bound of ``log cond(W_ID)`` from the information matrix M (p x p).
+    """Smooth upper bound of ``log cond(W_ID)`` from the information matrix M.
 
     ``0.5 (log tr(M^k) - log tr(M^-k)) / k`` with ``k = 2^n_squarings``; exceeds the exact
     value by at most ``log(p) / k``.
+
+    Parameters
+    ----------
+    M : array (p, p)
+        ``W_ID^T W_ID``, symmetric positive definite.
+    n_squarings : int
+
+    Returns
+    -------
+    scalar array
     """
     k = 2.0**n_squarings
     p = M.shape[0]
@@ -62,14 +99,37 @@ def soft_log_cond(M, n_squarings: int = 5):
 
 
 def d_optimality(W_ID, delta: float = 1e-9):
-    """D-optimality criterion ``-log det(W_ID^T W_ID / n_rows + delta I)`` (smaller is better)."""
+    """D-optimality criterion ``-log det(W_ID^T W_ID / n_rows + delta I)`` (smaller is better).
+
+    Parameters
+    ----------
+    W_ID : array (r, p)
+    delta : float
+        Regularisation added to the diagonal.
+
+    Returns
+    -------
+    scalar array
+    """
     p = W_ID.shape[1]
     M = W_ID.T @ W_ID / W_ID.shape[0] + delta * jnp.eye(p)
     return -2.0 * jnp.sum(jnp.log(jnp.diag(jnp.linalg.cholesky(M))))
 
 
 def predicted_sigma(W_ID, sigma_rho: float = 1.0):
-    """Predicted standard deviations (p,) ``sigma_rho sqrt(diag((W^T W)^-1))`` (eq. 20), via QR."""
+    """Predicted standard deviations ``sigma_rho sqrt(diag((W^T W)^-1))`` (eq. 20), via QR.
+
+    Parameters
+    ----------
+    W_ID : array (r, p)
+    sigma_rho : float
+        Residual standard deviation, N (or N m).
+
+    Returns
+    -------
+    array (p,)
+        In the parameters' units (kg, kg m, kg m^2) for ``sigma_rho`` in N.
+    """
     R = jnp.linalg.qr(W_ID, mode="r")
     Rinv = jax.scipy.linalg.solve_triangular(R, jnp.eye(R.shape[0]), lower=False)
     return sigma_rho * jnp.sqrt(jnp.sum(Rinv**2, axis=1))

@@ -184,6 +184,17 @@ def initial_design(prob: ExcitationProblem) -> tuple[dict, str]:
     jerk, tilt, angular velocity and acceleration, cable speed, with the home moves) is at most
     :data:`GENTLE_FRACTION` of its limit: what we recommend for a first run with a platform
     that is not yet identified (its mass is uncertain; half of each limit leaves room).
+
+    Parameters
+    ----------
+    prob : ExcitationProblem
+
+    Returns
+    -------
+    params : dict
+        The family's physical parameters.
+    rule : str
+        One sentence describing the design.
     """
     fam = prob.family
     params, k = fit_to_limits(prob, fam.initial_params(prob.robot), GENTLE_FRACTION)
@@ -195,14 +206,31 @@ def initial_design(prob: ExcitationProblem) -> tuple[dict, str]:
 
 def gentle_run(prob: ExcitationProblem, move_home: bool = False,
                progress: Callable | bool | None = None) -> ExcitationResult:
-    """The certified gentle first run (:func:`initial_design`) as a result, not optimised
-    (``cdprid excite --gentle``); a UserError naming the failed checks when it is not safe.
+    """The certified gentle first run (:func:`initial_design`) as a result, not optimised.
 
-    With ``move_home`` (the user gave no ``--home``), a gentle run that fails at the
-    workspace centre is tried again about the rest points of the workspace with the largest
-    robust static tension margin (:func:`robust_homes`): home and orbit centre there, the
-    amplitude fitted to the box and the limits; the first certified one is returned, with a
-    note saying where home moved and why.
+    ``cdprid excite --gentle``. With ``move_home`` (the user gave no ``--home``), a gentle run
+    that fails at the workspace centre is tried again about the rest points of the workspace
+    with the largest robust static tension margin (:func:`robust_homes`): home and orbit centre
+    there, the amplitude fitted to the box and the limits; the first certified one is returned,
+    with a note saying where home moved and why.
+
+    Parameters
+    ----------
+    prob : ExcitationProblem
+    move_home : bool
+        Try other homes when the run fails about the given one.
+    progress : callable, bool or None
+        True prints progress lines on stderr, a callable receives them, None/False is silent.
+
+    Returns
+    -------
+    ExcitationResult
+        ``initial`` and ``optimised`` are the same certified design.
+
+    Raises
+    ------
+    UserError
+        No gentle run tried passes every safety check (the sentence names the failed checks).
     """
     t0 = time.perf_counter()
     params, rule = initial_design(prob)
@@ -232,8 +260,21 @@ def gentle_run(prob: ExcitationProblem, move_home: bool = False,
 
 
 def robust_homes(prob: ExcitationProblem, n_grid: int = 5, n_best: int = 6) -> list:
-    """Rest points of a grid over the workspace box (inset by 10 %), those whose robust
-    static tension margin is positive, largest margin first (at most ``n_best``)."""
+    """Rest points with a positive robust static tension margin, largest margin first.
+
+    Parameters
+    ----------
+    prob : ExcitationProblem
+    n_grid : int
+        Grid points per axis over the workspace box inset by 10 %.
+    n_best : int
+        At most this many points.
+
+    Returns
+    -------
+    list of ndarray (3,)
+        Positions, base frame, m.
+    """
     lo, hi = np.asarray(prob.limits.workspace_min), np.asarray(prob.limits.workspace_max)
     inset = 0.1 * (hi - lo)
     axes = [np.linspace(a + d, b - d, n_grid) for a, b, d in zip(lo, hi, inset, strict=True)]
@@ -261,9 +302,25 @@ def _gentle_about(prob: ExcitationProblem, centre) -> tuple[dict, str]:
 
 def start_points(prob: ExcitationProblem, n_starts: int = 4, seed: int = 0,
                  initial_params: dict | None = None, spread: float = 0.7) -> list:
-    """Start coordinates: the initial design (:func:`initial_design` unless
-    ``initial_params``), then N(0, spread^2) perturbations of it drawn from
-    ``jax.random.PRNGKey(seed)``."""
+    """Start coordinates of the optimiser.
+
+    The initial design (:func:`initial_design` unless ``initial_params``), then
+    N(0, spread^2) perturbations of it drawn from ``jax.random.PRNGKey(seed)``.
+
+    Parameters
+    ----------
+    prob : ExcitationProblem
+    n_starts : int
+    seed : int
+    initial_params : dict, optional
+        The family's physical parameters of the first start.
+    spread : float
+        Standard deviation of the perturbations, in coordinate units.
+
+    Returns
+    -------
+    list of array (n_params,)
+    """
     fam = prob.family
     p0 = initial_design(prob)[0] if initial_params is None else initial_params
     z_init = jnp.asarray(fam.from_params(p0))
@@ -330,12 +387,35 @@ def optimise_excitation(prob: ExcitationProblem, n_starts: int = 4, seed: int = 
     """Minimise the penalised objective with optimistix BFGS from several starts.
 
     Start 0 is the initial design (:func:`initial_design`, the gentle first run, unless
-    ``initial_params``); the others
-    perturb its coordinates with N(0, spread^2) draws from ``jax.random.PRNGKey(seed)``.
-    One compiled solve is reused for every start. The answer is the certified design with the
-    best objective; uncertified designs are never returned (every limit, clearance and the
-    tensions at every corner of the uncertainty box are checked exactly, with the home moves).
-    A start that stops before convergence is reported as such in ``starts`` and the log.
+    ``initial_params``); the others perturb its coordinates with N(0, spread^2) draws from
+    ``jax.random.PRNGKey(seed)``. One compiled solve is reused for every start. The answer is
+    the certified design with the best objective; uncertified designs are never returned
+    (every limit, clearance and the tensions at every corner of the uncertainty box are
+    checked exactly, with the home moves). A start that stops before convergence is reported
+    as such in ``starts`` and the log.
+
+    Parameters
+    ----------
+    prob : ExcitationProblem
+    n_starts : int
+    seed : int
+    initial_params : dict, optional
+        The family's physical parameters of start 0.
+    max_steps : int
+        BFGS steps per start.
+    spread : float
+        Standard deviation of the start perturbations, in coordinate units.
+    progress : callable, bool or None
+        True prints progress lines on stderr, a callable receives them, None/False is silent.
+
+    Returns
+    -------
+    ExcitationResult
+
+    Raises
+    ------
+    UserError
+        Neither an optimised start nor the initial design is certified.
     """
     t_wall = time.perf_counter()
     fam = prob.family

@@ -89,26 +89,32 @@ class ExcitationProblem:
 
     @property
     def nominal(self) -> InertialParameters:
+        """The nominal platform of the uncertainty box."""
         return self.box.nominal
 
     @property
     def tmin(self) -> float:
+        """Lowest tension, N."""
         return self.limits.tension_min
 
     @property
     def tmax(self) -> float:
+        """Highest tension, N."""
         return self.limits.tension_max
 
     @property
     def speed_max(self) -> float:
+        """Highest cable speed, m/s."""
         return self.limits.cable_speed_max
 
     @property
     def names(self) -> tuple:
+        """Parameter names of the model."""
         return PARAMETER_NAMES[self.model]
 
     @property
     def pulleys(self) -> bool:
+        """Whether any cable has a swivel pulley."""
         return self.robot.has_pulleys
 
     @property
@@ -117,12 +123,35 @@ class ExcitationProblem:
         return tuple(tuple(int(v) for v in p) for p in cable_pairs(self.robot))
 
     def grid(self, rate_hz: float) -> np.ndarray:
+        """Uniform time grid over the family's exciting part.
+
+        Parameters
+        ----------
+        rate_hz : float
+            Sampling rate, Hz.
+
+        Returns
+        -------
+        ndarray (n,)
+            Times from 0 to the family's duration, s.
+        """
         d = self.family.duration
         n = int(np.floor(d * rate_hz + 1e-9)) + 1
         return np.arange(n) / rate_hz
 
     def homed(self, z) -> HomedTrajectory:
-        """The trajectory of coordinates z with the moves from and back to home."""
+        """The trajectory of coordinates z with the moves from and back to home.
+
+        Parameters
+        ----------
+        z : array (n_params,)
+            The family's unconstrained coordinates.
+
+        Returns
+        -------
+        HomedTrajectory
+            Move durations from :func:`move_duration` at the problem's limits.
+        """
         fam = self.family
         start = np.asarray(fam.to_params(jnp.asarray(z))["centre"])
         lim = self.limits
@@ -132,7 +161,24 @@ class ExcitationProblem:
 
 
 def parse_home(text: str | None, limits: SafetyLimits) -> np.ndarray:
-    """``--home x,y,z`` (m, base frame; default the workspace centre), inside the workspace."""
+    """``--home x,y,z`` (m, base frame; default the workspace centre), inside the workspace.
+
+    Parameters
+    ----------
+    text : str or None
+        ``"x,y,z"`` in m, or None for the workspace centre.
+    limits : SafetyLimits
+
+    Returns
+    -------
+    ndarray (3,)
+        Home position, base frame, m.
+
+    Raises
+    ------
+    UserError
+        Not three finite numbers, or outside the workspace box.
+    """
     lo, hi = np.asarray(limits.workspace_min), np.asarray(limits.workspace_max)
     if text is None:
         return 0.5 * (lo + hi)
@@ -154,10 +200,34 @@ def make_problem(robot: CableRobot, family: str = "orbit", objective: str = "con
     """An :class:`ExcitationProblem` for a robot.
 
     Limits from robot.toml with stated defaults (:func:`cdprid.excitation.safety_limits`);
-    the uncertainty box from ``prior`` (``cdprid identify --json``) or robot.toml ``[platform]``
-    (a UserError when neither gives the platform); ``home`` as ``"x,y,z"`` (default: the
-    workspace centre). ``model`` defaults to ``translation`` for the orbit families and ``full``
-    for ``fourier``.
+    the uncertainty box from ``prior`` (``cdprid identify --json``) or robot.toml ``[platform]``.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    family : {"orbit", "orbits", "fourier"}
+    objective : {"cond", "cond_scaled", "dopt", "sigma"}
+    model : {"translation", "full"}, optional
+        Default ``translation`` for the orbit families and ``full`` for ``fourier``.
+    duration : float, optional
+        Duration of the exciting part, s (:func:`make_family`'s default).
+    prior : path-like, optional
+        A ``cdprid identify --json`` output giving the uncertainty box.
+    home : str, optional
+        ``"x,y,z"`` in m (default: the workspace centre).
+    **kw
+        Fields of :class:`ExcitationProblem` (``tension_target``, ``rate_opt_hz``, ...).
+
+    Returns
+    -------
+    ExcitationProblem
+
+    Raises
+    ------
+    InputError
+        Unknown objective, family or model, or the full model with a non-rotating family.
+    UserError
+        Neither ``prior`` nor robot.toml gives the platform; bad limits or ``home``.
     """
     if objective not in OBJECTIVES:
         raise InputError(f"unknown objective {objective!r}; use one of {', '.join(OBJECTIVES)}.")

@@ -76,6 +76,13 @@ class SafetyLimits:
     defaults_used: tuple
 
     def as_json(self) -> dict:
+        """JSON ``limits``.
+
+        Returns
+        -------
+        dict
+            Every limit (SI units; the workspace as lists) and ``defaults_used``.
+        """
         out = {k: (list(v) if isinstance(v, tuple) else v)
                for k, v in dataclasses.asdict(self).items() if k != "defaults_used"}
         out["defaults_used"] = list(self.defaults_used)
@@ -104,7 +111,20 @@ def _default_box(robot: CableRobot):
 def safety_limits(robot: CableRobot, mass_max: float) -> SafetyLimits:
     """The limits of robot.toml, completed by :data:`DEFAULT_LIMITS` (each default named).
 
-    ``tension_max`` defaults to 20 times the heaviest platform's weight (``mass_max`` kg).
+    Parameters
+    ----------
+    robot : CableRobot
+    mass_max : float
+        The heaviest platform, kg; ``tension_max`` defaults to 20 times its weight.
+
+    Returns
+    -------
+    SafetyLimits
+
+    Raises
+    ------
+    UserError
+        ``tension_max`` not above ``tension_min``.
     """
     lim = robot.limits
     used = []
@@ -153,6 +173,7 @@ class UncertaintyBox:
 
     @property
     def x_nominal(self) -> np.ndarray:
+        """Nominal parameter vector (10,), full model (kg, kg m, kg m^2)."""
         return np.asarray(self.nominal.vector("full"))
 
     @property
@@ -162,19 +183,21 @@ class UncertaintyBox:
 
     @property
     def x_hi(self) -> np.ndarray:
+        """Upper corner of the interval hull of the corners in x (10,)."""
         return np.maximum(self.corners.max(axis=0), self.x_nominal)
 
     @property
     def mass_max(self) -> float:
+        """The largest mass of the box, kg."""
         return float(self.corners[:, 0].max())
 
 
 def corner_parameters(mass: float, com, inertia, mass_unc: float, com_unc: float,
                       inertia_unc: float, rotates: bool = True) -> np.ndarray:
-    """Vectors (k, 10) ``x = [m, m s_G, I_P]`` whose convex hull holds every platform of the
-    physical box: mass, centre of mass per axis, principal moments of the inertia.
+    """Vectors ``x = [m, m s_G, I_P]`` whose convex hull holds every platform of the physical box.
 
-    ``x`` is not linear in the physical quantities: ``m s_G`` is bilinear and the inertia about
+    The box: mass, centre of mass per axis, principal moments of the inertia. ``x`` is not
+    linear in the physical quantities: ``m s_G`` is bilinear and the inertia about
     P, ``I_P = I_G + m (|s|^2 1 - s s^T)``, holds the squares ``d_j^2`` of the centre-of-mass
     offsets ``d = s - s_nominal``. Replacing each ``d_j^2`` by an independent ``e_j`` in
     ``[0, com_unc^2]`` makes ``x`` multilinear in (m, d, e, principal moments): the image of
@@ -183,6 +206,26 @@ def corner_parameters(mass: float, com, inertia, mass_unc: float, com_unc: float
     is feasible for every platform of the physical box). Without rotation (``rotates=False``)
     the inertia does not enter the wrench: 16 corners (mass and centre of mass), inertia at
     its nominal principal moments.
+
+    Parameters
+    ----------
+    mass : float
+        Nominal mass, kg.
+    com : array (3,)
+        Nominal centre of mass, platform frame, m.
+    inertia : array (3, 3)
+        Nominal inertia about the centre of mass, kg m^2.
+    mass_unc, inertia_unc : float
+        Relative uncertainties of the mass and of each principal moment.
+    com_unc : float
+        Uncertainty of the centre of mass per axis, m.
+    rotates : bool
+        Whether the trajectory rotates.
+
+    Returns
+    -------
+    ndarray (k, 10)
+        Unique corner vectors (kg, kg m, kg m^2).
     """
     I = np.asarray(inertia, float)
     lam, V = np.linalg.eigh(0.5 * (I + I.T))
@@ -207,7 +250,23 @@ def corner_parameters(mass: float, com, inertia, mass_unc: float, com_unc: float
 
 
 def uncertainty_from_robot(robot: CableRobot, rotates: bool = True) -> UncertaintyBox:
-    """The box of robot.toml ``[platform]``; a UserError when there is no ``mass``."""
+    """The uncertainty box of robot.toml ``[platform]`` (defaults named in ``defaults_used``).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    rotates : bool
+        Whether the trajectory rotates (the inertia matters).
+
+    Returns
+    -------
+    UncertaintyBox
+
+    Raises
+    ------
+    UserError
+        robot.toml has no ``[platform]`` mass.
+    """
     pl = robot.platform
     if pl.mass is None:
         raise UserError(
@@ -280,6 +339,24 @@ def uncertainty_from_prior(path, robot: CableRobot, rotates: bool = True) -> Unc
     Parameters the prior does not hold (the inertia after a translation-only identification)
     come from robot.toml ``[platform]`` with its uncertainty (corners of the physical box
     there, nominal mass), or from a uniform-box guess stated in ``defaults_used``.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``identify --json`` file.
+    robot : CableRobot
+    rotates : bool
+        Whether the trajectory rotates (the inertia matters).
+
+    Returns
+    -------
+    UncertaintyBox
+
+    Raises
+    ------
+    UserError
+        Missing or malformed file, a parameter without numeric value and std, or a mass
+        estimate minus 3 std that is not positive.
     """
     path = Path(path)
     prior = _prior_parameters(path)

@@ -20,8 +20,23 @@ def slsqp_baseline(prob: ExcitationProblem, z0=None, maxiter: int = 200,
 
     The objective is the same jit-compiled smooth objective (no penalty); the constraints are
     soft minima (temperature ``softness``, normalised units) of the same per-sample margins:
-    workspace, cable speed, tension, kinematics and clearance. Returns
-    ``{"z", "objective", "time_s", "nfev", "success"}``.
+    workspace, cable speed, tension, kinematics and clearance.
+
+    Parameters
+    ----------
+    prob : ExcitationProblem
+    z0 : array, optional
+        Start coordinates (default: the initial design's).
+    maxiter : int
+        SLSQP iterations.
+    softness : float
+        Soft-minimum temperature of the constraints.
+
+    Returns
+    -------
+    dict
+        ``{"z", "objective", "time_s", "nfev", "success", "message"}`` (time in s, compilation
+        excluded).
     """
     from scipy.optimize import minimize
 

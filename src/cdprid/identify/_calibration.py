@@ -30,7 +30,6 @@ attachments ``points``, centre of mass ``PtoG``). Rotations are parametrised as
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 from pathlib import Path
 
@@ -39,6 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.base import ConvergenceError, InputError
+from cdprid.identify._calibration_types import CalibrationData, CalibrationResult
 from cdprid.model import (
     CableRobot,
     cable_lengths,
@@ -47,106 +47,6 @@ from cdprid.model import (
     rotvec_to_quat,
     swivel_angles,
 )
-
-
-@dataclasses.dataclass(frozen=True)
-class CalibrationData:
-    """Samples used by the calibration (one row per motion-capture frame).
-
-    Attributes
-    ----------
-    t : ndarray (n,)
-    V_R_M : ndarray (n, 3, 3)
-        Rotation marker frame -> Vicon frame.
-    V_p_M : ndarray (n, 3)
-        Marker-frame origin, Vicon frame, m.
-    swivel : ndarray (n, m) or None
-        Measured swivel angles, rad (encoder zero arbitrary); None to use lengths only.
-    """
-
-    t: np.ndarray
-    V_R_M: np.ndarray
-    V_p_M: np.ndarray
-    swivel: np.ndarray | None = None
-
-    def subsample(self, step: int) -> CalibrationData:
-        """Every ``step``-th sample."""
-        sl = slice(None, None, step)
-        return CalibrationData(self.t[sl], self.V_R_M[sl], self.V_p_M[sl],
-                               None if self.swivel is None else self.swivel[sl])
-
-
-@dataclasses.dataclass(frozen=True)
-class CalibrationResult:
-    """Estimated geometry, its standard deviations and the residuals before/after.
-
-    Attributes
-    ----------
-    anchors : {"config", "free"}
-    B_R_V, B_p_V : ndarray (3, 3), (3,)
-        Vicon frame -> base frame.
-    M_R_P, M_p_P : ndarray (3, 3), (3,) or None
-        Platform frame in the marker frame (``anchors="config"``).
-    M_b : ndarray (m, 3)
-        Attachment points, marker frame, m (always filled: ``M_R_P P_b + M_p_P`` in config
-        mode).
-    lengths : ndarray (m,)
-        Constant cable lengths, m (pulley entry point to attachment, arc included).
-    swivel_offset : ndarray (m,)
-        Encoder offsets delta_i, rad.
-    params : dict name -> ndarray
-        Raw parameter vector pieces (rotation vectors ``*_r_*`` are corrections of ``R0``).
-    sigma : dict name -> ndarray
-        Standard deviations of ``params`` (rotation vectors: rad, about the estimate).
-    rms_before, rms_after : dict
-        ``{"length_m": ..., "swivel_rad": ...}``: RMS residuals of the naive start (Vicon =
-        base, marker frame = platform frame, best constants) and of the solution.
-    rms_per_cable : dict
-        ``{"length_m": (m,), "swivel_rad": (m,)}`` after the fit.
-    n_samples : int
-    condition : float
-        Condition number of the weighted Jacobian.
-    swivel_sign : float
-    """
-
-    anchors: str
-    B_R_V: np.ndarray
-    B_p_V: np.ndarray
-    M_R_P: np.ndarray | None
-    M_p_P: np.ndarray | None
-    M_b: np.ndarray
-    lengths: np.ndarray
-    swivel_offset: np.ndarray
-    params: dict
-    sigma: dict
-    rms_before: dict
-    rms_after: dict
-    rms_per_cable: dict
-    n_samples: int
-    condition: float
-    swivel_sign: float
-
-    def as_dict(self) -> dict:
-        """Plain-Python summary (for meta.toml / JSON)."""
-        out = {
-            "anchors": self.anchors,
-            "B_R_V": self.B_R_V.tolist(),
-            "B_p_V": self.B_p_V.tolist(),
-            "M_b": self.M_b.tolist(),
-            "lengths": self.lengths.tolist(),
-            "swivel_offset": self.swivel_offset.tolist(),
-            "sigma": {k: np.asarray(v).tolist() for k, v in self.sigma.items()},
-            "rms_before": dict(self.rms_before),
-            "rms_after": dict(self.rms_after),
-            "rms_per_cable": {k: np.asarray(v).tolist() for k, v in self.rms_per_cable.items()},
-            "n_samples": self.n_samples,
-            "condition": self.condition,
-            "swivel_sign": self.swivel_sign,
-        }
-        if self.M_R_P is not None:
-            out["M_R_P"] = self.M_R_P.tolist()
-            out["M_p_P"] = self.M_p_P.tolist()
-        return out
 
 
 # ----------------------------------------------------------------------- the model
@@ -301,6 +201,8 @@ def calibrate_geometry(
         Multi-start: yaw multiples of ``360 / yaw_starts`` deg for ``R0_BV`` and ``R0_MP``
         (ignored for a rotation given explicitly); the best start, fitted on every
         ``start_subsample``-th sample, is refined on all samples.
+    start_subsample : int
+        Stride of the samples the multi-start candidates are fitted on.
     max_steps : int
         Levenberg-Marquardt steps per solve.
     R0_BV, R0_MP : array (3, 3), optional
@@ -428,10 +330,19 @@ def platform_pose(result: CalibrationResult, V_R_M, V_p_M):
 
     With ``anchors="free"`` the platform frame is the marker frame (P = marker origin).
 
+    Parameters
+    ----------
+    result : CalibrationResult
+    V_R_M : array (n, 3, 3)
+        Rotations marker frame -> Vicon frame.
+    V_p_M : array (n, 3)
+        Marker-frame origins, Vicon frame, m.
+
     Returns
     -------
     B_R_P : ndarray (n, 3, 3)
     B_p_P : ndarray (n, 3)
+        Positions of P, base frame, m.
     """
     V_R_M = np.asarray(V_R_M, float)
     V_p_M = np.asarray(V_p_M, float)
@@ -458,6 +369,11 @@ def write_calibrated_dataset(src, result: CalibrationResult, out, overwrite: boo
     result : CalibrationResult
     out : folder to write
     overwrite : bool
+
+    Returns
+    -------
+    Path
+        The dataset folder written.
     """
     from cdprid.io import Dataset, read_dataset, write_dataset
 

@@ -44,8 +44,15 @@ class CellCalibration:
     warnings: tuple = ()
 
     def as_json(self) -> list:
-        """JSON ``load_cells``: per cell ``{"cable", "gain", "offset_N"}`` with ``value``,
-        ``std``, ``interval95`` and ``disagrees``."""
+        """JSON ``load_cells`` of the report.
+
+        Returns
+        -------
+        list of dict
+            Per cell ``{"cable", "against", "gain", "offset_N"}``; ``gain`` and ``offset_N`` each
+            ``{"value", "std", "interval95", "disagrees"}`` (``disagrees``: 1 resp. 0 N lies outside
+            the 95 % interval).
+        """
         out = []
         for j in range(len(self.gain)):
             e = {"cable": j + 1, "against": self.against}
@@ -58,7 +65,13 @@ class CellCalibration:
         return out
 
     def table(self) -> str:
-        """Plain-text table of the calibration."""
+        """Plain-text table of the calibration (gain and offset, N, with 95 % intervals).
+
+        Returns
+        -------
+        str
+            Lines without a trailing newline.
+        """
         lines = [f"load cells against {self.against} (95 % intervals):"]
         for j in range(len(self.gain)):
             g, sg, o, so = self.gain[j], self.gain_std[j], self.offset[j], self.offset_std[j]

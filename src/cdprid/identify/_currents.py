@@ -134,7 +134,13 @@ class CurrentsReport:
         return DriveParameters.from_vector(self.theta[p:])
 
     def table(self) -> str:
-        """Plain-text table (platform then drive parameters)."""
+        """Plain-text table (platform then drive parameters, then the load cells' calibration).
+
+        Returns
+        -------
+        str
+            Lines without a trailing newline.
+        """
         from cdprid.identify._currents_json import result_table
 
         return result_table(f"source: currents   model: {self.model}   samples: "
@@ -144,8 +150,13 @@ class CurrentsReport:
             "" if self.cells is None else "\n" + self.cells.table())
 
     def as_json(self) -> dict:
-        """JSON of ``identify --source currents`` (the keys of ``identify --json`` plus
-        ``drives`` and ``scale_reference``)."""
+        """JSON of ``identify --source currents``.
+
+        Returns
+        -------
+        dict
+            The keys of ``identify --json`` plus ``drives`` and ``scale_reference``.
+        """
         from cdprid.identify._currents_json import currents_json
 
         return currents_json(self)

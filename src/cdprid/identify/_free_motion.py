@@ -93,7 +93,13 @@ class FreeMotionReport:
         return np.sqrt(np.clip(np.diag(self.cov), 0, None))
 
     def table(self) -> str:
-        """Plain-text table, the load cells' calibration after it."""
+        """Plain-text table, the load cells' calibration after it.
+
+        Returns
+        -------
+        str
+            Lines without a trailing newline.
+        """
         from cdprid.identify._currents_json import result_table
 
         text = result_table(f"source: free-motion   model: {self.model}   samples: "
@@ -102,8 +108,13 @@ class FreeMotionReport:
         return text if self.cells is None else text + "\n" + self.cells.table()
 
     def as_json(self) -> dict:
-        """JSON of ``identify --source free-motion`` (keys of ``identify --json``, plus
-        ``scale_reference`` and ``load_cells``)."""
+        """JSON of ``identify --source free-motion``.
+
+        Returns
+        -------
+        dict
+            The keys of ``identify --json``, plus ``scale_reference`` and ``load_cells``.
+        """
         from cdprid.identify._currents_json import parameter_entry
 
         s = self.std

@@ -12,9 +12,21 @@ __all__ = ["swapped_columns_warning"]
 
 
 def swapped_columns_warning(robot, report, tension) -> str | None:
-    """:func:`cdprid.core.swapped_columns_warning` on an :class:`IdentificationReport`
-    (its motion, kept samples, regressor and wrench filter); ``tension`` (k, m) the raw
-    stream (only its width is used)."""
+    """:func:`cdprid.core.swapped_columns_warning` on an :class:`IdentificationReport`.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    report : IdentificationReport
+        Its motion, kept samples, regressor and wrench filter are used.
+    tension : array (k, m)
+        The raw tension stream (only its width is used).
+
+    Returns
+    -------
+    str or None
+        The warning, or None (no swap found, fewer than 2 cables, or too many samples to check).
+    """
     from cdprid.identify._batch import _wrench_filter
 
     motion, reg = report.motion, report.regression

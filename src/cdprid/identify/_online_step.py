@@ -486,12 +486,26 @@ class OnlineStepper:
             )
 
     def step(self, position, quaternion, tension) -> OnlineOutput:
-        """Consume one sample (position (3,), quaternion (4,) scalar first, tensions (m,)).
+        """Consume one sample.
+
+        Parameters
+        ----------
+        position : array-like (3,)
+            Position of P, base frame, m.
+        quaternion : array-like (4,)
+            Unit quaternion, scalar first, platform -> base.
+        tension : array-like (m,)
+            Cable tensions, N.
 
         Returns
         -------
         OnlineOutput
             numpy arrays for this sample.
+
+        Raises
+        ------
+        InputError
+            An argument with the wrong number of values.
         """
         parts = [np.asarray(v, np.float64).ravel() for v in (position, quaternion, tension)]
         for name, v, size in zip(("position", "quaternion", "tension"), parts,

@@ -340,6 +340,14 @@ class OnlineResult:
         The sandwich over the rows the recursion used, each sample weighted
         ``sqrt(lambda^(n-1-k))`` as in the RLS cost; the RLS's own ``sigma`` (eq. 20) assumes
         independent residuals, which the filtered online residuals are not.
+
+        Returns
+        -------
+        cov : ndarray (p, p)
+            Covariance of the final estimate, in the parameters' units squared; the RLS's own
+            ``cov`` when no more rows than parameters were used.
+        bandwidth : float
+            The HAC bandwidth, samples (NaN in that case).
         """
         u = np.asarray(self.used, bool)
         if u.sum() <= len(self.names):

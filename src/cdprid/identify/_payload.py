@@ -29,7 +29,25 @@ _PROVISIONAL = "drive:1"
 
 
 def parse_payload(spec: str) -> tuple[str, float, float]:
-    """``payload:DIR:KG[:STD_KG]`` -> ``(DIR, KG, STD_KG)`` (one sentence when malformed)."""
+    """``payload:DIR:KG[:STD_KG]`` -> ``(DIR, KG, STD_KG)``.
+
+    Parameters
+    ----------
+    spec : str
+        The ``--reference`` value.
+
+    Returns
+    -------
+    direction : str
+        The second dataset (with the payload).
+    kg, std_kg : float
+        The payload's mass and its standard deviation (0 when not given), kg.
+
+    Raises
+    ------
+    InputError
+        Malformed ``spec``, a mass not > 0 or a std < 0 (one sentence).
+    """
     parts = spec.split(":")
     try:
         if parts[0] != "payload" or len(parts) not in (3, 4):

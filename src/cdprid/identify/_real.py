@@ -51,21 +51,9 @@ from cdprid.io import Dataset, align
 from cdprid.model import PARAMETER_NAMES, CableRobot
 from cdprid.signal import make_zero_phase_filter
 
-__all__ = [
-    "ExtensionStep",
-    "RealData",
-    "RealResult",
-    "ResidualRms",
-    "RestWeight",
-    "prepare_real",
-    "taut_mask",
-    "weight_at_rest",
-    "rest_windows",
-    "identify_real",
-    "compare_extensions",
-    "jax_zero_phase_filter",
-    "nuisance_summary",
-]
+__all__ = ["ExtensionStep", "RealData", "RealResult", "ResidualRms", "RestWeight",
+           "prepare_real", "taut_mask", "weight_at_rest", "rest_windows", "identify_real",
+           "compare_extensions", "jax_zero_phase_filter", "nuisance_summary"]
 
 
 # --------------------------------------------------------------------------- matched filter
@@ -123,7 +111,16 @@ class RealData:
     cutoff_hz: float
 
     def with_robot(self, robot: CableRobot) -> RealData:
-        """The same data with the wrench matrices of another geometry (e.g. no pulleys)."""
+        """The same data with the wrench matrices of another geometry (e.g. no pulleys).
+
+        Parameters
+        ----------
+        robot : CableRobot
+
+        Returns
+        -------
+        RealData
+        """
         W = np.asarray(wrench_matrices(robot, jnp.asarray(self.p), jnp.asarray(self.R)))
         return dataclasses.replace(self, robot=robot, W=W)
 
@@ -133,7 +130,19 @@ class RealData:
         return TensionStream.from_arrays(self.tension_t, self.tension)
 
     def tension_at(self, t, offset=None) -> np.ndarray:
-        """Raw tensions linearly interpolated at times ``t`` (minus ``offset``), (n, m)."""
+        """Raw tensions, N, linearly interpolated at times ``t`` (minus ``offset``).
+
+        Parameters
+        ----------
+        t : array (n,)
+            Times, s.
+        offset : array (m,), optional
+            Per-cable offsets, N.
+
+        Returns
+        -------
+        ndarray (n, m)
+        """
         tau = np.asarray(tension_at(self.stream, jnp.asarray(t), "linear"))
         return tau if offset is None else tau - np.asarray(offset)[None, :]
 

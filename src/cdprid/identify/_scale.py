@@ -49,11 +49,28 @@ class ScaleReference:
     source: str
 
     def index(self, p: int) -> int:
-        """Position of the reference in ``theta = (x (p), k_1..k_m, ...)``."""
+        """Position of the reference in ``theta = (x (p), k_1..k_m, ...)``.
+
+        Parameters
+        ----------
+        p : int
+            Number of platform parameters.
+
+        Returns
+        -------
+        int
+            ``p + cable - 1`` for a drive; 0 (the mass) otherwise.
+        """
         return p + self.cable - 1 if self.kind == "drive" else 0  # payload: via the mass
 
     def as_json(self) -> dict:
-        """JSON ``scale_reference``."""
+        """JSON ``scale_reference``.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``cable``, ``value``, ``std``, ``relative_std`` and ``source``.
+        """
         return {"kind": self.kind, "cable": self.cable, "value": self.value, "std": self.std,
                 "relative_std": self.std / self.value, "source": self.source}
 

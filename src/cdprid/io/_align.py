@@ -21,6 +21,13 @@ from cdprid.io._dataset import (
 def sampling_report(t, tol: float = 0.01) -> dict:
     """Describe the sampling of a time vector.
 
+    Parameters
+    ----------
+    t : array (n,)
+        Sample times, s.
+    tol : float
+        Largest relative deviation of a period from the median still called uniform.
+
     Returns
     -------
     dict with ``uniform`` (bool, jitter within ``tol`` of the median period), ``dt`` (median
@@ -83,7 +90,13 @@ class AlignedSignals:
         return len(self.segments)
 
     def segment_times(self) -> list[tuple[float, float]]:
-        """``(t_first, t_last)`` of each segment, s."""
+        """``(t_first, t_last)`` of each gap-free segment.
+
+        Returns
+        -------
+        list of (float, float)
+            First and last sample time of each segment, s.
+        """
         return [(float(self.t[a]), float(self.t[b - 1])) for a, b in self.segments]
 
 

@@ -42,7 +42,18 @@ DATASET_FILES = ("robot.toml", "pose.csv", "tensions.csv", "meta.toml", "lengths
 
 
 def dataset_inputs(path) -> list:
-    """A dataset folder and the files of it a reader reads: what no output may be or hold."""
+    """A dataset folder and the files of it a reader reads: what no output may be or hold.
+
+    Parameters
+    ----------
+    path : path-like
+        The dataset folder.
+
+    Returns
+    -------
+    list of Path
+        The folder, then each of :data:`DATASET_FILES` inside it (present or not).
+    """
     return [Path(path)] + [Path(path) / f for f in DATASET_FILES]
 
 
@@ -279,6 +290,12 @@ def read_dataset(path: str | Path, require_tensions: bool = True) -> Dataset:
     require_tensions : bool
         False: tensions.csv may be absent (format 1.2, identification from motor currents or
         free motion); the dataset's ``tension_t`` and ``tension`` are then None.
+
+    Returns
+    -------
+    Dataset
+        Robot, pose (t in s, position in m, unit quaternions), tensions (N), meta and the
+        optional streams, validated.
 
     Raises
     ------

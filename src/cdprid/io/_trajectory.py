@@ -56,9 +56,19 @@ def save_trajectory_csv(
 def load_trajectory_csv(path) -> SampledTrajectory:
     """Read a trajectory CSV written by :func:`save_trajectory_csv` (or by hand).
 
+    Parameters
+    ----------
+    path : path-like
+        The CSV: ``t`` (s), position (m), optionally a quaternion and rates (module docstring).
+
+    Returns
+    -------
+    SampledTrajectory
+        Interpolating the samples (quintic Hermite).
+
     Raises
     ------
-    ValueError
+    InputError
         One sentence naming the file and what is wrong (a missing column, too few rows...).
     """
     path = Path(path)

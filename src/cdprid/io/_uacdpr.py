@@ -250,7 +250,30 @@ class UacdprRecording:
 
 def load_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
                 swivel_axis: str = DEFAULT_SWIVEL_AXIS) -> UacdprRecording:
-    """Read the three inputs and fit the marker frame's pose (no file written)."""
+    """Read the three inputs and fit the marker frame's pose (no file written).
+
+    Parameters
+    ----------
+    vicon : path-like
+        The Vicon trajectories export (raw markers).
+    robot_log : path-like
+        The robot's ``_exp.mat`` log (tensions, swivel, inclinometer, cable lengths).
+    config : path-like
+        The UACDPR configuration ``.mat`` (exits, anchors, pulleys).
+    swivel_axis : {"first", "third"}
+        Which ``FixedFrame`` vector of the configuration is the swivel axis.
+
+    Returns
+    -------
+    UacdprRecording
+        Robot, Vicon markers, marker-frame fit, robot log and pose times (s).
+
+    Raises
+    ------
+    InputError
+        Malformed input (one sentence naming the file), or Vicon and log times that do not
+        overlap.
+    """
     robot = read_config(config, swivel_axis)
     log = read_robot_log(robot_log, robot.n_cables)
     vt = read_vicon_trajectories(vicon)
@@ -322,12 +345,20 @@ def write_uacdpr(rec: UacdprRecording, out: str | Path, meta: dict, R=None, p=No
     Parameters
     ----------
     rec : UacdprRecording
-    out : folder
+    out : path-like
+        The dataset folder.
     meta : dict
         meta.toml content (:func:`uacdpr_meta`, possibly extended by the caller).
     R, p : ndarray (n, 3, 3), (n, 3), optional
-        Pose to write at ``rec.pose_t`` (default: the marker frame in the Vicon frame).
+        Pose to write at ``rec.pose_t`` (rotation; position, m); default: the marker frame in
+        the Vicon frame.
     overwrite : bool
+        Replace an existing folder.
+
+    Returns
+    -------
+    Path
+        The dataset folder.
     """
     from cdprid.io._writer import write_dataset
     from cdprid.model import matrix_to_quat
@@ -350,7 +381,22 @@ def write_uacdpr(rec: UacdprRecording, out: str | Path, meta: dict, R=None, p=No
 
 
 def sources_of(vicon, robot_log, config) -> dict:
-    """Input file names by role, for meta.toml ``source``."""
+    """Input file names by role, for meta.toml ``source``.
+
+    Parameters
+    ----------
+    vicon : path-like
+        The Vicon trajectories export (raw markers).
+    robot_log : path-like
+        The robot's ``_exp.mat`` log (tensions, swivel, inclinometer, cable lengths).
+    config : path-like
+        The UACDPR configuration ``.mat`` (exits, anchors, pulleys).
+
+    Returns
+    -------
+    dict
+        ``{"vicon": name, "robot_log": name, "config": name}`` (file names without folders).
+    """
     return {"vicon": Path(vicon).name, "robot_log": Path(robot_log).name,
             "config": Path(config).name}
 
@@ -365,12 +411,32 @@ def import_uacdpr(vicon: str | Path, robot_log: str | Path, config: str | Path,
     (:func:`cdprid.identify.import_calibrated_uacdpr` runs all three, as
     ``cdprid import uacdpr`` does). The folder appears whole or not at all.
 
+    Parameters
+    ----------
+    vicon : path-like
+        The Vicon trajectories export (raw markers).
+    robot_log : path-like
+        The robot's ``_exp.mat`` log (tensions, swivel, inclinometer, cable lengths).
+    config : path-like
+        The UACDPR configuration ``.mat`` (exits, anchors, pulleys).
+    out : path-like
+        The dataset folder to write.
+    overwrite : bool
+        Replace this command's files in an existing folder.
+    swivel_axis : {"first", "third"}
+        Which ``FixedFrame`` vector of the configuration is the swivel axis.
+
+    Returns
+    -------
+    Path
+        ``out``.
+
     Raises
     ------
-    ValueError
+    InputError
         Malformed input (one sentence naming the file).
-    cdprid.base._errors.OutputError
-        ``out`` exists and ``overwrite`` is False (checked before reading).
+    OutputError
+        ``out`` exists and ``overwrite`` is False, or is an input (checked before reading).
     """
     from cdprid.base import atomic_dir, check_output
     from cdprid.io._dataset import DATASET_FILES

@@ -29,8 +29,27 @@ def _toml_value(v) -> str:
 
 
 def robot_toml(d: dict) -> str:
-    """``robot.toml`` text in the spec's layout: one field a line, vectors and matrices inline
-    (``exit = [1.065, -1.155, 1.839]``), not one number a line as a generic TOML writer does."""
+    """``robot.toml`` text in the spec's layout.
+
+    One field a line, vectors and matrices inline (``exit = [1.065, -1.155, 1.839]``), not one
+    number a line as a generic TOML writer does.
+
+    Parameters
+    ----------
+    d : dict
+        The robot mapping (:func:`cdprid.model.robot_to_dict`): scalars, lists, tables and
+        arrays of tables (``[[cable]]``).
+
+    Returns
+    -------
+    str
+        The TOML text, ending in a newline.
+
+    Raises
+    ------
+    TypeError
+        A value TOML cannot hold.
+    """
     lines = [f"{k} = {_toml_value(v)}" for k, v in d.items() if not isinstance(v, dict | list)
              or (isinstance(v, list) and not (v and isinstance(v[0], dict)))]
     for k, v in d.items():

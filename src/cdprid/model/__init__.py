@@ -4,6 +4,13 @@ sample robots, cable clearance, tension distribution, trajectories.
 
 # ruff: noqa: F401  (explicit re-exports)
 
+from cdprid.model._cables import cable_lengths as cable_lengths
+from cdprid.model._cables import cable_vectors as cable_vectors
+from cdprid.model._cables import leave_points as leave_points
+from cdprid.model._cables import pulley_leave_point as pulley_leave_point
+from cdprid.model._cables import swivel_angles as swivel_angles
+from cdprid.model._cables import unit_vectors as unit_vectors
+from cdprid.model._cables import wrench_matrix as wrench_matrix
 from cdprid.model._clearance import cable_body_distances as cable_body_distances
 from cdprid.model._clearance import cable_cable_distances as cable_cable_distances
 from cdprid.model._clearance import cable_pairs as cable_pairs
@@ -21,16 +28,9 @@ from cdprid.model._geometry import CableRobot as CableRobot
 from cdprid.model._geometry import Limits as Limits
 from cdprid.model._geometry import NominalPlatform as NominalPlatform
 from cdprid.model._geometry import RobotFileError as RobotFileError
-from cdprid.model._geometry import cable_lengths as cable_lengths
-from cdprid.model._geometry import cable_vectors as cable_vectors
-from cdprid.model._geometry import leave_points as leave_points
 from cdprid.model._geometry import load_robot as load_robot
-from cdprid.model._geometry import pulley_leave_point as pulley_leave_point
 from cdprid.model._geometry import robot_from_dict as robot_from_dict
 from cdprid.model._geometry import robot_to_dict as robot_to_dict
-from cdprid.model._geometry import swivel_angles as swivel_angles
-from cdprid.model._geometry import unit_vectors as unit_vectors
-from cdprid.model._geometry import wrench_matrix as wrench_matrix
 from cdprid.model._presets import check_workspace as check_workspace
 from cdprid.model._presets import preset as preset
 from cdprid.model._robots import CRAFT_LIKE as CRAFT_LIKE

@@ -30,7 +30,8 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from cdprid.base import InputError
-from cdprid.model._geometry import CableRobot, leave_points
+from cdprid.model._cables import leave_points
+from cdprid.model._geometry import CableRobot
 
 __all__ = [
     "cable_pairs",
@@ -45,7 +46,17 @@ _SHARED_TOL = 1e-6
 
 
 def cable_pairs(robot: CableRobot) -> np.ndarray:
-    """Index pairs (k, 2) of cables whose interference is checked (no shared end point)."""
+    """Index pairs of cables whose interference is checked (no shared end point).
+
+    Parameters
+    ----------
+    robot : CableRobot
+
+    Returns
+    -------
+    numpy.ndarray (k, 2) of int
+        Pairs ``(i, j)``, ``i < j``.
+    """
     A = np.asarray(robot.B_A)
     b = np.asarray(robot.P_b)
     out = []
@@ -60,10 +71,23 @@ def cable_pairs(robot: CableRobot) -> np.ndarray:
 def cable_segments(robot: CableRobot, B_p: Float[Array, "n 3"],  # noqa: F722
                    B_R_P: Float[Array, "n 3 3"],  # noqa: F722
                    pulleys: bool | None = None) -> tuple[Array, Array]:
-    """Leave points ``T`` and attachments ``B`` (each (n, m, 3), base frame) along a path.
+    """Leave points ``T`` and attachments ``B`` along a path, base frame.
 
-    ``pulleys`` (static) says whether any cable has a swivel pulley; None reads it from the
-    robot (which must then be concrete, not traced).
+    Parameters
+    ----------
+    robot : CableRobot
+    B_p : array (n, 3)
+        Positions of P, base frame, m.
+    B_R_P : array (n, 3, 3)
+        Rotations platform -> base.
+    pulleys : bool, optional
+        Static: whether any cable has a swivel pulley; None reads it from the robot (which
+        must then be concrete, not traced).
+
+    Returns
+    -------
+    T, B : array (n, m, 3)
+        Leave points and attachment points, m.
     """
     if robot.has_pulleys if pulleys is None else pulleys:
         T = jax.vmap(lambda p, R: leave_points(robot, p, R))(B_p, B_R_P)
@@ -76,8 +100,20 @@ def cable_segments(robot: CableRobot, B_p: Float[Array, "n 3"],  # noqa: F722
 def segment_distances(P0, P1, Q0, Q1, xp=np):
     """Least distance between segments ``[P0, P1]`` and ``[Q0, Q1]`` (broadcast over leading axes).
 
-    Closed form of the closest points (clamped parameters); ``xp`` is numpy (exact certificate)
-    or jax.numpy (differentiable almost everywhere, used by the optimiser).
+    Closed form of the closest points (clamped parameters).
+
+    Parameters
+    ----------
+    P0, P1, Q0, Q1 : array (..., 3)
+        End points, m.
+    xp : module
+        numpy (exact certificate) or jax.numpy (differentiable almost everywhere, used by the
+        optimiser; adds 1e-12 m^2 under the square root).
+
+    Returns
+    -------
+    array (...)
+        Distances, m.
     """
     d1, d2, r = P1 - P0, Q1 - Q0, P0 - Q0
     a = xp.sum(d1 * d1, -1)
@@ -100,7 +136,21 @@ def segment_distances(P0, P1, Q0, Q1, xp=np):
 
 
 def cable_cable_distances(robot: CableRobot, B_p, B_R_P) -> np.ndarray:
-    """Exact least distance (n, k), m, of every checked pair (:func:`cable_pairs`) per sample."""
+    """Exact least distance of every checked pair (:func:`cable_pairs`) per sample.
+
+    Parameters
+    ----------
+    robot : CableRobot
+    B_p : array (n, 3)
+        Positions of P, base frame, m.
+    B_R_P : array (n, 3, 3)
+        Rotations platform -> base.
+
+    Returns
+    -------
+    numpy.ndarray (n, k)
+        Distances, m (k = 0 columns when no pair is checked).
+    """
     pairs = cable_pairs(robot)
     T, B = (np.asarray(x) for x in cable_segments(robot, jnp.asarray(B_p), jnp.asarray(B_R_P)))
     if len(pairs) == 0:
@@ -159,9 +209,27 @@ def _point_face_dist(q, flo, fhi, xp):
 
 
 def cable_body_distances(robot: CableRobot, B_p, B_R_P, n_iter: int = 80) -> np.ndarray:
-    """Exact cable-body clearance (n, m), m (module docstring); ``inf`` where nothing is checked.
+    """Exact cable-body clearance (module docstring).
 
-    Raises ``ValueError`` when the robot has no body box.
+    Parameters
+    ----------
+    robot : CableRobot
+    B_p : array (n, 3)
+        Positions of P, base frame, m.
+    B_R_P : array (n, 3, 3)
+        Rotations platform -> base.
+    n_iter : int
+        Golden-section iterations per cable and box face.
+
+    Returns
+    -------
+    numpy.ndarray (n, m)
+        Clearance per sample and cable, m; ``inf`` where nothing is checked.
+
+    Raises
+    ------
+    InputError
+        The robot has no ``[platform]`` body box.
     """
     pl = robot.platform
     if pl.body_min is None:
@@ -199,11 +267,32 @@ def _softmin(x, temperature, axis=-1):
 def smooth_clearances(robot: CableRobot, B_p, B_R_P, pairs: np.ndarray,
                       n_points: int = 12, temperature: float = 2e-3,
                       pulleys: bool | None = None):
-    """Differentiable clearances per sample: (cable-cable (n,), cable-body (n,)), m.
+    """Differentiable clearances per sample.
 
-    Soft minima (temperature in m) that never exceed the exact minimum by more than a few
-    temperatures; body distances from ``n_points`` points per cable. A term that does not
-    apply (no pair, no body box) is a large constant.
+    Soft minima that never exceed the exact minimum by more than a few temperatures; body
+    distances from ``n_points`` points per cable. A term that does not apply (no pair, no
+    body box) is a large constant (10 m).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    B_p : array (n, 3)
+        Positions of P, base frame, m.
+    B_R_P : array (n, 3, 3)
+        Rotations platform -> base.
+    pairs : numpy.ndarray (k, 2)
+        Cable pairs to check (:func:`cable_pairs`).
+    n_points : int
+        Points per cable for the body distance.
+    temperature : float
+        Soft-minimum temperature, m.
+    pulleys : bool, optional
+        As :func:`cable_segments`.
+
+    Returns
+    -------
+    cable_cable, cable_body : array (n,)
+        Soft-minimum clearances, m.
     """
     n = B_p.shape[0]
     cc = jnp.full((n,), 10.0)

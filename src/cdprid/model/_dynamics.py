@@ -79,7 +79,24 @@ class InertialParameters(eqx.Module):
         return self.inertia_com + self.mass * ((s @ s) * jnp.eye(3) - jnp.outer(s, s))
 
     def vector(self, model: str = "translation"):
-        """The parameter vector x of the ``translation`` (4) or ``full`` (10) model."""
+        """The parameter vector x of the ``translation`` (4) or ``full`` (10) model.
+
+        Parameters
+        ----------
+        model : {"translation", "full"}
+            Which model.
+
+        Returns
+        -------
+        array (4,) or (10,)
+            ``[m, m xG, m yG, m zG]`` (kg, kg m), then for ``full`` the inertia about P, platform
+            frame, ``[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`` (kg m^2).
+
+        Raises
+        ------
+        InputError
+            Unknown ``model``.
+        """
         x4 = jnp.concatenate([self.mass[None], self.first_moment])
         if model == "translation":
             return x4
@@ -92,7 +109,20 @@ class InertialParameters(eqx.Module):
 
     @classmethod
     def from_vector(cls, x, model: str = "translation") -> InertialParameters:
-        """Inverse of :meth:`vector` (inertia about P converted back to the centre of mass)."""
+        """Inverse of :meth:`vector` (inertia about P converted back to the centre of mass).
+
+        Parameters
+        ----------
+        x : array-like (4,) or (10,)
+            The parameter vector, units as :meth:`vector`; ``x[0]`` (the mass) must not be 0.
+        model : {"translation", "full"}
+            Which model ``x`` belongs to (any other value reads it as ``full``).
+
+        Returns
+        -------
+        InertialParameters
+            With zero inertia for ``translation``.
+        """
         x = np.asarray(x, float)
         m = x[0]
         s = x[1:4] / m
@@ -105,7 +135,17 @@ class InertialParameters(eqx.Module):
 
 
 def inertia_vector_matrix(w):
-    """L(w) (3, 6) such that ``I @ w == L(w) @ [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]``."""
+    """L(w) such that ``I @ w == L(w) @ [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]``.
+
+    Parameters
+    ----------
+    w : array (3,)
+        A vector (an angular velocity or acceleration).
+
+    Returns
+    -------
+    array (3, 6)
+    """
     z = jnp.zeros_like(w[0])
     return jnp.array(
         [
@@ -117,10 +157,29 @@ def inertia_vector_matrix(w):
 
 
 def platform_wrench(params: InertialParameters, B_R_P, B_a, B_omega, B_alpha, gravity):
-    """Wrench (6,) the cables must apply on the platform (force; moment about P), eqs. 1-7.
+    """Wrench the cables must apply on the platform (force; moment about P), eqs. 1-7.
 
     Independent of the regressors: computed from the physical parameters directly, so that
     the regressors can be tested against it.
+
+    Parameters
+    ----------
+    params : InertialParameters
+    B_R_P : array (3, 3)
+        Rotation platform -> base.
+    B_a : array (3,)
+        Acceleration of P, base frame, m/s^2.
+    B_omega : array (3,)
+        Angular velocity, base frame, rad/s.
+    B_alpha : array (3,)
+        Angular acceleration, base frame, rad/s^2.
+    gravity : array (3,)
+        Gravity acceleration, base frame, m/s^2.
+
+    Returns
+    -------
+    array (6,)
+        Force (N) and moment about P (N m), base frame.
     """
     m = params.mass
     c = B_R_P @ params.com  # centre of mass offset, base frame
@@ -133,10 +192,23 @@ def platform_wrench(params: InertialParameters, B_R_P, B_a, B_omega, B_alpha, gr
 
 
 def regressor_translation(B_R_P, B_a, gravity):
-    """Translation-only regressor A (6, 4) of eq. (10): ``A @ [m, mxG, myG, mzG] = W tau``.
+    """Translation-only regressor A of eq. (10): ``A @ [m, mxG, myG, mzG] = W tau``.
 
     With ``B_R_P = I`` this is exactly the paper's matrix; with a measured rotation the
     first moment (platform frame) is rotated into the base frame.
+
+    Parameters
+    ----------
+    B_R_P : array (3, 3)
+        Rotation platform -> base.
+    B_a : array (3,)
+        Acceleration of P, base frame, m/s^2.
+    gravity : array (3,)
+        Gravity acceleration, base frame, m/s^2.
+
+    Returns
+    -------
+    array (6, 4)
     """
     ag = B_a - gravity
     top = jnp.concatenate([ag[:, None], jnp.zeros((3, 3))], axis=1)
@@ -145,9 +217,26 @@ def regressor_translation(B_R_P, B_a, gravity):
 
 
 def regressor_full(B_R_P, B_a, B_omega, B_alpha, gravity):
-    """Full regressor (6, 10): ``A @ [m, m s_G, Ixx, Ixy, Ixz, Iyy, Iyz, Izz] = W tau``.
+    """Full regressor: ``A @ [m, m s_G, Ixx, Ixy, Ixz, Iyy, Iyz, Izz] = W tau``.
 
     The inertia entries are about P in the platform frame.
+
+    Parameters
+    ----------
+    B_R_P : array (3, 3)
+        Rotation platform -> base.
+    B_a : array (3,)
+        Acceleration of P, base frame, m/s^2.
+    B_omega : array (3,)
+        Angular velocity, base frame, rad/s.
+    B_alpha : array (3,)
+        Angular acceleration, base frame, rad/s^2.
+    gravity : array (3,)
+        Gravity acceleration, base frame, m/s^2.
+
+    Returns
+    -------
+    array (6, 10)
     """
     ag = B_a - gravity
     K = skew(B_alpha) + skew(B_omega) @ skew(B_omega)
@@ -160,7 +249,33 @@ def regressor_full(B_R_P, B_a, B_omega, B_alpha, gravity):
 
 
 def regressor(model: str, B_R_P, B_a, B_omega, B_alpha, gravity):
-    """Dispatch to :func:`regressor_translation` or :func:`regressor_full` by ``model``."""
+    """Dispatch to :func:`regressor_translation` or :func:`regressor_full` by ``model``.
+
+    Parameters
+    ----------
+    model : {"translation", "full"}
+        Which regressor.
+    B_R_P : array (3, 3)
+        Rotation platform -> base.
+    B_a : array (3,)
+        Acceleration of P, base frame, m/s^2.
+    B_omega : array (3,)
+        Angular velocity, base frame, rad/s.
+    B_alpha : array (3,)
+        Angular acceleration, base frame, rad/s^2.
+        Unused by ``translation``.
+    gravity : array (3,)
+        Gravity acceleration, base frame, m/s^2.
+
+    Returns
+    -------
+    array (6, 4) or (6, 10)
+
+    Raises
+    ------
+    InputError
+        Unknown ``model``.
+    """
     if model == "translation":
         return regressor_translation(B_R_P, B_a, gravity)
     if model == "full":

@@ -1,4 +1,4 @@
-"""Robot geometry: :class:`CableRobot`, cable vectors, swivel pulleys, wrench matrix W.
+"""Robot geometry: :class:`CableRobot` and its robot.toml (spec v1).
 
 Notation (paper section 3, names carry their frame):
 
@@ -12,15 +12,7 @@ Notation (paper section 3, names carry their frame):
   "expressed in the platform frame"; the moment needs b_i rotated into the base frame,
   which is what is implemented (identical when ``B_R_P = I``).
 
-Swivel pulleys (spec v1): the pulley of radius r turns about the unit axis k through A so
-that its plane contains the cable. The cable arrives at A travelling along +k, wraps on
-the rim, and leaves at the tangent point T towards the attachment. In the pulley plane
-(x along the horizontal-to-B direction e, y along k, origin at the pulley centre
-C = A + r e), with (px, py) the coordinates of B - C, d = |B - C|, the leave point is at
-angle phi = atan2(py, px) + acos(r / d), T = C + r (cos phi e + sin phi k), and the cable
-length is r (pi - phi) + |B - T|. The length's gradient with respect to the platform
-pose is the straight segment's unit vector, so ``W = -J^T`` with J the Jacobian of the
-cable lengths with respect to (position, rotation vector) — tested in the suite.
+The per-pose geometry (cable vectors, lengths, W) is in :mod:`cdprid.model._cables`.
 """
 
 from __future__ import annotations
@@ -29,7 +21,6 @@ import dataclasses
 from pathlib import Path
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 import tomllib
@@ -43,12 +34,6 @@ __all__ = [
     "load_robot",
     "robot_from_dict",
     "robot_to_dict",
-    "leave_points",
-    "cable_vectors",
-    "cable_lengths",
-    "unit_vectors",
-    "wrench_matrix",
-    "swivel_angles",
     "RobotFileError",
 ]
 
@@ -140,7 +125,18 @@ class CableRobot(eqx.Module):
         return bool(np.any(np.asarray(self.pulley_radius) > 0))
 
     def replace(self, **changes) -> CableRobot:
-        """A copy with some array fields replaced (e.g. ``B_A=...``)."""
+        """A copy with some array fields replaced (e.g. ``B_A=...``).
+
+        Parameters
+        ----------
+        **changes : array-like
+            New values of array fields by name (converted to float arrays; units as the fields).
+
+        Returns
+        -------
+        CableRobot
+            The copy; ``self`` is unchanged.
+        """
         out = self
         for key, value in changes.items():
             out = eqx.tree_at(lambda r, k=key: getattr(r, k), out, jnp.asarray(value, float))
@@ -271,6 +267,17 @@ def _check_typos(source: str, data: dict) -> None:
 def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
     """Build a :class:`CableRobot` from the parsed robot.toml mapping (spec v1).
 
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML (lengths in m, masses in kg, inertia in kg m^2).
+    source : str
+        The file name used in messages.
+
+    Returns
+    -------
+    CableRobot
+
     Raises
     ------
     RobotFileError
@@ -381,6 +388,15 @@ def _platform_inertia(source: str, plat: dict) -> tuple | None:
 def load_robot(path: str | Path) -> CableRobot:
     """Read a spec-v1 ``robot.toml``.
 
+    Parameters
+    ----------
+    path : path-like
+        The file (UTF-8, a byte-order mark allowed).
+
+    Returns
+    -------
+    CableRobot
+
     Raises
     ------
     RobotFileError
@@ -411,7 +427,17 @@ def _hostile_toml(exc: BaseException) -> str:
 
 
 def robot_to_dict(robot: CableRobot) -> dict:
-    """The spec-v1 robot.toml mapping of a robot (inverse of :func:`robot_from_dict`)."""
+    """The spec-v1 robot.toml mapping of a robot (inverse of :func:`robot_from_dict`).
+
+    Parameters
+    ----------
+    robot : CableRobot
+
+    Returns
+    -------
+    dict
+        TOML-able mapping; absent limits, platform fields and pulleys are left out.
+    """
     out: dict = {"name": robot.name, "gravity": [float(v) for v in np.asarray(robot.gravity)]}
     lim = {k: (list(v) if isinstance(v, tuple) else v)
            for k, v in dataclasses.asdict(robot.limits).items() if v is not None}
@@ -440,121 +466,3 @@ def robot_to_dict(robot: CableRobot) -> dict:
     if plat:
         out["platform"] = plat
     return out
-
-
-# --------------------------------------------------------------------------- per-pose geometry
-
-
-def _safe_unit(v, fallback):
-    n2 = v @ v
-    ok = n2 > 1e-24
-    n = jnp.sqrt(jnp.where(ok, n2, 1.0))
-    return jnp.where(ok, v / n, fallback)
-
-
-def _one_cable(A, b_base, p, r, k, ref):
-    """Leave point T, wrap angle and straight segment for one cable (base frame)."""
-    B = p + b_base
-    v = B - A
-    e = _safe_unit(v - (v @ k) * k, ref)
-    C = A + r * e
-    px = (B - C) @ e
-    py = (B - C) @ k
-    d = jnp.sqrt(px * px + py * py)
-    phi = jnp.arctan2(py, px) + jnp.arccos(jnp.clip(r / d, 0.0, 1.0))
-    T = C + r * (jnp.cos(phi) * e + jnp.sin(phi) * k)
-    wrap = jnp.pi - phi
-    return T, wrap, e
-
-
-def leave_points(robot: CableRobot, B_p, B_R_P):
-    """Points where the cables leave the frame towards the platform (m, 3), base frame.
-
-    Equal to ``robot.B_A`` for cables without pulleys.
-    """
-    b = (B_R_P @ robot.P_b.T).T
-    T, _, _ = _per_cable(robot, B_p, b)
-    return T
-
-
-def _per_cable(robot, B_p, b_base):
-    return jax.vmap(_one_cable, in_axes=(0, 0, None, 0, 0, 0))(
-        robot.B_A, b_base, B_p, robot.pulley_radius, robot.pulley_axis, robot.pulley_reference
-    )
-
-
-def cable_vectors(robot: CableRobot, B_p, B_R_P):
-    """Cable vectors (m, 3) from each attachment B_i to its leave point, base frame."""
-    b = (B_R_P @ robot.P_b.T).T
-    T, _, _ = _per_cable(robot, B_p, b)
-    return T - (B_p + b)
-
-
-def cable_lengths(robot: CableRobot, B_p, B_R_P):
-    """Cable lengths (m,) from the pulley entry point (arc on the rim included) to B_i."""
-    b = (B_R_P @ robot.P_b.T).T
-    T, wrap, _ = _per_cable(robot, B_p, b)
-    straight = jnp.linalg.norm(T - (B_p + b), axis=1)
-    return straight + robot.pulley_radius * wrap
-
-
-def unit_vectors(robot: CableRobot, B_p, B_R_P):
-    """Unit cable vectors u_i (m, 3), from attachment towards leave point, base frame."""
-    L = cable_vectors(robot, B_p, B_R_P)
-    return L / jnp.linalg.norm(L, axis=1, keepdims=True)
-
-
-@jax.jit
-def wrench_matrix(robot: CableRobot, B_p, B_R_P):
-    """Wrench matrix W (6, m) of eq. (2) at one pose: ``W tau`` = cable force and moment about P.
-
-    Jitted: the regression, the guards and the Jacobians of the bound trace it once per
-    robot and shape, not once each (start-up time).
-
-    Parameters
-    ----------
-    robot : CableRobot
-    B_p : array (3,)
-        Position of P, base frame.
-    B_R_P : array (3, 3)
-        Rotation platform -> base.
-
-    Returns
-    -------
-    W : array (6, m)
-        Rows 0-2 force (base frame), rows 3-5 moment about P (base frame).
-    """
-    b = (B_R_P @ robot.P_b.T).T
-    T, _, _ = _per_cable(robot, B_p, b)
-    L = T - (B_p + b)
-    u = L / jnp.linalg.norm(L, axis=1, keepdims=True)
-    return jnp.concatenate([u.T, jnp.cross(b, u).T], axis=0)
-
-
-def swivel_angles(robot: CableRobot, B_p, B_R_P):
-    """Swivel angle (m,) of each pulley plane, rad, about its axis from ``pulley_reference``."""
-    b = (B_R_P @ robot.P_b.T).T
-    _, _, e = _per_cable(robot, B_p, b)
-    k, ref = robot.pulley_axis, robot.pulley_reference
-    s = jnp.sum(jnp.cross(ref, e) * k, axis=1)
-    c = jnp.sum(ref * e, axis=1)
-    return jnp.arctan2(s, c)
-
-
-def pulley_leave_point(A, b_base, p, r, k, ref):
-    """Leave point, wrap angle and in-plane unit vector of one cable over a swivel pulley.
-
-    Parameters
-    ----------
-    A : (3,) exit point (pulley entry on the swivel axis), base frame
-    b_base : (3,) attachment vector ``R b_i``, base frame
-    p : (3,) platform position
-    r : float, pulley radius
-    k : (3,) unit swivel axis, the direction the cable runs into the pulley
-    ref : (3,) reference direction used when the cable runs along the axis
-
-    Returns
-    -------
-    T : (3,) leave point; wrap : float, wrap angle (rad); e : (3,) in-plane unit vector
-    """
-    return _one_cable(A, b_base, p, r, k, ref)

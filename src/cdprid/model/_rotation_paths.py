@@ -32,7 +32,18 @@ class Rotation(eqx.Module):
     ramp: float = eqx.field(static=True, default=2.0)
 
     def rotvec(self, t):
-        """Rotation vector (3,) at a scalar time t."""
+        """Rotation vector at a scalar time t.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        array (3,)
+            Rotation vector, rad.
+        """
         env = smoothstep7((t - self.t_start) / self.ramp) * smoothstep7(
             (self.t_end - t) / self.ramp
         )
@@ -40,7 +51,17 @@ class Rotation(eqx.Module):
         return env * jnp.sum(self.amplitude * s, axis=0)
 
     def quat(self, t):
-        """Quaternion (4,) scalar first, platform -> base, at a scalar time t."""
+        """Quaternion, scalar first, platform -> base, at a scalar time t.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        array (4,)
+        """
         return rotvec_to_quat(self.rotvec(t))
 
 

@@ -37,6 +37,14 @@ def quat_to_matrix(q: Float[ArrayLike, " 4"]) -> Float[Array, "3 3"]:
 
     The quaternion is normalised first, so small norm errors do not leak
     into the rotation.
+
+    Parameters
+    ----------
+    q : array (4,)
+
+    Returns
+    -------
+    array (3, 3)
     """
     q = jnp.asarray(q)
     q = q / jnp.linalg.norm(q)
@@ -51,7 +59,16 @@ def quat_to_matrix(q: Float[ArrayLike, " 4"]) -> Float[Array, "3 3"]:
 
 
 def quat_multiply(a: Float[ArrayLike, " 4"], b: Float[ArrayLike, " 4"]) -> Float[Array, " 4"]:
-    """Hamilton product ``a * b`` of two quaternions (scalar first)."""
+    """Hamilton product ``a * b`` of two quaternions (scalar first).
+
+    Parameters
+    ----------
+    a, b : array (4,)
+
+    Returns
+    -------
+    array (4,)
+    """
     a = jnp.asarray(a)
     b = jnp.asarray(b)
     w1, v1 = a[0], a[1:]
@@ -62,13 +79,33 @@ def quat_multiply(a: Float[ArrayLike, " 4"], b: Float[ArrayLike, " 4"]) -> Float
 
 
 def quat_conjugate(q: Float[ArrayLike, " 4"]) -> Float[Array, " 4"]:
-    """Conjugate ``[qw, -qx, -qy, -qz]``."""
+    """Conjugate ``[qw, -qx, -qy, -qz]``.
+
+    Parameters
+    ----------
+    q : array (4,)
+
+    Returns
+    -------
+    array (4,)
+    """
     q = jnp.asarray(q)
     return q * jnp.array([1.0, -1.0, -1.0, -1.0], dtype=q.dtype)
 
 
 def rotvec_to_quat(r: Float[ArrayLike, " 3"]) -> Float[Array, " 4"]:
-    """Quaternion of a rotation vector (axis * angle), safe at zero angle."""
+    """Quaternion of a rotation vector (axis * angle), safe at zero angle.
+
+    Parameters
+    ----------
+    r : array (3,)
+        Rotation vector, rad.
+
+    Returns
+    -------
+    array (4,)
+        Unit quaternion, scalar first.
+    """
     r = jnp.asarray(r)
     angle2 = r @ r
     angle = jnp.sqrt(jnp.where(angle2 > 0, angle2, 1.0))
@@ -82,6 +119,14 @@ def matrix_to_quat(R: Float[ArrayLike, "*batch 3 3"]) -> Float[np.ndarray, "*bat
     """Unit quaternion (scalar first, qw >= 0) of a rotation matrix (numpy, any batch).
 
     Shepperd's method, robust for all rotations.
+
+    Parameters
+    ----------
+    R : array (..., 3, 3)
+
+    Returns
+    -------
+    numpy.ndarray (..., 4)
     """
     R = np.asarray(R, dtype=float)
     batch = R.shape[:-2]
@@ -111,10 +156,19 @@ def matrix_to_quat(R: Float[ArrayLike, "*batch 3 3"]) -> Float[np.ndarray, "*bat
 
 
 def quat_continuity(q: Float[ArrayLike, "n 4"]) -> Float[np.ndarray, "n 4"]:
-    """Flip signs of a quaternion time series (n, 4) so consecutive samples agree.
+    """Flip signs of a quaternion time series so consecutive samples agree.
 
     ``q`` and ``-q`` are the same rotation; differentiating a series with sign
     jumps would create spikes, so this is applied before differentiation.
+
+    Parameters
+    ----------
+    q : array (n, 4)
+
+    Returns
+    -------
+    numpy.ndarray (n, 4)
+        A copy; sample k is negated when its dot product with sample k-1 is negative.
     """
     q = np.array(q, dtype=float, copy=True)
     for k in range(1, len(q)):

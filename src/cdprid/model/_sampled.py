@@ -78,14 +78,36 @@ class SampledTrajectory(eqx.Module):
         return k, h, (tc - self.t[k]) / h
 
     def position(self, t):
-        """Interpolated position (3,) at a scalar time t."""
+        """Interpolated position at a scalar time t (quintic Hermite, clipped to the sampled span).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        array (3,)
+            Position of P, base frame, m.
+        """
         k, h, s = self._segment(t)
         return _hermite5(
             s, h, self.p[k], self.v[k], self.a[k], self.p[k + 1], self.v[k + 1], self.a[k + 1]
         )
 
     def quat(self, t):
-        """Interpolated, renormalised quaternion (4,) at a scalar time t."""
+        """Interpolated, renormalised quaternion at a scalar time t.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        array (4,)
+            Unit quaternion, scalar first, platform -> base.
+        """
         k, h, s = self._segment(t)
 
         def qdots(i):

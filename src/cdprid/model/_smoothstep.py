@@ -11,6 +11,16 @@ def smoothstep7(x):
     """Septic smoothstep ``35 x^4 - 84 x^5 + 70 x^6 - 20 x^7`` of ``clip(x, 0, 1)``.
 
     Its first three derivatives vanish at 0 and 1.
+
+    Parameters
+    ----------
+    x : array
+        Any shape; dimensionless.
+
+    Returns
+    -------
+    array
+        Same shape, in [0, 1].
     """
     x = jnp.clip(x, 0.0, 1.0)
     return x**4 * (35.0 + x * (-84.0 + x * (70.0 - 20.0 * x)))
@@ -26,6 +36,22 @@ def smoothstep7_derivs(x, scale, sign, order: int):
     """[g, g', ..., g^(order)] of ``g(u) = S(x)`` with ``dx/du = sign / scale``.
 
     S is :func:`smoothstep7`; outside [0, 1] the derivatives are 0 (S is constant there).
+
+    Parameters
+    ----------
+    x : array
+        The argument of S (any shape).
+    scale : float
+        Length of the ramp in u (e.g. s).
+    sign : float
+        +1 for a ramp up in u, -1 for a ramp down.
+    order : int
+        Highest derivative, at most 3.
+
+    Returns
+    -------
+    list of array
+        ``order + 1`` arrays of the shape of ``x``; the k-th in units of u^-k.
     """
     inside = (x > 0.0) & (x < 1.0)
     x = jnp.clip(x, 0.0, 1.0)

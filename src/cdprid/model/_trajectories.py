@@ -178,7 +178,18 @@ class Trajectory(TimedTrajectory):
         return self.rotation is not None and bool(np.any(np.asarray(self.rotation.amplitude) != 0))
 
     def position(self, t):
-        """Position of P (3,) at a scalar time t (closed form of the module docstring)."""
+        """Position of P at a scalar time t (closed form of the module docstring).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        array (3,)
+            Position, base frame, m.
+        """
         return self._position_derivs(t, 0)[0]
 
     def _position_derivs(self, t, order: int):

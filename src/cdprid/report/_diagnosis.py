@@ -8,8 +8,21 @@ import numpy as np
 
 
 def not_named_lines(result) -> list[str]:
-    """The ``Checked and not named`` section: the sizes of the effects a real recording
-    always holds (friction on every pulley, a clock offset) when the search did not name them."""
+    """The ``Checked and not named`` section of report.md.
+
+    The sizes of the effects a real recording always holds (friction on every pulley, a clock
+    offset) when the search did not name them.
+
+    Parameters
+    ----------
+    result : DiagnosisResult
+        Its ``info["not_named"]`` items are listed.
+
+    Returns
+    -------
+    list of str
+        Markdown lines; [] when there is nothing to list.
+    """
     items = result.info.get("not_named") or []
     if not items:
         return []
@@ -53,8 +66,20 @@ def competing_lines(result) -> list[str]:
 
 
 def format_values(d: dict) -> str:
-    """``key value, key [lo, hi]`` with 3 significant digits (numbers and lists of them;
-    a nested dict, e.g. the parameters of each effect of a competing model, in parentheses)."""
+    """``key value, key [lo, hi]`` with 3 significant digits.
+
+    Numbers and lists of them; a nested dict, e.g. the parameters of each effect of a
+    competing model, in parentheses.
+
+    Parameters
+    ----------
+    d : dict
+        Values by name (units as the caller's).
+
+    Returns
+    -------
+    str
+    """
     def one(v):
         if isinstance(v, dict):
             return "(" + format_values(v) + ")"
@@ -186,8 +211,22 @@ def clock_figure(result, out: Path) -> Path | None:
 
 
 def episode_lines(result) -> list:
-    """The ``## Episodes`` section: what happened only at times and was left out of the fits
-    (:mod:`cdprid.episodes`), and the held-out figure with and without it."""
+    """The ``## Episodes`` section of report.md.
+
+    What happened only at times and was left out of the fits (:mod:`cdprid.episodes`), and the
+    held-out figure with and without it.
+
+    Parameters
+    ----------
+    result : DiagnosisResult
+        Its ``episodes`` (dicts: ``kind``, ``start_s``, ``end_s``, sizes in N, N m, J or m,
+        ``p_value``).
+
+    Returns
+    -------
+    list of str
+        Markdown lines; [] when there are no episodes.
+    """
     eps = list(getattr(result, "episodes", []) or [])
     if not eps:
         return []

@@ -33,7 +33,16 @@ def plot_trajectory(robot, traj, path, initial=None, title: str = "", n_cables_a
     n_cables_at : int
         Number of instants at which the cables are drawn.
     box : (lo, hi), optional
-        Workspace box drawn (default: robot.toml's, if any).
+        Workspace box drawn (default: robot.toml's, if any), m.
+    title : str
+        Figure title.
+    force : bool
+        Replace an existing file.
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     import matplotlib
 
@@ -90,6 +99,15 @@ def plot_safety_series(series, limits, path, title: str = "", force: bool = True
     limits : cdprid.excitation._safety.SafetyLimits
     path : str or Path
         PNG file written (atomically).
+    title : str
+        Figure title.
+    force : bool
+        Replace an existing file.
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     import matplotlib
 

@@ -19,6 +19,16 @@ def episodes_of(result) -> list[dict]:
     Reads an ``episodes`` attribute or key holding objects (with ``as_json()`` or attributes)
     or dicts, or a container whose ``as_json()`` is that list (:class:`cdprid.episodes.Episodes`,
     an identify report's); anything without ``start_s`` and ``end_s`` is skipped.
+
+    Parameters
+    ----------
+    result : object or dict
+        A diagnosis or identify result, or its JSON.
+
+    Returns
+    -------
+    list of dict
+        Copies; times in s.
     """
     eps = getattr(result, "episodes", None)
     if eps is None and isinstance(result, dict):

@@ -23,6 +23,11 @@ def plot_online(res: OnlineResult, path, truth=None, title: str | None = None) -
     truth : array (p,) or (n, p), optional
         Reference values drawn as dashed lines.
     title : str, optional
+
+    Returns
+    -------
+    Path
+        The PNG written (atomically, 150 dpi).
     """
     plt = pyplot()
     p = len(res.names)

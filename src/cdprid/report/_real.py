@@ -26,7 +26,19 @@ def _pyplot():
 
 
 def fig_wrench(data, steps, path, train_until: float):
-    """Measured vs model force (paper model and the final one) and the raw tensions."""
+    """Measured vs model force (paper model and the final one) and the raw tensions.
+
+    Parameters
+    ----------
+    data : RealData
+        The prepared recording (:func:`cdprid.identify.prepare_real`).
+    steps : list of dict
+        :func:`cdprid.identify.compare_extensions`'s steps (``"step"``, ``"result"``).
+    path : path-like
+        PNG written atomically (an existing file is replaced).
+    train_until : float
+        End of the training part, s (a dashed line).
+    """
     base, final = steps[0]["result"], next(s["result"] for s in steps if "final" in s["step"])
     plt = _pyplot()
     fig, ax = plt.subplots(4, 1, figsize=(11, 10), sharex=True)
@@ -53,7 +65,19 @@ def fig_wrench(data, steps, path, train_until: float):
 
 
 def fig_residuals(data, steps, path, train_until: float):
-    """Force and moment residual norms of every cumulative step (taut samples)."""
+    """Force and moment residual norms of every cumulative step (taut samples).
+
+    Parameters
+    ----------
+    data : RealData
+        The prepared recording (:func:`cdprid.identify.prepare_real`).
+    steps : list of dict
+        :func:`cdprid.identify.compare_extensions`'s steps (``"step"``, ``"result"``).
+    path : path-like
+        PNG written atomically (an existing file is replaced).
+    train_until : float
+        End of the training part, s (a dashed line).
+    """
     plt = _pyplot()
     fig, ax = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
     for s in steps:
@@ -75,7 +99,19 @@ def fig_residuals(data, steps, path, train_until: float):
 
 
 def fig_tensions(data, r, path, train_until: float):
-    """Measured tensions vs the tensions the final model asks for (least-norm W^+ w_model)."""
+    """Measured tensions vs the tensions the final model asks for (least-norm W^+ w_model).
+
+    Parameters
+    ----------
+    data : RealData
+        The prepared recording (:func:`cdprid.identify.prepare_real`).
+    r : RealResult
+        The final model's fit (offsets N, gains, delay s).
+    path : path-like
+        PNG written atomically (an existing file is replaced).
+    train_until : float
+        End of the training part, s (a dashed line).
+    """
     pinv = np.linalg.pinv(data.W)
 
     tau_meas = zero_phase_filter((data.tension_at(data.t + r.delay) - r.offset) * r.gain, data.dt)
@@ -95,7 +131,15 @@ def fig_tensions(data, r, path, train_until: float):
 
 
 def fig_nuisance(steps, path):
-    """Relative gains, zero-sum offsets and the delay per model."""
+    """Relative gains, zero-sum offsets (N) and the delay (ms) per model.
+
+    Parameters
+    ----------
+    steps : list of dict
+        :func:`cdprid.identify.compare_extensions`'s steps (``"step"``, ``"result"``).
+    path : path-like
+        PNG written atomically (an existing file is replaced).
+    """
     r = next(s["result"] for s in steps if "final" in s["step"])
     ro = next(s["result"] for s in steps if "zero-sum" in s["step"])
     plt = _pyplot()

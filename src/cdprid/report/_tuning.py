@@ -17,6 +17,13 @@ def plot_response(resp, path, method: str = "", force: bool = False) -> Path:
         PNG to write (atomically; refused if it exists unless ``force``).
     method : str
         Title.
+    force : bool
+        Replace an existing file.
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     import matplotlib
 

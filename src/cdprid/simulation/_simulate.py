@@ -97,7 +97,13 @@ class SensorNoise:
 
     @classmethod
     def off(cls) -> SensorNoise:
-        """No noise, no quantisation."""
+        """No noise, no quantisation.
+
+        Returns
+        -------
+        SensorNoise
+            Every noise standard deviation and quantisation step 0.
+        """
         return cls(0.0, 0.0, 0.0, length_m=0.0)
 
 

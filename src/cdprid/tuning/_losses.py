@@ -64,7 +64,21 @@ class ParamProblem:
         self._reg = jax.vmap(lambda a: regressor_translation(I3, a, jnp.asarray(self.g)))
 
     def rel_error(self, A_hat, mask):
-        """RMS over seeds of the scaled parameter error; ``A_hat`` (n, S, 3)."""
+        """Scaled parameter error per seed.
+
+        Parameters
+        ----------
+        A_hat : array (n, S, 3)
+            Estimated accelerations per seed, m/s^2.
+        mask : array (n,)
+            0/1 weights of the samples.
+
+        Returns
+        -------
+        array (S,)
+            Mean over the 4 parameters of the squared error, each scaled by the true mass or the
+            norm of the true first moment (dimensionless).
+        """
         A_hat = A_hat[: self.n]
         m = jnp.asarray(mask[: self.n], A_hat.dtype)
 
@@ -90,7 +104,19 @@ def _stack_train(signal, noise_std, seeds):
 
 
 def penalty_freqs(dt: float, bandwidth_hz: float) -> np.ndarray:
-    """Frequency grid of the response penalty (coarser than :func:`dense_freqs`)."""
+    """Frequency grid of the response penalty (coarser than :func:`dense_freqs`).
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period, s.
+    bandwidth_hz : float
+
+    Returns
+    -------
+    ndarray
+        Frequencies, Hz: 120 log-spaced up to ``0.49 / dt`` and 25 linear up to the bandwidth.
+    """
     return np.union1d(np.geomspace(0.02, 0.49 / dt, 120), np.linspace(0.02, bandwidth_hz, 25))
 
 

@@ -60,13 +60,33 @@ class ResponseBounds:
                 raise InputError(f"response bound {k} must be a positive number, got {v!r}.")
 
     def as_json(self) -> dict:
-        """The bounds as JSON numbers."""
+        """The bounds as JSON numbers.
+
+        Returns
+        -------
+        dict
+        """
         return dataclasses.asdict(self)
 
 
 def dense_freqs(dt: float, bandwidth_hz: float | None = None, n: int = 160) -> np.ndarray:
-    """Verification grid: ``n`` log-spaced frequencies from 0.05 Hz to ``0.45 / dt`` (plus the
-    bandwidth itself and 40 linearly spaced points up to it)."""
+    """Verification grid of frequencies.
+
+    ``n`` log-spaced frequencies from 0.05 Hz to ``0.45 / dt`` (plus the bandwidth itself and
+    40 linearly spaced points up to it).
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period, s.
+    bandwidth_hz : float, optional
+    n : int
+
+    Returns
+    -------
+    ndarray
+        Sorted frequencies, Hz.
+    """
     f = np.geomspace(0.05, 0.45 / dt, n)
     if bandwidth_hz is not None:
         f = np.union1d(f, np.linspace(0.05, bandwidth_hz, 40))
@@ -141,6 +161,21 @@ def response_penalty(H, freqs_hz, bounds: ResponseBounds, margin: float = 0.9):
 
     The gain and phase bounds are tightened by ``margin`` so that the optimum lies inside them
     (the final result is verified on a dense grid by :func:`acceleration_response`).
+
+    Parameters
+    ----------
+    H : array (F,) complex
+        Acceleration response.
+    freqs_hz : array (F,)
+        Its frequencies, Hz.
+    bounds : ResponseBounds
+    margin : float
+        Fraction of the tolerances aimed at.
+
+    Returns
+    -------
+    scalar array
+        Dimensionless penalty (0 within the tightened bounds).
     """
     f = np.asarray(freqs_hz, float)
     below = jnp.asarray(f <= bounds.bandwidth_hz)
@@ -209,7 +244,12 @@ class FrequencyResponse:
     accel_amplitude: float | None = None
 
     def as_json(self) -> dict:
-        """Numbers for ``tune --json`` (key ``frequency_response``)."""
+        """Numbers for ``tune --json`` (key ``frequency_response``).
+
+        Returns
+        -------
+        dict
+        """
         d = {
             "freqs_hz": [float(f) for f in self.freqs_hz],
             "gain": [float(g) for g in self.gain],
@@ -235,7 +275,12 @@ class FrequencyResponse:
         return d
 
     def check_json(self) -> dict:
-        """The verification against the stated bounds (top-level keys of ``tune --json``)."""
+        """The verification against the stated bounds (top-level keys of ``tune --json``).
+
+        Returns
+        -------
+        dict
+        """
         b = self.bounds
         return {
             "stated_bandwidth_hz": b.bandwidth_hz if b else None,
@@ -253,7 +298,12 @@ class FrequencyResponse:
         }
 
     def summary(self) -> str:
-        """One line of numbers."""
+        """One line of numbers.
+
+        Returns
+        -------
+        str
+        """
         if self.bounds is not None:
             b = self.bounds
             return (f"acceleration response up to the stated bandwidth {b.bandwidth_hz:.3g} Hz: "
@@ -270,8 +320,20 @@ class FrequencyResponse:
 
 
 def is_linear(method: str, params: dict) -> bool:
-    """True when ``method`` with ``params`` is a linear filter (SIHD with alpha = 1 and gains
-    below the dead-beat clip are linear; Levant and SIHD with alpha < 1 are not)."""
+    """True when ``method`` with ``params`` is a linear filter.
+
+    SIHD with alpha = 1 and gains below the dead-beat clip are linear; Levant and SIHD with
+    alpha < 1 are not.
+
+    Parameters
+    ----------
+    method : str
+    params : dict
+
+    Returns
+    -------
+    bool
+    """
     if method == "levant":
         return False
     if method in SIHD_METHODS:
@@ -323,6 +385,10 @@ def acceleration_response(method: str, params: dict, dt: float = 0.01, freqs_hz=
         Scale each sinusoid to this acceleration amplitude (position amplitude capped at
         ``amplitude_m``); default :data:`NONLINEAR_ACCEL_AMPLITUDE` for nonlinear methods
         (their describing response at a realistic acceleration), none for linear ones.
+
+    Returns
+    -------
+    FrequencyResponse
     """
     if freqs_hz is None:
         f = (np.geomspace(0.05, 0.4 / dt, 30) if bounds is None

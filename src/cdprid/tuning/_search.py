@@ -103,7 +103,22 @@ def _golden(f, lo, hi, iters):
 
 def simulated_penalty(method: str, params: dict, dt: float, bounds: ResponseBounds,
                       amplitude_m: float = 0.3) -> float:
-    """:func:`response_penalty` of the simulated (describing) response on a 40-point grid."""
+    """:func:`response_penalty` of the simulated (describing) response on a 40-point grid.
+
+    Parameters
+    ----------
+    method : str
+    params : dict
+    dt : float
+        Sampling period, s.
+    bounds : ResponseBounds
+    amplitude_m : float
+        Position amplitude of the test sinusoids, m.
+
+    Returns
+    -------
+    float
+    """
     f = np.union1d(np.geomspace(0.05, 0.45 / dt, 30), np.linspace(0.05, bounds.bandwidth_hz, 10))
     r = acceleration_response(method, params, dt, freqs_hz=f, amplitude_m=amplitude_m)
     H = r.gain * np.exp(1j * np.radians(r.phase_deg))

@@ -75,7 +75,24 @@ def _theta_to_gains(method, th, zeta_min=None, fixed_alpha=None):
 
 
 def params_from_theta(method, th, zeta_min=None, fixed_alpha=None) -> dict:
-    """Method parameters (names of ``METHODS``/``METHOD_INFO``) from theta."""
+    """Method parameters (names of ``METHODS``/``METHOD_INFO``) from theta.
+
+    Parameters
+    ----------
+    method : str
+        One of :data:`SIHD_METHODS`.
+    th : array
+        Unconstrained coordinates (log root parameters, then a logit of alpha).
+    zeta_min : float, optional
+        Damping floor of the root pairs (default :data:`ZETA_MIN`).
+    fixed_alpha : float, optional
+        When given, theta has no alpha entry (alpha is this value).
+
+    Returns
+    -------
+    dict
+        The gains ``lambda1..lambdaN``, ``alpha`` (at most 1) and ``mu`` (1).
+    """
     lams, alpha = _theta_to_gains(method, jnp.asarray(th, jnp.float64), zeta_min, fixed_alpha)
     p = {f"lambda{q + 1}": float(v) for q, v in enumerate(lams)}
     p["alpha"] = float(min(alpha, 1.0))
@@ -106,8 +123,29 @@ def _roots_theta(lams, zeta_min=None):
 
 
 def theta_from_params(method, params, zeta_min=None, fixed_alpha=None) -> np.ndarray:
-    """Inverse of :func:`params_from_theta` (alpha clipped into the open interval; no alpha
-    entry with ``fixed_alpha``)."""
+    """Inverse of :func:`params_from_theta` (alpha clipped into the open interval).
+
+    Parameters
+    ----------
+    method : str
+        One of :data:`SIHD_METHODS`.
+    params : dict
+        ``lambda1..lambdaN``, ``alpha`` and optionally ``mu`` (folded into the gains).
+    zeta_min : float, optional
+        Damping floor of the root pairs (default :data:`ZETA_MIN`).
+    fixed_alpha : float, optional
+        When given, theta has no alpha entry (alpha is this value).
+
+    Returns
+    -------
+    ndarray
+        theta.
+
+    Raises
+    ------
+    InputError
+        Gains whose linear part is unstable.
+    """
     n = _order(method)
     amin = _alpha_min(method)
     mu = float(params.get("mu", 1.0))
@@ -126,7 +164,17 @@ def theta_from_params(method, params, zeta_min=None, fixed_alpha=None) -> np.nda
 
 
 def default_params(method) -> dict:
-    """Starting parameters of a method (METHODS defaults, paper gains for the cascade)."""
+    """Starting parameters of a method (METHODS defaults, paper gains for the cascade).
+
+    Parameters
+    ----------
+    method : str
+
+    Returns
+    -------
+    dict
+        A copy.
+    """
     if method in METHODS:
         return dict(METHODS[method].params)
     return dict(HIGH_INFO[method]["params"])
@@ -146,8 +194,20 @@ def sihd_loss_fn(method, zeta_min=None):
     """``f(theta, (Y, acc, mask, h)) -> mean squared 3-D acceleration error``.
 
     ``Y`` is (n, 3 S) (S noise realisations of the 3 axes), ``acc`` (n, 3 S)
-    the true accelerations, ``mask`` (n,) 0/1 weights.  All channels run in
-    one ``vmap`` of the ``lax.scan``.
+    the true accelerations, ``mask`` (n,) 0/1 weights, ``h`` the sampling period (s). All
+    channels run in one ``vmap`` of the ``lax.scan``.
+
+    Parameters
+    ----------
+    method : str
+        One of :data:`SIHD_METHODS`.
+    zeta_min : float, optional
+        Damping floor of the root pairs (default :data:`ZETA_MIN`).
+
+    Returns
+    -------
+    callable
+        The loss, in (m/s^2)^2, JAX-traceable in theta.
     """
 
     def f(th, args):

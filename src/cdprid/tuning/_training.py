@@ -36,12 +36,33 @@ class TrainingSignal:
 
     @property
     def mask(self) -> np.ndarray:
+        """Samples whose errors count: ``t >= t[0] + t0``."""
         return self.t >= self.t[0] + self.t0
 
 
 def circle_signal(radius=0.3, freq_hz=0.25, dt=0.01, duration=52.0, centre=(0.0, 0.0, 1.2),
                   phase=0.0) -> TrainingSignal:
-    """Horizontal circle (the differentiator benchmark's default signal)."""
+    """Horizontal circle (the differentiator benchmark's default signal).
+
+    Parameters
+    ----------
+    radius : float
+        Radius, m.
+    freq_hz : float
+        Frequency, Hz.
+    dt : float
+        Sampling period, s.
+    duration : float
+        Length, s.
+    centre : sequence of 3 floats
+        Centre, m.
+    phase : float
+        Phase at t = 0, rad.
+
+    Returns
+    -------
+    TrainingSignal
+    """
     t = np.arange(int(round(duration / dt))) * dt
     w = 2 * math.pi * freq_hz
     c = np.asarray(centre, float)
@@ -53,7 +74,25 @@ def circle_signal(radius=0.3, freq_hz=0.25, dt=0.01, duration=52.0, centre=(0.0,
 
 def lissajous_signal(ax=0.25, ay=0.2, az=0.1, f=(0.2, 0.4, 0.3), dt=0.01, duration=52.0,
                      centre=(0.0, 0.0, 1.2)) -> TrainingSignal:
-    """3-D Lissajous curve (a test trajectory with several frequencies on every axis)."""
+    """3-D Lissajous curve (a test trajectory with several frequencies on every axis).
+
+    Parameters
+    ----------
+    ax, ay, az : float
+        Amplitudes per axis, m.
+    f : sequence of 3 floats
+        Frequencies per axis, Hz.
+    dt : float
+        Sampling period, s.
+    duration : float
+        Length, s.
+    centre : sequence of 3 floats
+        Centre, m.
+
+    Returns
+    -------
+    TrainingSignal
+    """
     t = np.arange(int(round(duration / dt))) * dt
     amps = np.array([ax, ay, az])
     w = 2 * math.pi * np.asarray(f)
@@ -63,7 +102,22 @@ def lissajous_signal(ax=0.25, ay=0.2, az=0.1, f=(0.2, 0.4, 0.3), dt=0.01, durati
 
 
 def noise_from_dataset(ds) -> float:
-    """Position-noise std (m) of a dataset, from robust 4th differences, averaged over axes."""
+    """Position-noise std of a dataset, from robust 4th differences, averaged over axes.
+
+    Parameters
+    ----------
+    ds : Dataset
+
+    Returns
+    -------
+    float
+        Noise std, m.
+
+    Raises
+    ------
+    InputError
+        No positive noise level could be estimated.
+    """
     from cdprid.core import estimate_noise
     from cdprid.io import align
 
@@ -81,6 +135,22 @@ def dataset_signal(ds, window_s: float = 1.5) -> TrainingSignal:
     The positions are smoothed by a Savitzky-Golay filter (``window_s``,
     polynomial order 5, zero phase) whose 0th and 2nd derivatives serve as
     the noise-free position and acceleration.
+
+    Parameters
+    ----------
+    ds : Dataset
+    window_s : float
+        Filter window, s.
+
+    Returns
+    -------
+    TrainingSignal
+        Times from 0, s; position, m; acceleration, m/s^2.
+
+    Raises
+    ------
+    InputError
+        The dataset is too short to tune on.
     """
     from scipy.signal import savgol_filter
 
@@ -99,14 +169,46 @@ def dataset_signal(ds, window_s: float = 1.5) -> TrainingSignal:
 
 
 def noise_realisations(n_samples: int, seeds, dims: int = 3) -> np.ndarray:
-    """Standard normal noise (len(seeds), n, dims); seed ``s`` always gives the same draw."""
+    """Standard normal noise; seed ``s`` always gives the same draw.
+
+    Parameters
+    ----------
+    n_samples : int
+    seeds : iterable of int
+    dims : int
+
+    Returns
+    -------
+    ndarray (len(seeds), n_samples, dims)
+    """
     return np.stack([np.random.default_rng(int(s)).standard_normal((n_samples, dims))
                      for s in seeds])
 
 
 def any_differentiate(y, dt, method, **params):
-    """:func:`cdprid.differentiate`, or :func:`cdprid.signal.differentiate_high` for
-    ``sihd4``/``sihd5`` while they are not registered in ``METHODS``."""
+    """:func:`cdprid.differentiate`, or :func:`cdprid.signal.differentiate_high` (``sihd4``/5).
+
+    Parameters
+    ----------
+    y : array (n,) or (n, k)
+        Samples, e.g. positions in m.
+    dt : float
+        Sampling period, s.
+    method : str
+        A method of ``METHODS`` or ``METHOD_INFO``.
+    **params
+        The method's parameters.
+
+    Returns
+    -------
+    velocity, acceleration : ndarray
+        Shaped as ``y``, in y's unit per s and per s^2.
+
+    Raises
+    ------
+    InputError
+        Unknown ``method``.
+    """
     if method in METHODS:
         return differentiate(y, dt, method, **params)
     if method in HIGH_INFO:
@@ -117,7 +219,24 @@ def any_differentiate(y, dt, method, **params):
 
 
 def evaluate(method, params, signal: TrainingSignal, noise_std: float, seeds) -> np.ndarray:
-    """3-D acceleration RMSE over ``signal.mask`` for each seed (one batched call)."""
+    """3-D acceleration RMSE over ``signal.mask`` for each seed (one batched call).
+
+    Parameters
+    ----------
+    method : str
+    params : dict
+        The differentiator's parameters.
+    signal : TrainingSignal
+    noise_std : float
+        Position-noise std, m.
+    seeds : iterable of int
+        Noise seeds (:func:`noise_realisations`).
+
+    Returns
+    -------
+    ndarray (len(seeds),)
+        RMSE, m/s^2.
+    """
     seeds = list(seeds)
     nz = noise_realisations(signal.t.size, seeds)
     y = signal.position[None] + noise_std * nz  # (S, n, 3)

@@ -132,6 +132,14 @@ class TuneResult:
     status: Status = Status.CONVERGED
 
     def as_json(self) -> dict:
+        """JSON of ``cdprid tune``.
+
+        Returns
+        -------
+        dict
+            Method, parameters, noise std (m), RMSEs (m/s^2), seeds, timings (s), status, the
+            frequency response and its check, and ``warnings``.
+        """
         d = {
             "method": self.method,
             "params": self.params,
@@ -174,8 +182,19 @@ def _as_signals(signal, signals, dt: float = 0.01) -> list:
 
 
 def resolve_bounds(bounds, signals) -> ResponseBounds:
-    """``"auto"``/None: :class:`ResponseBounds` at :func:`content_bandwidth` of ``signals``;
-    a number: that bandwidth (Hz) with the default tolerances; a ResponseBounds: itself."""
+    """The response bounds of a ``bounds`` argument.
+
+    Parameters
+    ----------
+    bounds : "auto", None, float or ResponseBounds
+        ``"auto"``/None: at :func:`content_bandwidth` of ``signals``; a number: that bandwidth
+        (Hz) with the default tolerances; a ResponseBounds: itself.
+    signals : sequence of TrainingSignal
+
+    Returns
+    -------
+    ResponseBounds
+    """
     if isinstance(bounds, ResponseBounds):
         return bounds
     if bounds is None or bounds == "auto":
@@ -241,6 +260,8 @@ def tune(
         ``accel``: mean over the training signals of the log mean-square acceleration error;
         ``params``: scaled LS parameter error (:class:`ParamProblem`, first signal);
         ``mix``: ``(1-weight) accel_mse / a_rms^2 + weight params`` (first signal).
+    weight : float
+        The ``params`` share of ``mix``.
     max_steps : int
         BFGS iterations (unconstrained); constrained, 6 solves of ``max_steps // 2``: the
         full penalty from the start (2) and continuation stages (:data:`CONTINUATION`, 4).
@@ -249,6 +270,7 @@ def tune(
     zeta_min : float, optional
         Damping floor of the root pairs (SIHD-N, N >= 3; default :data:`ZETA_MIN`).
     progress : callable(str), optional
+        Receives progress lines.
     signals : sequence of TrainingSignal, optional
         Training signals (default: ``[signal]``, or :func:`trajectory_family` ``"train"``).
     bounds : "auto", float or ResponseBounds
@@ -287,7 +309,17 @@ def tune(
 
 
 def response_warnings(method: str, resp: FrequencyResponse) -> list[str]:
-    """One sentence when ``resp`` is not within its stated bounds (else nothing)."""
+    """One sentence when ``resp`` is not within its stated bounds (else nothing).
+
+    Parameters
+    ----------
+    method : str
+    resp : FrequencyResponse
+
+    Returns
+    -------
+    list of str
+    """
     if resp.ok:
         return []
     why = ""
@@ -361,13 +393,29 @@ def tune_baseline(
     constrain: bool = True,
     heldout=None,
 ) -> TuneResult:
-    """Tune one baseline's hyperparameter (see :data:`BASELINE_GRIDS`) on a log grid,
-    refined by golden section, minimising the mean over the training signals of the log
-    train acceleration RMSE, plus :data:`PENALTY_WEIGHT` x :func:`simulated_penalty` when
-    ``constrain`` (the response is measured by simulation: the describing response at 0.3 m
-    for Levant).  Other arguments as :func:`tune`.
+    """Tune one baseline's hyperparameter (:data:`BASELINE_GRIDS`) on a log grid and golden section.
 
-    ``kalman``/``rts`` use the measurement variance ``r = noise_std^2``.
+    Minimises the mean over the training signals of the log train acceleration RMSE, plus
+    :data:`PENALTY_WEIGHT` x :func:`simulated_penalty` when ``constrain`` (the describing
+    response at 0.3 m for Levant). ``kalman``/``rts`` use ``r = noise_std^2``.
+
+    Parameters
+    ----------
+    method : str
+        A key of :data:`BASELINE_GRIDS`.
+    noise_std, signal, train_seeds, test_seeds, progress, signals, bounds, constrain, heldout
+        As :func:`tune`.
+    n_grid, refine : int
+        Grid points and golden-section steps.
+
+    Returns
+    -------
+    TuneResult
+
+    Raises
+    ------
+    InputError
+        A method without a grid, or bad signals.
     """
     if method not in BASELINE_GRIDS:
         raise InputError(f"grid tuning supports {', '.join(BASELINE_GRIDS)}; got {method!r}.")
@@ -411,7 +459,20 @@ def tune_baseline(
 
 
 def tune_method(method: str, noise_std: float, **kw) -> TuneResult:
-    """:func:`tune` for the SIHD family, :func:`tune_baseline` otherwise."""
+    """:func:`tune` for the SIHD family, :func:`tune_baseline` otherwise.
+
+    Parameters
+    ----------
+    method : str
+    noise_std : float
+        Position-noise std, m.
+    **kw
+        Options of :func:`tune` (those :func:`tune_baseline` knows are passed to it).
+
+    Returns
+    -------
+    TuneResult
+    """
     if method in SIHD_METHODS:
         return tune(method, noise_std, **kw)
     keep = ("signal", "train_seeds", "test_seeds", "progress", "signals", "bounds", "constrain",
