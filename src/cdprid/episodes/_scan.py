@@ -25,8 +25,8 @@ import math
 import numpy as np
 from scipy import stats
 
-__all__ = ["SCALES_S", "NoiseModel", "filter_autocorrelation", "noise_model", "scan", "refine",
-           "window_level", "locate", "runs"]
+__all__ = ["SCALES_S", "NoiseModel", "filter_autocorrelation", "noise_model",
+           "robust_whitening", "scan", "refine", "window_level", "locate", "runs"]
 
 #: window lengths of the scan, s (a push shorter than the shortest is seen only if strong)
 SCALES_S = (0.2, 0.4, 0.8, 1.6, 3.2)
@@ -104,19 +104,7 @@ def noise_model(r: np.ndarray, use: np.ndarray, max_lag: int, rho=None) -> Noise
     NoiseModel
     """
     x = r[use]
-    k = x.shape[1]
-    mad = 1.4826 * np.median(np.abs(x - np.median(x, 0)), 0)
-    C = np.diag(np.maximum(mad, 1e-12) ** 2)  # robust start: a push is not noise
-    q = stats.chi2.isf(1.0 - _ROBUST_Q, k)
-    inlier = np.ones(len(x), bool)
-    for _ in range(4):  # leave out the outliers (the covariance then under-states by ~1 %)
-        inside = np.einsum("ni,ij,nj->n", x, np.linalg.inv(C), x) < q
-        if inside.sum() < max(10 * k, len(x) // 2):  # not a noise model of most samples
-            break
-        inlier = inside
-        C = np.atleast_2d(np.cov(x[inlier].T)) + 1e-12 * np.eye(k)
-    L = np.linalg.cholesky(C)
-    whiten = np.linalg.inv(L)
+    whiten, inlier = robust_whitening(x)
     ok = np.zeros(len(use), bool)
     ok[np.flatnonzero(use)[inlier]] = True
     ok = ~_near(~ok, max_lag // 4)  # outliers and their neighbours stay out of the lags
@@ -128,6 +116,37 @@ def noise_model(r: np.ndarray, use: np.ndarray, max_lag: int, rho=None) -> Noise
         g = z[lag:].T @ z[: n - lag] / count
         gam.append(g * (1.0 - lag / (span + 1.0)))
     return NoiseModel(whiten, np.asarray(gam), np.ones(1) if rho is None else np.asarray(rho))
+
+
+def robust_whitening(x: np.ndarray):
+    """The whitening of the rows' robust covariance (the noise model's lag 0).
+
+    Parameters
+    ----------
+    x : ndarray (n, k)
+        Residual samples, N and N m.
+
+    Returns
+    -------
+    whiten : ndarray (k, k)
+        ``x @ whiten.T`` has unit covariance on the inliers (the inverse Cholesky factor of
+        the covariance from the rows' MAD, then samples beyond the :data:`_ROBUST_Q`
+        chi-squared quantile left out, iterated).
+    inlier : ndarray (n,) of bool
+        The samples that made it.
+    """
+    k = x.shape[1]
+    mad = 1.4826 * np.median(np.abs(x - np.median(x, 0)), 0)
+    C = np.diag(np.maximum(mad, 1e-12) ** 2)  # robust start: a push is not noise
+    q = stats.chi2.isf(1.0 - _ROBUST_Q, k)
+    inlier = np.ones(len(x), bool)
+    for _ in range(4):  # leave out the outliers (the covariance then under-states by ~1 %)
+        inside = np.einsum("ni,ij,nj->n", x, np.linalg.inv(C), x) < q
+        if inside.sum() < max(10 * k, len(x) // 2):  # not a noise model of most samples
+            break
+        inlier = inside
+        C = np.atleast_2d(np.cov(x[inlier].T)) + 1e-12 * np.eye(k)
+    return np.linalg.inv(np.linalg.cholesky(C)), inlier
 
 
 def _near(mask: np.ndarray, k: int) -> np.ndarray:
