@@ -88,7 +88,32 @@ def outside_work(E, power, dt: float) -> np.ndarray:
 
 
 def mechanical_energy(beta, model: str, v, om, R, p, gravity) -> np.ndarray:
-    """The platform's mechanical energy (n,), J, from the fitted parameters ``beta``."""
+    """The platform's mechanical energy (n,), J, from the fitted parameters ``beta``.
+
+    Parameters
+    ----------
+    beta : ndarray (4,) or (10,)
+        The rigid body's parameters, the paper's order: ``m`` (kg), ``m s_G`` (kg m, platform
+        frame) and, for the full model, the inertia about P (kg m^2: Ixx, Ixy, Ixz, Iyy, Iyz,
+        Izz).
+    model : {"translation", "full"}
+        Which parameters ``beta`` holds (``translation``: no rotational energy).
+    v : ndarray (n, 3)
+        Velocity of P, m/s (base frame).
+    om : ndarray (n, 3)
+        Angular velocity, rad/s (base frame).
+    R : ndarray (n, 3, 3)
+        Platform orientation (platform to base).
+    p : ndarray (n, 3)
+        Position of P, m (base frame).
+    gravity : array_like (3,)
+        Gravity, m/s^2 (base frame).
+
+    Returns
+    -------
+    ndarray (n,)
+        Kinetic plus potential energy, J (potential zero at the base origin).
+    """
     m, ms = float(beta[0]), np.asarray(beta[1:4], float)
     Rms = np.einsum("nij,j->ni", R, ms)
     E = 0.5 * m * np.sum(v * v, 1) + np.sum(v * np.cross(om, Rms), 1)
@@ -123,6 +148,12 @@ def energy_runs(t, E, use, exclude, far_per_hour: float):
         Samples left out of the null spread (episodes already found).
     far_per_hour : float
         False alarms per hour on a clean recording.
+
+    Returns
+    -------
+    list of (int, int, float, float)
+        ``(a, b, work, p)``: the half-open sample range, the energy's rise over it (J, > 0)
+        and its p-value adjusted for the windows tested (Bonferroni).
     """
     dt = float(np.median(np.diff(t)))
     n, k = len(t), max(1, int(round(TREND_S / dt)))

@@ -72,7 +72,20 @@ class NoiseModel:
 
 def filter_autocorrelation(dt: float, cutoff_hz: float) -> np.ndarray:
     """Autocorrelation (lags 0, 1, ...) of white noise through the zero-phase matched filter,
-    to where it has decayed to 1e-6."""
+    to where it has decayed to 1e-6.
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period, s.
+    cutoff_hz : float
+        The filter's cutoff, Hz (:func:`cdprid.signal.zero_phase_filter`, order 2).
+
+    Returns
+    -------
+    ndarray (M,)
+        Autocorrelation at lags ``0..M-1`` samples, dimensionless (1 at lag 0).
+    """
     from cdprid.signal import zero_phase_filter
 
     n = 2 * int(math.ceil(8.0 / (cutoff_hz * dt))) + 1
@@ -157,7 +170,21 @@ def _near(mask: np.ndarray, k: int) -> np.ndarray:
 
 
 def window_level(far_per_hour: float, scales_s=SCALES_S) -> float:
-    """The per-window significance level of :func:`scan` for ``far_per_hour``."""
+    """The per-window significance level of :func:`scan` for ``far_per_hour``.
+
+    Parameters
+    ----------
+    far_per_hour : float
+        False alarms per hour of clean recording.
+    scales_s : sequence of float
+        The scan's window lengths, s.
+
+    Returns
+    -------
+    float
+        ``far_per_hour / (3600 sum_s 2 / L_s)``: Bonferroni over the about ``2 / L_s``
+        independent windows per second and length.
+    """
     return far_per_hour / (3600.0 * sum(2.0 / s for s in scales_s))
 
 
@@ -247,6 +274,23 @@ def locate(r: np.ndarray, use: np.ndarray, dt: float, model: NoiseModel, level: 
     """Every episode of the residual: scan, refine each flagged stretch, scan again without
     the episodes found (and ``guard`` samples on each side: the matched filter's transient,
     whose ringing would otherwise be found again), until nothing is flagged.
+
+    Parameters
+    ----------
+    r : ndarray (n, k)
+        The fit's residual, N and N m (k wrench rows in use).
+    use : ndarray (n,) of bool
+        Samples the windows may cover.
+    dt : float
+        Sampling period, s.
+    model : NoiseModel
+        The residual's noise model (:func:`noise_model`).
+    level : float
+        Per-window significance level (:func:`window_level`).
+    guard : int
+        Samples left out on each side of an episode found before the next scan.
+    max_episodes : int
+        Stop after this many.
 
     Returns
     -------

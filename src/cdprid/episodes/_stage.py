@@ -116,7 +116,15 @@ class Episode:
     detail: dict = dataclasses.field(default_factory=dict)
 
     def as_json(self) -> dict:
-        """The JSON form (the ``episodes`` list of ``identify --json`` and ``diagnose --json``)."""
+        """The JSON form (the ``episodes`` list of ``identify --json`` and ``diagnose --json``).
+
+        Returns
+        -------
+        dict
+            ``start_s``, ``end_s`` (s), ``kind``, ``force_N`` (3 floats, N, or None),
+            ``moment_Nm`` (3 floats, N m, or None), ``size_N``, ``size_Nm``, ``p_value``,
+            and the kind's :attr:`detail` keys.
+        """
         out = {"start_s": self.start_s, "end_s": self.end_s, "kind": self.kind,
                "force_N": list(self.force_N) if self.force_N is not None else None,
                "moment_Nm": list(self.moment_Nm) if self.moment_Nm is not None else None,
@@ -125,7 +133,13 @@ class Episode:
         return out
 
     def describe(self) -> str:
-        """One line: when, what, how large."""
+        """One line: when, what, how large.
+
+        Returns
+        -------
+        str
+            E.g. ``external_wrench 12.01-13.95 s: 14.2 N, 0.31 N m (p = 2.0e-09)``.
+        """
         what = {"pose_glitches": f"{self.detail.get('n_samples', 0)} displaced pose sample(s), "
                                  f"up to {1e3 * self.detail.get('largest_m', 0.0):.0f} mm",
                 "energy": f"{self.detail.get('energy_J', 0.0):+.2g} J of outside work"}.get(
@@ -168,7 +182,17 @@ class Episodes:
     caveat: str | None = None
 
     def excluded_at(self, t) -> np.ndarray:
-        """Whether each time of ``t`` (s) is within an excluded stretch."""
+        """Whether each time of ``t`` (s) is within an excluded stretch.
+
+        Parameters
+        ----------
+        t : array_like
+            Times, s (the recording's clock).
+
+        Returns
+        -------
+        ndarray of bool, the shape of ``t``
+        """
         t = np.asarray(t, float)
         out = np.zeros(t.shape, bool)
         for a, b in runs(self.excluded):
@@ -176,7 +200,14 @@ class Episodes:
         return out
 
     def note(self) -> str | None:
-        """The sentence for a fit's notes (None when nothing was found)."""
+        """The sentence for a fit's notes.
+
+        Returns
+        -------
+        str or None
+            How many episodes of which kinds were left out, and the caveat; the caveat
+            alone (or None) when nothing was found.
+        """
         if not self.episodes:
             return self.caveat
         kinds = sorted({e.kind for e in self.episodes})
@@ -188,13 +219,29 @@ class Episodes:
     def retimed(self, clock) -> Episodes:
         """The same episodes with their times mapped by ``clock`` (s -> s), e.g. from the
         joined axis of a budgeted subset to the recording's own clock (``t`` and
-        ``excluded`` stay on the analysed samples)."""
+        ``excluded`` stay on the analysed samples).
+
+        Parameters
+        ----------
+        clock : callable
+            ``clock(s) -> s``, applied to every episode's ``start_s`` and ``end_s``.
+
+        Returns
+        -------
+        Episodes
+        """
         eps = tuple(dataclasses.replace(e, start_s=clock(e.start_s), end_s=clock(e.end_s))
                     for e in self.episodes)
         return dataclasses.replace(self, episodes=eps)
 
     def as_json(self) -> list:
-        """The ``episodes`` list."""
+        """The ``episodes`` list.
+
+        Returns
+        -------
+        list of dict
+            :meth:`Episode.as_json` of each episode, in time order.
+        """
         return [e.as_json() for e in self.episodes]
 
 
