@@ -43,7 +43,10 @@ def _push_force(t, push):
     return (0.5 - 0.5 * np.cos(np.pi * ramp))[:, None] * f
 
 
-def _recording(push=None, seed=0):
+def _recording(push=None, seed=0, zero=None, gain=None, noise=True, effects=True):
+    """``(t, positions, readings)``; ``zero(t)`` (n, 4) a drift of the cells' zeros, N, and
+    ``gain`` (4,) their gains, when given; ``noise``: marker and tension noise;
+    ``effects``: friction, hysteresis and the offset."""
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, DURATION, DT)
     amp = np.array([[0.35, 0.30, 0.12], [0.12, 0.10, 0.05]])
@@ -63,16 +66,23 @@ def _recording(push=None, seed=0):
     tau = ref + np.einsum("nmi,ni->nm", np.linalg.pinv(Wt), w - Wt @ ref)
     assert np.allclose(np.einsum("nim,nm->ni", Wt, tau), w) and tau.min() > 10.0
     ldot = -np.einsum("nmi,ni->nm", u, v)  # paying out: the length from the exit grows
-    x = tau - COULOMB_N * np.sign(ldot)
-    x[:, 2] = _play(x[:, 2], HYSTERESIS_N)
+    x = tau - COULOMB_N * np.sign(ldot) if effects else tau.copy()
+    if effects:
+        x[:, 2] = _play(x[:, 2], HYSTERESIS_N)
     ar = np.zeros_like(x)
     for k in range(1, len(t)):
         ar[k] = 0.9 * ar[k - 1] + 0.3 * np.sqrt(1 - 0.81) * rng.normal(size=4)
+    if gain is not None:
+        x = x * np.asarray(gain, float)
+    if zero is not None:
+        x = x + zero(t)
+    if not noise:
+        return t, p, x
     reading = x + np.array([0.0, 3.0, 0.0, 0.0]) + 0.4 * rng.normal(size=x.shape) + ar
     return t, p + 2e-4 * rng.normal(size=p.shape), reading
 
 
-def _episodes(push):
+def _episodes(push, **kw):
     from cdprid.episodes import find_episodes
     from cdprid.io import Dataset, align
     from cdprid.model import robot_from_dict
@@ -80,7 +90,7 @@ def _episodes(push):
     robot = robot_from_dict({"name": "null-four", "gravity": G.tolist(),
                              "cable": [{"exit": e.tolist(), "anchor": [0.0, 0.0, 0.0]}
                                        for e in EXITS]})
-    t, pos, tension = _recording(push)
+    t, pos, tension = _recording(push, **kw)
     ds = Dataset(None, robot, t, pos, None, t, tension)
     return find_episodes(robot, align(ds)).episodes
 

@@ -24,11 +24,12 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 from scipy.ndimage import uniform_filter1d
+from scipy.optimize import nnls
 
 from cdprid.episodes._scan import runs
 
-__all__ = ["LOCKED_RANGE_M", "TREND_S", "MIN_S", "locked", "energy_runs", "winch_power",
-           "outside_work"]
+__all__ = ["LOCKED_RANGE_M", "TREND_S", "MIN_S", "locked", "energy_runs", "braking_runs",
+           "passive_loss", "winch_power", "outside_work"]
 
 #: winches locked: every geometric cable length stays within this range (1-99 %), m (a
 #: calibration error moves them by millimetres on a swinging platform, a winch by decimetres)
@@ -87,7 +88,32 @@ def outside_work(E, power, dt: float) -> np.ndarray:
 
 
 def mechanical_energy(beta, model: str, v, om, R, p, gravity) -> np.ndarray:
-    """The platform's mechanical energy (n,), J, from the fitted parameters ``beta``."""
+    """The platform's mechanical energy (n,), J, from the fitted parameters ``beta``.
+
+    Parameters
+    ----------
+    beta : ndarray (4,) or (10,)
+        The rigid body's parameters, the paper's order: ``m`` (kg), ``m s_G`` (kg m, platform
+        frame) and, for the full model, the inertia about P (kg m^2: Ixx, Ixy, Ixz, Iyy, Iyz,
+        Izz).
+    model : {"translation", "full"}
+        Which parameters ``beta`` holds (``translation``: no rotational energy).
+    v : ndarray (n, 3)
+        Velocity of P, m/s (base frame).
+    om : ndarray (n, 3)
+        Angular velocity, rad/s (base frame).
+    R : ndarray (n, 3, 3)
+        Platform orientation (platform to base).
+    p : ndarray (n, 3)
+        Position of P, m (base frame).
+    gravity : array_like (3,)
+        Gravity, m/s^2 (base frame).
+
+    Returns
+    -------
+    ndarray (n,)
+        Kinetic plus potential energy, J (potential zero at the base origin).
+    """
     m, ms = float(beta[0]), np.asarray(beta[1:4], float)
     Rms = np.einsum("nij,j->ni", R, ms)
     E = 0.5 * m * np.sum(v * v, 1) + np.sum(v * np.cross(om, Rms), 1)
@@ -122,6 +148,12 @@ def energy_runs(t, E, use, exclude, far_per_hour: float):
         Samples left out of the null spread (episodes already found).
     far_per_hour : float
         False alarms per hour on a clean recording.
+
+    Returns
+    -------
+    list of (int, int, float, float)
+        ``(a, b, work, p)``: the half-open sample range, the energy's rise over it (J, > 0)
+        and its p-value adjusted for the windows tested (Bonferroni).
     """
     dt = float(np.median(np.diff(t)))
     n, k = len(t), max(1, int(round(TREND_S / dt)))
@@ -155,6 +187,95 @@ def energy_runs(t, E, use, exclude, far_per_hour: float):
         else:
             joined.append((a, b))
     for a, b in joined:
+        if t[b - 1] - t[a] < MIN_S:
+            continue
+        zmax = float(zstart[max(0, a - longest):b].max())
+        p = float(min(1.0, stats.norm.sf(zmax) * n_per_s * (t[-1] - t[0])))
+        found.append((a, b, float(trend[b - 1] - trend[a]), p))
+    return found
+
+
+def passive_loss(t, E, speed, ref) -> tuple:
+    """The energy a passive platform loses, fitted on the samples ``ref``: ``(lost (n,) J,
+    coefficients)``. On locked winches the swing loses energy to friction that does not grow
+    with speed (joints, the cables' bending over their pulleys: power ``d |v|``) and to
+    viscous drag (``c |v|^2``); both coefficients are passive (>= 0, non-negative least
+    squares of the trend's rate on the speeds' trends over :data:`TREND_S`). Samples of a
+    hand's braking in ``ref`` raise the fitted loss: the braking test is conservative.
+
+    Parameters
+    ----------
+    t : ndarray (n,)
+        Times, s.
+    E : ndarray (n,)
+        Mechanical energy (or outside work), J.
+    speed : ndarray (n,)
+        The platform's speed, m/s.
+    ref : ndarray (n,) of bool
+
+    Returns
+    -------
+    lost : ndarray (n,)
+        Energy the passive losses took since the first sample, J (trapezoidal integral).
+    coef : ndarray (2,)
+        ``d`` (N) and ``c`` (N s/m).
+    """
+    dt = float(np.median(np.diff(t)))
+    k = max(1, int(round(TREND_S / dt)))
+    v = np.abs(np.asarray(speed, float))
+    X = np.stack([uniform_filter1d(v, k, mode="nearest"),
+                  uniform_filter1d(v * v, k, mode="nearest")], axis=1)
+    rate = np.gradient(uniform_filter1d(np.asarray(E, float), k, mode="nearest"), dt)
+    if np.sum(ref) < 2 * k:
+        return np.zeros(len(t)), np.zeros(2)
+    coef = nnls(-X[ref], rate[ref])[0]
+    P = np.stack([v, v * v], axis=1) @ coef
+    return np.concatenate([[0.0], np.cumsum(0.5 * (P[1:] + P[:-1])) * dt]), coef
+
+
+def braking_runs(t, E, speed, use, exclude, far_per_hour: float):
+    """Stretches where the energy falls faster than a passive platform loses it (a hand that
+    stops it): ``[(a, b, work J (< 0), p-value)]``.
+
+    ``D`` = the energy plus the passive loss (:func:`passive_loss`, fitted on the samples of
+    ``use`` outside ``exclude``) stays level on a passive platform. Its :data:`TREND_S` mean's
+    change over each window of :data:`WINDOWS_S` is compared with the robust spread (MAD
+    about the median) of the same changes over the windows inside those samples: the null
+    takes the passive model's own mismatch, not only the fast noise. Windows beyond the
+    threshold of the stated false-alarm rate (Bonferroni over ``2 / L`` windows per second
+    and length, one-sided) are joined where ``D`` falls; stretches of at least
+    :data:`MIN_S` are reported. Only samples whose mean lies inside the recording count."""
+    t, E = np.asarray(t, float), np.asarray(E, float)
+    dt = float(np.median(np.diff(t)))
+    n, k = len(t), max(1, int(round(TREND_S / dt)))
+    use = np.asarray(use, bool).copy()
+    use[:k // 2], use[n - k // 2:] = False, False  # the moving mean is whole only here
+    ref = use & ~np.asarray(exclude, bool)
+    lost, _ = passive_loss(t, E, speed, ref)
+    trend = uniform_filter1d(E + lost, k, mode="nearest")
+    n_per_s = sum(2.0 / w for w in WINDOWS_S)
+    z_thr = float(stats.norm.isf(far_per_hour / (3600.0 * n_per_s)))
+    bad, cref = (np.concatenate([[0], np.cumsum(~x)]) for x in (use, ref))
+    mark, zstart, longest = np.zeros(n + 1, int), np.zeros(n), 1
+    for w in WINDOWS_S:
+        L = max(1, int(round(w / dt)))
+        if L >= n:
+            continue
+        d = trend[:-L] - trend[L:]  # the fall over the window
+        inside = (cref[L + 1:] - cref[:-L - 1]) == 0
+        if inside.sum() < 10:
+            continue
+        med = float(np.median(d[inside]))
+        scale = max(1.4826 * float(np.median(np.abs(d[inside] - med))), 1e-12)
+        z = (d - med) / scale
+        hit = np.flatnonzero((z > z_thr) & ((bad[L + 1:] - bad[:-L - 1]) == 0))
+        longest = max(longest, L)
+        np.add.at(mark, hit, 1)
+        np.add.at(mark, np.minimum(hit + L + 1, n), -1)
+        zstart[hit] = np.maximum(zstart[hit], z[hit])
+    flagged = (np.cumsum(mark)[:n] > 0) & (np.gradient(trend, dt) < 0) & use
+    found = []
+    for a, b in runs(flagged):
         if t[b - 1] - t[a] < MIN_S:
             continue
         zmax = float(zstart[max(0, a - longest):b].max())

@@ -24,31 +24,40 @@ through the same zero-phase filter as ``W tau~`` (matched). The cable's sliding 
 its pulley is minus the platform twist along its column, ``dl_j/dt = -W_j . (v, omega)``
 (``W_j = (u_j, b_j x u_j)``, ``u_j`` from the attachment towards the exit point; the
 pulley's wrap changes the speed, not its sign). ``h_j`` needs the widths: a first fit with
-``h_j`` the sign of the reading's rate gives them (:func:`persistent_null`). Fitted once for
+``h_j`` the direction of the reading's motion (told from its noise by a play operator,
+:func:`motion`) gives them (:func:`persistent_null`). Fitted once for
 the whole recording, these columns take the reversals of the cables' velocities and tension
 rates, where a rigid body alone leaves a step at every reversal; a push is local in time and
 not aligned with the reversals, and stays in the residual.
 
-Not among them: a relative gain (``(g_j - 1) W_j tau_j``; the columns ``W_j tau~_j`` sum
-to the measured wrench itself, so they would explain anything) and the winches' own work.
+Two more terms a real recording needs (the UACDPR's cells): a relative gain per cell (a cell
+reading ``g_j tau_j``: ``(g_j - 1) W_j tau~_j`` to first order; the gains' common part is the
+rigid body's scale, so ``m - 1`` columns ``W_j tau~_j - W_m tau~_m``; with all m the columns
+would sum to the measured wrench and explain anything) and a zero that drifts slowly (strain
+gauges creep and warm): per cell ``W_j P_k(t)``, Legendre polynomials of degree 1..K over the
+recording, its shortest time scale :data:`ZERO_DRIFT_S`, three times the longest push the
+scan is for, so a push stays in the residual. The winches' own work is not among them.
+
+The friction column takes the expected sign of the sliding (:func:`expected_sign`: the
+estimated speed's noise makes the sign uncertain near a stop), and the reading's motion is
+told from its noise by a play operator whose width follows from :data:`REVERSAL_P`
+(:func:`motion`), never from a tuned rate floor.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
+from numpy.polynomial import legendre
+from scipy import special
 
 from cdprid.effects import play_operator
 
-__all__ = ["STILL_FRACTION", "Cells", "cells", "columns", "band_positions",
+__all__ = ["REVERSAL_P", "ZERO_DRIFT_S", "Cells", "cells", "with_noise", "reversal_half_width",
+           "motion", "drift_basis", "n_columns", "columns", "cell_error", "band_positions",
            "persistent_null"]
-
-#: a reading stands still below this share of ``2 pi f_c sigma`` (:func:`still_rate`); chosen
-#: by measurement on the floor-winch robot's seeds 0, 2, 4, 8 (``tests._testbench.floor8_case``,
-#: hysteretic cells 2-4 N, friction 1-3 N): 1 and 0.5 left 1-3 false episodes on three of them
-#: (a reading moving at 7 N/s taken for still, the tension interpolated across it), 0.3 none
-STILL_FRACTION = 0.3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -60,14 +69,23 @@ class Cells:
     W : ndarray (n, 6, m)
         Wrench matrices (unfiltered).
     sliding : ndarray (n, m)
-        ``sign(dl_j/dt)``: +1 paying out, -1 reeling in, 0 at rest.
+        ``sign(dl_j/dt)``: +1 paying out, -1 reeling in, its expected value where the
+        estimate's noise leaves it uncertain (:func:`expected_sign`).
     reading : ndarray (n, m)
         The cells' readings through the matched filter, N.
     rate : ndarray (n, m)
         Their rates, N/s.
     moving : ndarray (n, m) of bool
-        Where a reading moves faster than :func:`still_rate` (elsewhere a hysteretic cell
-        may hold its reading while the force crosses its band).
+        Where a reading moves by more than its noise can (:func:`motion`; elsewhere a
+        hysteretic cell may hold its reading while the force crosses its band).
+    direction : ndarray (n, m)
+        The sign of that motion, 0 where still.
+    noise : ndarray (m,)
+        The std of each filtered reading's noise the motion was told from, N.
+    tension : ndarray (n, m)
+        The cells' raw readings, N (the gain columns).
+    drift : ndarray (n, K)
+        The zero's drift basis in time (:func:`drift_basis`; K may be 0).
     segments : tuple of (int, int)
     filt : callable
         The matched filter, segment by segment.
@@ -78,23 +96,79 @@ class Cells:
     reading: np.ndarray
     rate: np.ndarray
     moving: np.ndarray
+    direction: np.ndarray
+    noise: np.ndarray
+    tension: np.ndarray
+    drift: np.ndarray
     segments: tuple
     filt: object
 
 
-def still_rate(x: np.ndarray, xf: np.ndarray, cutoff_hz: float) -> np.ndarray:
-    """Per cell, the rate (N/s) below which its filtered reading counts as standing still:
-    :data:`STILL_FRACTION` of ``2 pi f_c sigma``, the rate of a swing of the reading's fast
-    noise (``sigma``, the robust std of ``x - xf``: what the filter takes away) at the cutoff
-    ``f_c``; ``2 pi f_c sigma`` is 3 to 7 std of the filtered rate's own noise (7 for white
-    noise at 100 Hz, about 3.5 with the floor-winch robot's slow AR(1) part), so the floor is
-    about one std of it."""
-    d = x - xf
-    sigma = 1.4826 * np.median(np.abs(d - np.median(d, 0)), 0)
-    return STILL_FRACTION * 2.0 * np.pi * cutoff_hz * np.maximum(sigma, 1e-9)
+#: the zeros' drift is resolved to this time scale or longer, s (:func:`drift_basis`): three
+#: times the longest push the scan is for (3 s) and its longest window (3.2 s)
+ZERO_DRIFT_S = 10.0
+
+#: probability that the filtered noise alone, between two independent samples, moves a still
+#: reading far enough to be taken for a reversal (:func:`reversal_half_width`)
+REVERSAL_P = 1e-3
 
 
-def cells(W, twist, tension, dt: float, segments, filt, cutoff_hz: float) -> Cells:
+def reversal_half_width(noise_N) -> np.ndarray:
+    """Half-width (N) of the play operator that tells a reading's motion from its noise
+    (:func:`motion`): a standing reading is taken for moving only when the filtered noise
+    changes by the full width ``2 delta`` between two samples; for two independent samples
+    of std ``sigma_f`` the change has std ``sqrt(2) sigma_f``, so
+    ``delta = Phi^-1(1 - p / 2) sigma_f / sqrt(2)`` with ``p`` = :data:`REVERSAL_P`
+    (about 2.3 sigma_f). Correlated samples change less: the rate is lower still.
+
+    Parameters
+    ----------
+    noise_N : float or ndarray (m,)
+        Std of each cell's filtered reading noise, N.
+
+    Returns
+    -------
+    ndarray (m,) or float, N
+    """
+    from scipy import stats
+
+    return stats.norm.isf(0.5 * REVERSAL_P) / np.sqrt(2.0) * np.asarray(noise_N, float)
+
+
+def motion(xf: np.ndarray, half_N, segments):
+    """Where each filtered reading moves, and its direction, told from its noise by a play
+    operator (a Schmitt trigger) of half-width ``half_N``: its output follows the reading
+    only once the reading has left the band ``+-half_N`` about it, so a reading that turns
+    counts as moving again only after it has moved ``2 half_N`` from its turning point;
+    noise smaller than that never makes a still reading (a hysteretic cell holding its value
+    while the force crosses its band) look like a reversal.
+
+    Parameters
+    ----------
+    xf : ndarray (n, m)
+        Filtered readings, N.
+    half_N : ndarray (m,)
+        :func:`reversal_half_width`, N.
+    segments : sequence of (int, int)
+
+    Returns
+    -------
+    moving : ndarray (n, m) of bool
+        The operator's output changes at this sample.
+    direction : ndarray (n, m)
+        The sign of that change (0 where still).
+    """
+    direction = np.zeros_like(xf)
+    for a, b in segments:
+        if b - a < 2:
+            continue
+        g = play_operator(xf[a:b], 2.0 * np.asarray(half_N, float))
+        d = np.diff(g, axis=0, prepend=g[:1])
+        direction[a:b] = np.sign(np.where(np.abs(d) > 1e-12, d, 0.0))
+    return direction != 0, direction
+
+
+def cells(W, twist, tension, dt: float, segments, filt, t=None, speed_noise=0.0) -> Cells:
     """The :class:`Cells` of a recording.
 
     Parameters
@@ -113,8 +187,10 @@ def cells(W, twist, tension, dt: float, segments, filt, cutoff_hz: float) -> Cel
     filt : callable
         ``filt(x)`` the zero-phase filter along time of an (n, ...) array, segment by
         segment (the one ``W tau`` goes through).
-    cutoff_hz : float
-        Its cutoff, Hz.
+    t : ndarray (n,), optional
+        Sample times, s: the zeros' drift (:func:`drift_basis`); None: no drift columns.
+    speed_noise : float
+        Std of the estimated sliding speeds' noise, m/s (:func:`expected_sign`).
 
     Returns
     -------
@@ -122,15 +198,70 @@ def cells(W, twist, tension, dt: float, segments, filt, cutoff_hz: float) -> Cel
     """
     W = np.asarray(W, float)
     ldot = -np.einsum("nim,ni->nm", W, np.asarray(twist, float))
-    floor = 1e-3 * max(float(np.max(np.abs(ldot), initial=0.0)), 1e-12)
     x = np.asarray(tension, float)
     xf = np.asarray(filt(x), float)
     rate = np.zeros_like(xf)
     for a, b in segments:
         if b - a >= 3:
             rate[a:b] = np.gradient(xf[a:b], dt, axis=0)
-    return Cells(W, np.where(np.abs(ldot) > floor, np.sign(ldot), 0.0), xf, rate,
-                 np.abs(rate) > still_rate(x, xf, cutoff_hz), tuple(segments), filt)
+    d = x - xf  # first guess of the noise: what the filter takes away (robust std)
+    sigma = 1.4826 * np.median(np.abs(d - np.median(d, 0)), 0)
+    c = Cells(W, expected_sign(ldot, speed_noise), xf, rate,
+              np.zeros(xf.shape, bool), np.zeros_like(xf), sigma, x,
+              drift_basis(t) if t is not None else np.zeros((len(x), 0)), tuple(segments),
+              filt)
+    return with_noise(c, sigma)
+
+
+def expected_sign(v: np.ndarray, noise) -> np.ndarray:
+    """``E[sign(v_true)]`` given the estimate ``v`` with Gaussian noise of std ``noise``
+    (flat prior): ``erf(v / (sqrt(2) noise))``; ``sign(v)`` when ``noise`` is 0. Where the
+    estimate hovers about zero (a cable that nearly stops, a reversal) the friction's sign is
+    not known, and a hard sign would put a full friction step where there is none."""
+    v = np.asarray(v, float)
+    if not noise > 0:
+        return np.sign(v)
+    return special.erf(v / (np.sqrt(2.0) * float(noise)))
+
+
+def speed_noise(position, dt: float, cutoff_hz: float) -> float:
+    """Std (m/s) of a sliding speed's noise from white marker noise: the positions' noise
+    (the robust std of what the zero-phase filter at ``cutoff_hz`` takes away, per axis,
+    their mean square) times the white-noise gain of the filtered difference quotient
+    (``sqrt(sum h'^2)``, ``h`` the filter's impulse response). The orientation's part
+    (marker noise over the platform's size times the attachment's lever) is left out."""
+    from cdprid.signal import zero_phase_filter
+
+    x = np.asarray(position, float)
+    if len(x) < 16:
+        return 0.0
+    d = x - np.asarray(zero_phase_filter(x, dt, cutoff_hz, 2))
+    sig = 1.4826 * np.median(np.abs(d - np.median(d, 0)), 0)
+    n = 2 * int(math.ceil(8.0 / (cutoff_hz * dt))) + 1
+    imp = np.zeros(n)
+    imp[n // 2] = 1.0
+    h = np.gradient(np.asarray(zero_phase_filter(imp, dt, cutoff_hz, 2)), dt)
+    return float(np.sqrt(np.mean(sig ** 2)) * np.sqrt(np.sum(h ** 2)))
+
+
+def with_noise(c: Cells, noise_N) -> Cells:
+    """``c`` with its motion told from noise of std ``noise_N`` (N, per cell or one for
+    all; :func:`motion`)."""
+    noise = np.broadcast_to(np.maximum(np.asarray(noise_N, float), 1e-9),
+                            (c.reading.shape[1],)).copy()
+    moving, direction = motion(c.reading, reversal_half_width(noise), c.segments)
+    return dataclasses.replace(c, moving=moving, direction=direction, noise=noise)
+
+
+def residual_noise(r: np.ndarray, m: int) -> float:
+    """The std (N) of one filtered reading's noise from a fit's force residual ``r`` (n, 3):
+    with independent cells of equal noise ``sigma_f`` along unit directions ``u_j``, the
+    residual's covariance is ``sigma_f^2 sum_j u_j u_j^T``, whose trace is ``m sigma_f^2``
+    (robust variances, MAD). What the model misses counts as noise here: the estimate errs
+    high, which makes still stretches longer, never a reversal out of noise."""
+    r = np.asarray(r, float)
+    mad = 1.4826 * np.median(np.abs(r - np.median(r, 0)), 0)
+    return float(np.sqrt(np.sum(mad ** 2) / m))
 
 
 def across_still(x: np.ndarray, moving: np.ndarray) -> np.ndarray:
@@ -151,53 +282,115 @@ def _per_segment(fn, c: Cells, *arrays) -> np.ndarray:
     return out
 
 
+def drift_basis(t) -> np.ndarray:
+    """The zeros' drift in time: Legendre polynomials of degree 1..K over the recording
+    (the constant is the offset column), ``K = ceil(duration / ZERO_DRIFT_S)``, so that the
+    drift's shortest time scale (the spacing of the highest one's zeros, about
+    duration / K) is :data:`ZERO_DRIFT_S` or more.
+
+    Parameters
+    ----------
+    t : ndarray (n,)
+        Sample times, s.
+
+    Returns
+    -------
+    ndarray (n, K), dimensionless (within [-1, 1])
+    """
+    t = np.asarray(t, float)
+    span = float(t[-1] - t[0]) if t.size > 1 else 0.0
+    K = int(math.ceil(span / ZERO_DRIFT_S)) if span > 0 else 0
+    if K == 0:
+        return np.zeros((t.size, 0))
+    x = 2.0 * (t - t[0]) / span - 1.0
+    return np.stack([legendre.legval(x, np.eye(K + 1)[k]) for k in range(1, K + 1)], axis=1)
+
+
+def n_columns(c: Cells) -> int:
+    """How many columns :func:`columns` gives: ``3 m + 1 + (m - 1) + m K``."""
+    m = c.W.shape[2]
+    return 3 * m + 1 + (m - 1) + m * c.drift.shape[1]
+
+
 def columns(c: Cells, band=None) -> np.ndarray:
-    """The columns (n, 6, 3 m + 1), through the matched filter: ``W_j`` (per N of offset),
-    ``W_j sign(dl_j/dt)`` (per N of friction), ``W_j h_j`` (per N of half-width) and
-    ``sum_j W_j dtau_j/dt`` (per s of clock offset). ``h_j`` is ``band`` (n, m) when given
-    (:func:`band_positions`), else the sign of the reading's rate, interpolated across the
-    stretches where the reading stands still."""
+    """The columns (n, 6, :func:`n_columns`), through the matched filter: ``W_j`` (per N of
+    offset), ``W_j sign(dl_j/dt)`` (per N of friction), ``W_j h_j`` (per N of half-width),
+    ``sum_j W_j dtau_j/dt`` (per s of clock offset), the relative gains
+    ``W_j tau~_j - W_m tau~_m`` (j < m; per unit of gain, the gains' sum fixed: a common
+    gain is the rigid body's scale) and the zeros' drift ``W_j P_k(t)`` (per N; cable by
+    cable, :func:`drift_basis`). ``h_j`` is ``band`` (n, m) when given
+    (:func:`band_positions`), else the direction of the reading's motion (:func:`motion`),
+    interpolated across the stretches where the reading stands still."""
     if band is None:
-        band = _per_segment(across_still, c, np.sign(c.rate), c.moving)
+        band = _per_segment(across_still, c, c.direction, c.moving)
     W = c.W
+    n, k, m = W.shape
+    Wt = W * c.tension[:, None, :]
+    drift = (W[:, :, :, None] * c.drift[:, None, None, :]).reshape(n, k, -1)
     cols = np.concatenate([W, W * c.sliding[:, None, :], W * np.asarray(band)[:, None, :],
-                           np.einsum("nim,nm->ni", W, c.rate)[:, :, None]], axis=2)
+                           np.einsum("nim,nm->ni", W, c.rate)[:, :, None],
+                           Wt[:, :, :-1] - Wt[:, :, -1:], drift], axis=2)
     return np.asarray(c.filt(cols), float)
 
 
-def band_positions(c: Cells, offset, friction, half) -> np.ndarray:
-    """Where each cell's force sits in its hysteresis band, +1 (rising) to -1 (falling), from a
-    first fit's coefficients (``offset``, ``friction`` = minus the Coulomb force, ``half`` =
-    minus the half-width, N, per cable; the reading's error is ``offset + friction s + half
-    h``).
+def cell_error(c: Cells, coef, band=None) -> np.ndarray:
+    """Each cell's reading error (n, m), N, through the matched filter, from the columns'
+    coefficients ``coef`` (:func:`columns`' order; the clock left out): offset, friction,
+    hysteresis (``band`` or the rough position), gain and drift."""
+    m, K = c.W.shape[2], c.drift.shape[1]
+    coef = np.asarray(coef, float)
+    if band is None:
+        band = _per_segment(across_still, c, c.direction, c.moving)
+    gain = np.append(coef[3 * m + 1:4 * m], -np.sum(coef[3 * m + 1:4 * m]))
+    drift = coef[4 * m:4 * m + m * K].reshape(m, K)
+    raw = (coef[:m] + coef[m:2 * m] * c.sliding + coef[2 * m:3 * m] * band
+           + gain * c.tension + c.drift @ drift.T)
+    return np.asarray(c.filt(raw), float)
 
-    Where the reading moves, the platform-side tension is the reading less that error
-    (``tau = y - offset - friction s - half sign(dy/dt)``); where it stands still the
-    tension is interpolated linearly in time (it is smooth: the cell, not the cable, holds
-    still). The cell's input ``x = tau + friction s`` (the friction's step at a reversal of
-    the sliding is in it) goes through a play operator of the fitted width, and the band
-    position is ``(x - H[x]) / half-width``: +1 on a rising branch, -1 on a falling one, in
-    between while the force crosses the band (also when a friction step smaller than the
-    band is swallowed). Cables whose ``half`` is not negative keep the sign
-    of their reading's rate."""
-    offset, friction, half = (np.asarray(v, float) for v in (offset, friction, half))
-    err = offset + friction * c.sliding + half * np.sign(c.rate)
-    tau = _per_segment(across_still, c, c.reading - err, c.moving)
-    x = tau + friction * c.sliding
+
+def band_positions(c: Cells, coef, residual, rows) -> np.ndarray:
+    """Where each cell's force sits in its hysteresis band, +1 (rising) to -1 (falling), from a
+    fit's coefficients of the columns (``coef``, :func:`columns`' order; per cable an offset,
+    ``friction`` = minus the Coulomb force and ``half`` = minus the half-width, N, ...;
+    :func:`cell_error`, with ``h`` the rough band position) and its ``residual`` (n, k).
+
+    The platform-side tension is the reading less that error, corrected by the wrench balance:
+    with every other cell read right, the residual is ``W_j`` times cable j's error, so
+    ``tau_j = y_j - err_j - W_j . r / |W_j|^2`` (least squares over the wrench rows in use;
+    cable j's own noise cancels, the others' stays). No sample of the cell's own reading is
+    trusted to tell whether the cell holds or follows its force: a hysteretic cell holds while
+    the force crosses its band, which its noisy reading cannot show. The cell's input
+    ``x = tau + friction s`` (the friction's step at a reversal of the sliding is in it) goes
+    through a play operator of the fitted width, and the band position is
+    ``(x - H[x]) / half-width``: +1 on a rising branch, -1 on a falling one, in between
+    while the force crosses the band (also when a friction step smaller than the band is
+    swallowed). Cables whose ``half`` is not negative keep the rough position."""
+    m = c.W.shape[2]
+    coef = np.asarray(coef, float)
+    friction, half = coef[m:2 * m], coef[2 * m:3 * m]
+    rough = _per_segment(across_still, c, c.direction, c.moving)
+    Wf = np.asarray(c.filt(c.W), float)[:, rows]
+    share = np.einsum("nim,ni->nm", Wf, np.asarray(residual, float)) / np.maximum(
+        np.einsum("nim,nim->nm", Wf, Wf), 1e-300)
+    x = c.reading - cell_error(c, coef, rough) - share + friction * c.sliding
     hw = np.maximum(-half, 1e-9)
     band = np.zeros_like(x)
     for a, b in c.segments:
         band[a:b] = (x[a:b] - play_operator(x[a:b], 2.0 * hw)) / hw
-    fallback = _per_segment(across_still, c, np.sign(c.rate), c.moving)
-    return np.where(half < 0, band, fallback)
+    return np.where(half < 0, band, rough)
 
 
 def persistent_null(A, c: Cells, rows, fit) -> np.ndarray:
     """The scan's regressor: the rigid body ``A`` (n, k, p) and the columns, the hysteresis
-    columns from the band positions of a first fit (``fit(Z) -> coefficients``, on the
-    recording's used samples). ``rows`` selects the wrench rows in use (k of 6)."""
+    columns from the band positions of a fit (``fit(Z) -> (residual (n, k), coefficients)``,
+    on the recording's used samples). ``rows`` selects the wrench rows in use (k of 6).
+
+    A first fit, with the cells' motion told from their fast noise (:func:`cells`), gives
+    the force residual and from it the filtered readings' noise (:func:`residual_noise`);
+    the motion told from that, a second fit gives the widths for :func:`band_positions`."""
     m, p = c.W.shape[2], A.shape[2]
-    Z1 = np.concatenate([A, columns(c)[:, rows]], axis=2)
-    beta = fit(Z1)
-    band = band_positions(c, beta[p:p + m], beta[p + m:p + 2 * m], beta[p + 2 * m:p + 3 * m])
+    r, _ = fit(np.concatenate([A, columns(c)[:, rows]], axis=2))
+    c = with_noise(c, residual_noise(r[:, :int(np.sum(np.asarray(rows)[:3]))], m))
+    r, beta = fit(np.concatenate([A, columns(c)[:, rows]], axis=2))
+    band = band_positions(c, beta[p:], r, rows)
     return np.concatenate([A, columns(c, band)[:, rows]], axis=2)

@@ -25,8 +25,8 @@ import math
 import numpy as np
 from scipy import stats
 
-__all__ = ["SCALES_S", "NoiseModel", "filter_autocorrelation", "noise_model", "scan", "refine",
-           "window_level", "locate", "runs"]
+__all__ = ["SCALES_S", "NoiseModel", "filter_autocorrelation", "noise_model",
+           "robust_whitening", "scan", "refine", "window_level", "locate", "runs"]
 
 #: window lengths of the scan, s (a push shorter than the shortest is seen only if strong)
 SCALES_S = (0.2, 0.4, 0.8, 1.6, 3.2)
@@ -72,7 +72,20 @@ class NoiseModel:
 
 def filter_autocorrelation(dt: float, cutoff_hz: float) -> np.ndarray:
     """Autocorrelation (lags 0, 1, ...) of white noise through the zero-phase matched filter,
-    to where it has decayed to 1e-6."""
+    to where it has decayed to 1e-6.
+
+    Parameters
+    ----------
+    dt : float
+        Sampling period, s.
+    cutoff_hz : float
+        The filter's cutoff, Hz (:func:`cdprid.signal.zero_phase_filter`, order 2).
+
+    Returns
+    -------
+    ndarray (M,)
+        Autocorrelation at lags ``0..M-1`` samples, dimensionless (1 at lag 0).
+    """
     from cdprid.signal import zero_phase_filter
 
     n = 2 * int(math.ceil(8.0 / (cutoff_hz * dt))) + 1
@@ -104,19 +117,7 @@ def noise_model(r: np.ndarray, use: np.ndarray, max_lag: int, rho=None) -> Noise
     NoiseModel
     """
     x = r[use]
-    k = x.shape[1]
-    mad = 1.4826 * np.median(np.abs(x - np.median(x, 0)), 0)
-    C = np.diag(np.maximum(mad, 1e-12) ** 2)  # robust start: a push is not noise
-    q = stats.chi2.isf(1.0 - _ROBUST_Q, k)
-    inlier = np.ones(len(x), bool)
-    for _ in range(4):  # leave out the outliers (the covariance then under-states by ~1 %)
-        inside = np.einsum("ni,ij,nj->n", x, np.linalg.inv(C), x) < q
-        if inside.sum() < max(10 * k, len(x) // 2):  # not a noise model of most samples
-            break
-        inlier = inside
-        C = np.atleast_2d(np.cov(x[inlier].T)) + 1e-12 * np.eye(k)
-    L = np.linalg.cholesky(C)
-    whiten = np.linalg.inv(L)
+    whiten, inlier = robust_whitening(x)
     ok = np.zeros(len(use), bool)
     ok[np.flatnonzero(use)[inlier]] = True
     ok = ~_near(~ok, max_lag // 4)  # outliers and their neighbours stay out of the lags
@@ -130,6 +131,37 @@ def noise_model(r: np.ndarray, use: np.ndarray, max_lag: int, rho=None) -> Noise
     return NoiseModel(whiten, np.asarray(gam), np.ones(1) if rho is None else np.asarray(rho))
 
 
+def robust_whitening(x: np.ndarray):
+    """The whitening of the rows' robust covariance (the noise model's lag 0).
+
+    Parameters
+    ----------
+    x : ndarray (n, k)
+        Residual samples, N and N m.
+
+    Returns
+    -------
+    whiten : ndarray (k, k)
+        ``x @ whiten.T`` has unit covariance on the inliers (the inverse Cholesky factor of
+        the covariance from the rows' MAD, then samples beyond the :data:`_ROBUST_Q`
+        chi-squared quantile left out, iterated).
+    inlier : ndarray (n,) of bool
+        The samples that made it.
+    """
+    k = x.shape[1]
+    mad = 1.4826 * np.median(np.abs(x - np.median(x, 0)), 0)
+    C = np.diag(np.maximum(mad, 1e-12) ** 2)  # robust start: a push is not noise
+    q = stats.chi2.isf(1.0 - _ROBUST_Q, k)
+    inlier = np.ones(len(x), bool)
+    for _ in range(4):  # leave out the outliers (the covariance then under-states by ~1 %)
+        inside = np.einsum("ni,ij,nj->n", x, np.linalg.inv(C), x) < q
+        if inside.sum() < max(10 * k, len(x) // 2):  # not a noise model of most samples
+            break
+        inlier = inside
+        C = np.atleast_2d(np.cov(x[inlier].T)) + 1e-12 * np.eye(k)
+    return np.linalg.inv(np.linalg.cholesky(C)), inlier
+
+
 def _near(mask: np.ndarray, k: int) -> np.ndarray:
     """Samples within ``k`` of a True sample of ``mask``."""
     c = np.concatenate([[0], np.cumsum(mask.astype(int))])
@@ -138,7 +170,21 @@ def _near(mask: np.ndarray, k: int) -> np.ndarray:
 
 
 def window_level(far_per_hour: float, scales_s=SCALES_S) -> float:
-    """The per-window significance level of :func:`scan` for ``far_per_hour``."""
+    """The per-window significance level of :func:`scan` for ``far_per_hour``.
+
+    Parameters
+    ----------
+    far_per_hour : float
+        False alarms per hour of clean recording.
+    scales_s : sequence of float
+        The scan's window lengths, s.
+
+    Returns
+    -------
+    float
+        ``far_per_hour / (3600 sum_s 2 / L_s)``: Bonferroni over the about ``2 / L_s``
+        independent windows per second and length.
+    """
     return far_per_hour / (3600.0 * sum(2.0 / s for s in scales_s))
 
 
@@ -228,6 +274,23 @@ def locate(r: np.ndarray, use: np.ndarray, dt: float, model: NoiseModel, level: 
     """Every episode of the residual: scan, refine each flagged stretch, scan again without
     the episodes found (and ``guard`` samples on each side: the matched filter's transient,
     whose ringing would otherwise be found again), until nothing is flagged.
+
+    Parameters
+    ----------
+    r : ndarray (n, k)
+        The fit's residual, N and N m (k wrench rows in use).
+    use : ndarray (n,) of bool
+        Samples the windows may cover.
+    dt : float
+        Sampling period, s.
+    model : NoiseModel
+        The residual's noise model (:func:`noise_model`).
+    level : float
+        Per-window significance level (:func:`window_level`).
+    guard : int
+        Samples left out on each side of an episode found before the next scan.
+    max_episodes : int
+        Stop after this many.
 
     Returns
     -------

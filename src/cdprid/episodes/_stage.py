@@ -9,15 +9,21 @@ the robot; ``identify`` and ``diagnose`` call it before their fits and leave the
    ``W tau`` and each cable's column of W go through the same zero-phase filter (matched).
 3. The paper's model (the full model when the platform rotates) plus the load-cell effects
    that persist over the whole recording (:mod:`cdprid.episodes._null`: per cable a zero
-   offset, Coulomb friction on its pulley, a hysteretic band, and one clock offset; a few
-   columns per cable, their hysteresis columns from a first fit) is fitted by least squares
-   on the samples outside the episodes, whitened by the residual's noise model (the energy
-   test of step 4 takes the rigid body fitted alone); the residual is scanned
+   offset, Coulomb friction on its pulley, a hysteretic band, a relative gain and a slowly
+   drifting zero, and one clock offset; a few columns per cable, their hysteresis columns
+   from a first fit) is fitted by least squares on the samples outside the episodes,
+   whitened by the residual's noise model (the energy test of step 4 takes the rigid body
+   fitted alone); the residual is scanned
    (:mod:`cdprid.episodes._scan`) at the stated false-alarm rate; each flagged stretch is
    refined to the interval where a constant wrench explains the most. Repeated until the
    episodes stop changing (at most :data:`PASSES` passes).
+   Samples where a cable reads below ``TAUT_THRESHOLD_N`` (and the matched filter's
+   transient around them) are not scanned: a slack cable is not the straight taut line of
+   the wrench model, and its snap is not an outside wrench.
 4. When the winches are locked, the energy balance is a second, independent test
-   (:mod:`cdprid.episodes._energy`).
+   (:mod:`cdprid.episodes._energy`): outside work where the energy rises (a push), and
+   where it falls faster than the passive losses fitted on the recording take it (a hand
+   that stops the platform; ``energy_J`` < 0).
 """
 
 from __future__ import annotations
@@ -29,7 +35,7 @@ import jax
 import numpy as np
 from scipy import stats
 
-from cdprid.base import CUTOFF_HZ, TRIM_S, InputError
+from cdprid.base import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S, InputError
 from cdprid.core import (
     ROTATION_WARN_DEG,
     estimate_motion,
@@ -40,6 +46,7 @@ from cdprid.core import (
 )
 from cdprid.effects import EXTERNAL_WRENCH
 from cdprid.episodes._energy import (
+    braking_runs,
     energy_runs,
     locked,
     mechanical_energy,
@@ -47,12 +54,13 @@ from cdprid.episodes._energy import (
     winch_power,
 )
 from cdprid.episodes._glitches import find_glitches
-from cdprid.episodes._null import cells, persistent_null
+from cdprid.episodes._null import cells, persistent_null, speed_noise
 from cdprid.episodes._scan import (
     SCALES_S,
     filter_autocorrelation,
     locate,
     noise_model,
+    robust_whitening,
     runs,
     window_level,
 )
@@ -66,8 +74,10 @@ FAR_PER_HOUR = 0.5
 PASSES = 3
 #: the robust fit leaves out samples beyond this many robust std (MAD) in any row
 REJECT_SIGMAS = 5.0
-#: episodes covering more than this share of the recording are not local in time
-MAX_SHARE = 0.3
+#: episodes covering more than this share of the scanned samples are not local in time: the
+#: robust fit (median and MAD) breaks down at half the samples, beyond which the null is not
+#: what most of the recording follows
+MAX_SHARE = 0.5
 #: share of an episode's mean residual one load cell's column must explain to be a step
 STEP_SHARE = 0.95
 
@@ -91,7 +101,8 @@ class Episode:
         Adjusted for the number of windows scanned (Bonferroni; 0 when below 1e-300).
     detail : dict
         Kind-specific: ``cable`` and ``step_N`` of a load-cell step, ``n_samples`` and
-        ``largest_m`` of glitches, ``energy_J`` of an energy episode.
+        ``largest_m`` of glitches, ``energy_J`` of an energy episode (the outside work, J:
+        negative where a hand takes energy out faster than the passive losses).
     """
 
     start_s: float
@@ -105,7 +116,15 @@ class Episode:
     detail: dict = dataclasses.field(default_factory=dict)
 
     def as_json(self) -> dict:
-        """The JSON form (the ``episodes`` list of ``identify --json`` and ``diagnose --json``)."""
+        """The JSON form (the ``episodes`` list of ``identify --json`` and ``diagnose --json``).
+
+        Returns
+        -------
+        dict
+            ``start_s``, ``end_s`` (s), ``kind``, ``force_N`` (3 floats, N, or None),
+            ``moment_Nm`` (3 floats, N m, or None), ``size_N``, ``size_Nm``, ``p_value``,
+            and the kind's :attr:`detail` keys.
+        """
         out = {"start_s": self.start_s, "end_s": self.end_s, "kind": self.kind,
                "force_N": list(self.force_N) if self.force_N is not None else None,
                "moment_Nm": list(self.moment_Nm) if self.moment_Nm is not None else None,
@@ -114,7 +133,13 @@ class Episode:
         return out
 
     def describe(self) -> str:
-        """One line: when, what, how large."""
+        """One line: when, what, how large.
+
+        Returns
+        -------
+        str
+            E.g. ``external_wrench 12.01-13.95 s: 14.2 N, 0.31 N m (p = 2.0e-09)``.
+        """
         what = {"pose_glitches": f"{self.detail.get('n_samples', 0)} displaced pose sample(s), "
                                  f"up to {1e3 * self.detail.get('largest_m', 0.0):.0f} mm",
                 "energy": f"{self.detail.get('energy_J', 0.0):+.2g} J of outside work"}.get(
@@ -157,7 +182,17 @@ class Episodes:
     caveat: str | None = None
 
     def excluded_at(self, t) -> np.ndarray:
-        """Whether each time of ``t`` (s) is within an excluded stretch."""
+        """Whether each time of ``t`` (s) is within an excluded stretch.
+
+        Parameters
+        ----------
+        t : array_like
+            Times, s (the recording's clock).
+
+        Returns
+        -------
+        ndarray of bool, the shape of ``t``
+        """
         t = np.asarray(t, float)
         out = np.zeros(t.shape, bool)
         for a, b in runs(self.excluded):
@@ -165,7 +200,14 @@ class Episodes:
         return out
 
     def note(self) -> str | None:
-        """The sentence for a fit's notes (None when nothing was found)."""
+        """The sentence for a fit's notes.
+
+        Returns
+        -------
+        str or None
+            How many episodes of which kinds were left out, and the caveat; the caveat
+            alone (or None) when nothing was found.
+        """
         if not self.episodes:
             return self.caveat
         kinds = sorted({e.kind for e in self.episodes})
@@ -177,13 +219,29 @@ class Episodes:
     def retimed(self, clock) -> Episodes:
         """The same episodes with their times mapped by ``clock`` (s -> s), e.g. from the
         joined axis of a budgeted subset to the recording's own clock (``t`` and
-        ``excluded`` stay on the analysed samples)."""
+        ``excluded`` stay on the analysed samples).
+
+        Parameters
+        ----------
+        clock : callable
+            ``clock(s) -> s``, applied to every episode's ``start_s`` and ``end_s``.
+
+        Returns
+        -------
+        Episodes
+        """
         eps = tuple(dataclasses.replace(e, start_s=clock(e.start_s), end_s=clock(e.end_s))
                     for e in self.episodes)
         return dataclasses.replace(self, episodes=eps)
 
     def as_json(self) -> list:
-        """The ``episodes`` list."""
+        """The ``episodes`` list.
+
+        Returns
+        -------
+        list of dict
+            :meth:`Episode.as_json` of each episode, in time order.
+        """
         return [e.as_json() for e in self.episodes]
 
 
@@ -222,7 +280,8 @@ def _data(robot, sig, cutoff_hz):
         model, mo.B_R_P, mo.acceleration, mo.omega, mo.alpha, np.asarray(robot.gravity)))
     twist = np.concatenate([np.asarray(mo.velocity), np.asarray(mo.omega)], axis=1)
     c = cells(W, twist, sig.tension, float(sig.dt), sig.segments,
-              lambda x: _filtered(x, sig, cutoff_hz), cutoff_hz)
+              lambda x: _filtered(x, sig, cutoff_hz), np.asarray(sig.t, float),
+              speed_noise(sig.position, float(sig.dt), cutoff_hz))
     return y, A, Wf, model, mo, c
 
 
@@ -242,6 +301,24 @@ def _robust_fit(y, Z, rows, whiten, steps: int = 3):
     return r, beta
 
 
+def _noise_fit(y, Z, rows, whiten, rounds: int = 2):
+    """:func:`_robust_fit` weighted by its own residual's row covariance: ``rounds`` times the
+    robust covariance of the last residual (:func:`robust_whitening`) whitens the next fit.
+    Returns ``(residual, beta, whitening)``.
+
+    The scan tests the residual in the noise's own metric; a fit weighted otherwise (e.g. by
+    the rows' signal scale, blind to the force-moment correlation of the cells' noise through
+    W) projects obliquely in that metric, and its many null columns then carry the noise of
+    the well-measured directions into the poorly measured ones, locally, where a column is
+    large (on the 8-cable redundant robot: window statistics of 60-150 against a threshold
+    of 34 on clean recordings)."""
+    r, beta = _robust_fit(y, Z, rows, whiten)
+    for _ in range(rounds):
+        whiten = robust_whitening(r[rows])[0]
+        r, beta = _robust_fit(y, Z, rows, whiten)
+    return r, beta, whiten
+
+
 def _fit(y, Z, rows, whiten):
     """Least squares of ``y ~ Z beta`` on ``rows``, whitened (6 x 6); the residual (n, 6)."""
     Zw = np.einsum("ij,njp->nip", whiten, Z[rows]).reshape(-1, Z.shape[2])
@@ -250,6 +327,11 @@ def _fit(y, Z, rows, whiten):
     scale[scale == 0] = 1.0
     beta = np.linalg.lstsq(Zw / scale, yw, rcond=1e-10)[0] / scale
     return y - np.einsum("nip,p->ni", Z, beta), beta
+
+
+TAUT_SHARE_MIN = 0.2
+"""Below this share of taut samples among the scanned ones the slack ones are scanned too
+(e.g. tensions in kN read as N: every sample would be left out and nothing tested)."""
 
 
 def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float = FAR_PER_HOUR,
@@ -293,11 +375,20 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     y, A, Wf, model, mo, c = _data(robot, sig, cutoff_hz)
     rows = np.std(y, 0) > 1e-9 * np.std(y, 0).max()  # nil rows (point mass): no test there
     y, A, Wf = y[:, rows], A[:, rows], Wf[:, rows]
-    scan_use = keep & ~gl_excl
+    slack = _dilate(np.any(np.asarray(sig.tension) < TAUT_THRESHOLD_N, axis=1), margin)
+    scan_use = keep & ~gl_excl & ~slack
+    few_taut = scan_use.sum() < TAUT_SHARE_MIN * max(int((keep & ~gl_excl).sum()), 1)
+    if few_taut:  # (almost) every sample below the taut threshold: scan them all, say so
+        scan_use = keep & ~gl_excl
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
-    Z = persistent_null(A, c, rows, lambda Z1: _robust_fit(y, Z1, scan_use, whiten)[1])
+    Z = persistent_null(A, c, rows, lambda Z1: _noise_fit(y, Z1, scan_use, whiten)[:2])
     found, excl, nm, beta, passes, caveat = _wrench_passes(y, Z, scan_use, gl_excl, dt, margin,
                                                            cutoff_hz, far_per_hour, A.shape[2])
+    if few_taut:
+        caveat = ((caveat + "; ") if caveat else "") + (
+            f"fewer than {TAUT_SHARE_MIN:.0%} of the samples have every tension above "
+            f"{TAUT_THRESHOLD_N:g} N (a tension unit or threshold to check): slack samples "
+            "were scanned too")
     n_windows = (t[-1] - t[0]) * sum(2.0 / s for s in SCALES_S)
     eps = [_wrench_episode(t, a, b, T, mean, Wf, nm, n_windows, rows)
            for a, b, T, mean in found]
@@ -324,7 +415,7 @@ def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour,
     excl, found, passes, caveat = gl_excl.copy(), [], 0, None
     while passes < PASSES:
         passes += 1
-        r, _ = _robust_fit(y, Z, scan_use & ~excl, whiten)
+        r, _, whiten = _noise_fit(y, Z, scan_use & ~excl, whiten)
         beta = _robust_fit(y, Z[..., :p], scan_use & ~excl, whiten)[1]
         nm = noise_model(r, scan_use & ~excl, max_lag, rho)
         whiten = nm.whiten
@@ -369,6 +460,11 @@ def _energy_episodes(robot, sig, mo, beta, model, use, excl, margin, far_per_hou
     for a, b, work, p in energy_runs(t, E, use, excl, far_per_hour):
         out.append(Episode(float(t[a]), float(t[b - 1]), "energy", None, None, None, None, p,
                            {"energy_J": work}))
+        new[a:b] = True
+    speed = np.linalg.norm(np.asarray(mo.velocity, float), axis=1)
+    for a, b, work, p in braking_runs(t, E, speed, use, excl | new, far_per_hour):
+        out.append(Episode(float(t[a]), float(t[b - 1]), "energy", None, None, None, None, p,
+                           {"energy_J": work}))  # < 0: taken out faster than passive losses
         new[a:b] = True
     return out, _dilate(new, margin) | excl
 
