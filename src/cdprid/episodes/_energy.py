@@ -22,10 +22,10 @@ within a swing) rises by more than its null spread, which comes from the recordi
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
 from scipy.ndimage import uniform_filter1d
 from scipy.optimize import nnls
 
+from cdprid.base import normal_isf, normal_sf
 from cdprid.episodes._scan import runs
 
 __all__ = ["LOCKED_RANGE_M", "TREND_S", "MIN_S", "locked", "energy_runs", "braking_runs",
@@ -165,7 +165,7 @@ def energy_runs(t, E, use, exclude, far_per_hour: float):
     scale = max(1.4826 * float(np.median(np.abs(hp[ref] - np.median(hp[ref])))), 1e-12)
     scale *= np.sqrt(2.0)
     n_per_s = sum(2.0 / w for w in WINDOWS_S)
-    z_thr = float(stats.norm.isf(far_per_hour / (3600.0 * n_per_s)))
+    z_thr = float(normal_isf(far_per_hour / (3600.0 * n_per_s)))
     bad = np.concatenate([[0], np.cumsum(~use)])
     mark, zstart, longest = np.zeros(n + 1, int), np.zeros(n), 1
     for w in WINDOWS_S:
@@ -190,7 +190,7 @@ def energy_runs(t, E, use, exclude, far_per_hour: float):
         if t[b - 1] - t[a] < MIN_S:
             continue
         zmax = float(zstart[max(0, a - longest):b].max())
-        p = float(min(1.0, stats.norm.sf(zmax) * n_per_s * (t[-1] - t[0])))
+        p = float(min(1.0, normal_sf(zmax) * n_per_s * (t[-1] - t[0])))
         found.append((a, b, float(trend[b - 1] - trend[a]), p))
     return found
 
@@ -254,7 +254,7 @@ def braking_runs(t, E, speed, use, exclude, far_per_hour: float):
     lost, _ = passive_loss(t, E, speed, ref)
     trend = uniform_filter1d(E + lost, k, mode="nearest")
     n_per_s = sum(2.0 / w for w in WINDOWS_S)
-    z_thr = float(stats.norm.isf(far_per_hour / (3600.0 * n_per_s)))
+    z_thr = float(normal_isf(far_per_hour / (3600.0 * n_per_s)))
     bad, cref = (np.concatenate([[0], np.cumsum(~x)]) for x in (use, ref))
     mark, zstart, longest = np.zeros(n + 1, int), np.zeros(n), 1
     for w in WINDOWS_S:
@@ -279,6 +279,6 @@ def braking_runs(t, E, speed, use, exclude, far_per_hour: float):
         if t[b - 1] - t[a] < MIN_S:
             continue
         zmax = float(zstart[max(0, a - longest):b].max())
-        p = float(min(1.0, stats.norm.sf(zmax) * n_per_s * (t[-1] - t[0])))
+        p = float(min(1.0, normal_sf(zmax) * n_per_s * (t[-1] - t[0])))
         found.append((a, b, float(trend[b - 1] - trend[a]), p))
     return found

@@ -130,9 +130,9 @@ def reversal_half_width(noise_N) -> np.ndarray:
     -------
     ndarray (m,) or float, N
     """
-    from scipy import stats
+    from cdprid.base import normal_isf
 
-    return stats.norm.isf(0.5 * REVERSAL_P) / np.sqrt(2.0) * np.asarray(noise_N, float)
+    return normal_isf(0.5 * REVERSAL_P) / np.sqrt(2.0) * np.asarray(noise_N, float)
 
 
 def motion(xf: np.ndarray, half_N, segments):

@@ -23,7 +23,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import stats
+
+from cdprid.base import chi2_isf
 
 __all__ = ["SCALES_S", "NoiseModel", "filter_autocorrelation", "noise_model",
            "robust_whitening", "scan", "refine", "window_level", "locate", "runs"]
@@ -151,7 +152,7 @@ def robust_whitening(x: np.ndarray):
     k = x.shape[1]
     mad = 1.4826 * np.median(np.abs(x - np.median(x, 0)), 0)
     C = np.diag(np.maximum(mad, 1e-12) ** 2)  # robust start: a push is not noise
-    q = stats.chi2.isf(1.0 - _ROBUST_Q, k)
+    q = chi2_isf(1.0 - _ROBUST_Q, k)
     inlier = np.ones(len(x), bool)
     for _ in range(4):  # leave out the outliers (the covariance then under-states by ~1 %)
         inside = np.einsum("ni,ij,nj->n", x, np.linalg.inv(C), x) < q
@@ -215,7 +216,7 @@ def scan(r: np.ndarray, use: np.ndarray, dt: float, model: NoiseModel, level: fl
     n = len(r)
     z = np.where(use[:, None], r @ model.whiten.T, 0.0)
     bad = np.concatenate([[0], np.cumsum(~use)])
-    thr = stats.chi2.isf(level, r.shape[1])
+    thr = chi2_isf(level, r.shape[1])
     flagged = np.zeros(n, bool)
     for s in scales_s:
         L = max(2, int(round(s / dt)))
@@ -301,7 +302,7 @@ def locate(r: np.ndarray, use: np.ndarray, dt: float, model: NoiseModel, level: 
         new = [refine(r, a, b, model) for a, b in runs(scan(r, free, dt, model, level))]
         if not new:
             break
-        thr = stats.chi2.isf(level, r.shape[1])
+        thr = chi2_isf(level, r.shape[1])
         for a, b, T, mean in new:
             if T > thr:  # a refined stretch below the threshold is not reported
                 found.append((a, b, T, mean))

@@ -126,10 +126,10 @@ def left_out(ds, sig, P, ref_i: int, ref_value: float, names, cutoff: float, tri
         if np.array_equal(new, excl):
             break
         excl = new
-    from scipy import stats
+    from cdprid.base import chi2_sf
 
     k = P.shape[1]
     eps = tuple(sorted(tuple(eps) + tuple(
-        _residual_episode(t, a, b, T, mean, float(min(1.0, stats.chi2.sf(T, k) * n_windows)))
+        _residual_episode(t, a, b, T, mean, float(min(1.0, chi2_sf(T, k) * n_windows)))
         for a, b, T, mean in found), key=lambda e: e.start_s))
     return excl, eps, caveat, max(margin_s, margin * dt)

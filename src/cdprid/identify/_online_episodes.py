@@ -34,8 +34,8 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy import stats
 
+from cdprid.base import chi2_isf, f_isf
 from cdprid.effects import EXTERNAL_WRENCH
 from cdprid.episodes import FAR_PER_HOUR, Episode
 from cdprid.identify._online_step import _online_step
@@ -99,12 +99,12 @@ def detector_settings(dt: float, far_per_hour: float = FAR_PER_HOUR, short_s: fl
     looks = 3600.0 / short_s  # looks per hour
     nu = max(noise_s / max(short_s, 0.3), 8.0)  # independent means behind U
     p = 6
-    f = stats.f.isf(far_per_hour / looks, p, nu - p + 1)
+    f = f_isf(far_per_hour / looks, p, nu - p + 1)
     level = float(nu * p / (nu - p + 1) * f)
     return DetectorSettings(
-        math.exp(-dt / short_s), math.exp(-dt / noise_s), level, float(stats.chi2.ppf(0.9, p)),
+        math.exp(-dt / short_s), math.exp(-dt / noise_s), level, float(chi2_isf(0.1, p)),
         arm_s / dt, max(int(round(hold_s / dt)), 1), max(int(round(max_episode_s / dt)), 1),
-        1.0 - dt / side_s, float(step_ratio), float(stats.chi2.ppf(0.99, p)),
+        1.0 - dt / side_s, float(step_ratio), float(chi2_isf(0.01, p)),
         float(prior_weight), bool(freeze))
 
 
