@@ -117,20 +117,13 @@ def _pendulum(brake: float, coulomb: float = 0.0):
 
     dt, ell, g, c, m = 0.01, 1.5, 9.81, 0.05, 10.0
     t = np.arange(0.0, 60.0, dt)
-    th, om, out = 0.4, 0.0, []
-    for tk in t:
-        def f(th, om, tk=tk):
-            u = brake if 20.0 <= tk < 22.0 else 0.0
-            return om, (-g / ell * math.sin(th) - c * om
-                        - (u + coulomb) * np.tanh(om / 1e-3) / (m * ell))
-        k1 = f(th, om)
-        k2 = f(th + dt / 2 * k1[0], om + dt / 2 * k1[1])
-        k3 = f(th + dt / 2 * k2[0], om + dt / 2 * k2[1])
-        k4 = f(th + dt * k3[0], om + dt * k3[1])
-        th += dt / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-        om += dt / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
-        out.append((th, om))
-    th = np.array(out)[:, 0] + 1e-4 * np.random.default_rng(3).normal(size=t.size)
+    from tests.episodes.pendulum import rk4_swing
+
+    def accel(th, om, tk):
+        u = brake if 20.0 <= tk < 22.0 else 0.0
+        return (-g / ell * math.sin(th) - c * om
+                - (u + coulomb) * np.tanh(om / 1e-3) / (m * ell))
+    th = rk4_swing(accel, 0.4, t)[0] + 1e-4 * np.random.default_rng(3).normal(size=t.size)
     om = np.gradient(th, dt)
     return t, 0.5 * m * (ell * om) ** 2 + m * g * ell * (1 - np.cos(th)), np.abs(ell * om)
 

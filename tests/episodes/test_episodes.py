@@ -242,20 +242,12 @@ def test_energy_test_finds_outside_work_and_nothing_on_a_passive_swing():
     t = np.arange(0.0, 60.0, dt)
 
     def run(push):
-        th, om, out = 0.3, 0.0, []
-        for tk in t:
-            def f(th, om, tk=tk):
-                u = push if 20.0 <= tk < 22.0 else 0.0
-                return om, -g / ell * math.sin(th) - c * om + u * np.sign(om) / ell
-            for _ in range(1):
-                k1 = f(th, om)
-                k2 = f(th + dt / 2 * k1[0], om + dt / 2 * k1[1])
-                k3 = f(th + dt / 2 * k2[0], om + dt / 2 * k2[1])
-                k4 = f(th + dt * k3[0], om + dt * k3[1])
-                th += dt / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-                om += dt / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
-            out.append((th, om))
-        th, om = np.array(out).T
+        from tests.episodes.pendulum import rk4_swing
+
+        def accel(th, om, tk):
+            u = push if 20.0 <= tk < 22.0 else 0.0
+            return -g / ell * math.sin(th) - c * om + u * np.sign(om) / ell
+        th, om = rk4_swing(accel, 0.3, t)
         rng = np.random.default_rng(2)
         th = th + 1e-4 * rng.normal(size=th.size)  # measured angle
         om = np.gradient(th, dt)
