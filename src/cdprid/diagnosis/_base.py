@@ -57,6 +57,17 @@ def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
     Force and moment rows are weighted by the inverse of their residual RMS; when the moment
     residual is nil (every cable attached at one point and the model fits the zero moments
     exactly) the moment rows get the force rows' weight.
+
+    Parameters
+    ----------
+    prob : Problem
+        From :func:`prepare`.
+
+    Returns
+    -------
+    (Problem, BaseFit)
+        The problem with ``wrow`` (row weights, 1/N and 1/(N m)) set, and the fit (x: m in kg,
+        m s_G in kg m, the inertia in kg m^2 when rotational; residual rms in N).
     """
     theta0 = jnp.zeros(prob.layout.size)
     A4 = np.asarray(regs_jit(prob.d, theta0, prob.layout, False))
@@ -89,7 +100,18 @@ def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
 
 
 def noise_levels(prob: Problem) -> NoiseLevels:
-    """White-noise levels of position and tensions (4th differences, MAD) and rotation size."""
+    """White-noise levels of position and tensions (4th differences, MAD) and rotation size.
+
+    Parameters
+    ----------
+    prob : Problem
+
+    Returns
+    -------
+    NoiseLevels
+        Position noise (m), per-cable tension noise (N, (m,)), the rotation's 99.5 %
+        amplitude and its noise (rad).
+    """
     sig_p = float(np.median(estimate_noise(prob.position)))
     sig_tau = estimate_noise(prob.tau_grid)
     amp = std = 0.0
@@ -105,6 +127,22 @@ def null_residuals(prob: Problem, noise: NoiseLevels, x, n_null: int, rng):
 
     The position noise reaches the accelerations through the differentiator of the problem's
     motion (:attr:`Problem.motion`, :func:`cdprid.core.differentiate_pose`).
+
+    Parameters
+    ----------
+    prob : Problem
+    noise : NoiseLevels
+        The levels to simulate (:func:`noise_levels`).
+    x : array_like (4,) or (10,)
+        The base fit's parameters.
+    n_null : int
+        Number of replicates.
+    rng : numpy.random.Generator
+
+    Yields
+    ------
+    numpy.ndarray (n, 6)
+        One replicate's weighted wrench residual (N and N m times the row weights).
     """
     n, m, dt = prob.n, prob.m, prob.dt
     mo = prob.motion

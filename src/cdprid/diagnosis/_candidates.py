@@ -52,6 +52,19 @@ def candidate_list(m: int, has_rotation: bool, robot=None) -> list[Candidate]:
     An effect declared ``when="no_pulley"`` (the swivel pulley's opposite arrival direction)
     is a candidate only when robot.toml models no pulley (every radius 0, so the axis may be
     a default); ``when="rotation"`` only when the pose stream rotates.
+
+    Parameters
+    ----------
+    m : int
+        Number of cables.
+    has_rotation : bool
+        Whether the pose stream rotates.
+    robot : CableRobot, optional
+        Decides the ``when="no_pulley"`` candidates.
+
+    Returns
+    -------
+    list of Candidate
     """
     no_pulley = robot is not None and not np.any(np.asarray(robot.pulley_radius) > 0)
     ok = {"always": True, "no_pulley": no_pulley, "rotation": has_rotation}

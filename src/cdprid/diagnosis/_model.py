@@ -57,7 +57,19 @@ class ThetaLayout:
 
     def unpack(self, theta):
         """Theta as named blocks: per-cable blocks ``(m,)`` or ``(m, size)``, global scalars
-        (size 1) or vectors."""
+        (size 1) or vectors.
+
+        Parameters
+        ----------
+        theta : array_like (size,)
+            The effect parameters in the layout's order.
+
+        Returns
+        -------
+        dict
+            Block name -> value: ``(m,)`` or ``(m, size)`` per cable, a scalar or ``(size,)``
+            for a global block.
+        """
         out = {}
         for name, s in self.slices.items():
             per_cable, size = self.block_shapes[name]
@@ -69,7 +81,20 @@ class ThetaLayout:
         return out
 
     def candidate_indices(self, effect: str, cable: int | None = None) -> list[int]:
-        """Indices of theta that an effect (and cable, 1-based) uses, in block order."""
+        """Indices of theta that an effect (and cable, 1-based) uses, in block order.
+
+        Parameters
+        ----------
+        effect : str
+            A name of the diagnosis table (``DIAGNOSIS``).
+        cable : int or None
+            1-based cable for a per-cable effect; None for a global one.
+
+        Returns
+        -------
+        list of int
+            The indices into theta, block by block.
+        """
         form = DIAGNOSIS[effect]
         out: list[int] = []
         for name, size in form.blocks:
@@ -490,7 +515,17 @@ def regs_jit(d, theta, layout, rotational):
 
 
 def rotvec_from_quat(q):
-    """Rotation vectors (n, 3) of unit quaternions (n, 4), scalar first."""
+    """Rotation vectors (n, 3) of unit quaternions (n, 4), scalar first.
+
+    Parameters
+    ----------
+    q : array_like (n, 4)
+
+    Returns
+    -------
+    numpy.ndarray (n, 3)
+        rad (axis times angle), angle in [0, pi].
+    """
     q = np.asarray(q, float)
     q = q * np.sign(q[:, :1] + (q[:, :1] == 0))
     v = q[:, 1:]

@@ -104,18 +104,28 @@ class Problem:
 def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CUTOFF_HZ,
             trim: float = TRIM_S, n_folds: int = 5, taut_N: float = TAUT_THRESHOLD_N,
             joins: tuple = (), clock=None) -> Problem:
-    """Align the streams, differentiate, build the forward-model data and the masks.
+    """Align, differentiate, build the forward-model data and the masks: samples inside the
+    trimmed recording where every cable is taut (:func:`cdprid.core.taut_mask`, as real data).
 
-    Samples are used when inside the trimmed recording (and the delay margin of the tension
-    stream) and when every cable is above ``taut_N`` within the window of
-    :func:`cdprid.core.taut_mask` (the rule shared with real-data fitting; slack phases
-    are outside every model here). With ``train_until``, t < train_until is fitted and the
-    rest held out; otherwise held-out figures are blocked cross-validation over ``n_folds``
-    time blocks. ``joins`` (times where blocks of a budgeted subset meet, see
-    :mod:`cdprid.diagnosis._budget`) exclude the samples within the trim margin of each join;
-    ``clock`` maps the dataset's times to the recording's own clock, in s from its tension
-    stream's first time stamp (:meth:`cdprid.diagnosis._budget.Subset.clock`; by default
-    ``t - tension_t[0]``): time-dependent effects are evaluated on it.
+    Parameters
+    ----------
+    ds : Dataset
+    train_until : float (s), optional
+        t < train_until is fitted, the rest held out; None: blocked cross-validation over
+        ``n_folds`` time blocks.
+    cutoff_hz : float (Hz), the differentiator's low-pass
+    trim : float (s), left out at each end
+    n_folds : int
+    taut_N : float (N)
+    joins : tuple of float (s)
+        Where blocks of a budgeted subset meet (:mod:`cdprid.diagnosis._budget`); the samples
+        within the trim margin of each are left out.
+    clock : callable, optional
+        Times -> the recording's clock for time-dependent effects (default t - tension_t[0]).
+
+    Returns
+    -------
+    Problem
 
     Raises
     ------
@@ -272,6 +282,25 @@ def design(prob: Problem, theta, x_cur, rotational: bool):
     filtered side). The last :data:`DESIGN_CACHE_SIZE` linearisations are kept in
     ``prob.cache`` (the selection stages ask for the same one several times); the arrays
     returned are shared with the cache and must not be modified.
+
+    Parameters
+    ----------
+    prob : Problem
+    theta : array_like (size,)
+        Effect parameters to linearise at.
+    x_cur : array_like (10,)
+        Platform parameters (the first 4 when not ``rotational``).
+    rotational : bool
+        Whether the inertia is part of the model.
+
+    Returns
+    -------
+    y : numpy.ndarray (n, 6)
+        The filtered cable side minus the model's part not linear in x, N and N m.
+    A : numpy.ndarray (n, 6, 4 or 10)
+        The regressor in x.
+    C : numpy.ndarray (n, 6, size)
+        The theta columns (model minus cable side Jacobian). Read-only.
     """
     key = _design_key(theta, x_cur, rotational)
     hit = prob.cache.get("design", {}).get(key)
@@ -402,6 +431,20 @@ def heldout_residuals(prob: Problem, Z, y):
 
 
 def force_heldout_rms(prob: Problem, Z, y) -> float:
-    """Held-out RMS of the force rows in newtons (weighted fit, unweighted residual)."""
+    """Held-out RMS of the force rows in newtons (weighted fit, unweighted residual).
+
+    Parameters
+    ----------
+    prob : Problem
+    Z : numpy.ndarray (n, 6, p)
+        The model's columns (weighted rows).
+    y : numpy.ndarray (n, 6)
+        The weighted response.
+
+    Returns
+    -------
+    float
+        N.
+    """
     _, r = heldout_residuals(prob, Z, y)
     return float(np.sqrt(np.mean((r[:, :3] / prob.wrow[None, :3]) ** 2)))

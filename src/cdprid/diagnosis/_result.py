@@ -22,6 +22,14 @@ class Finding:
     separated_by: dict = dataclasses.field(default_factory=dict)
 
     def as_json(self) -> dict:
+        """The finding as the JSON object of ``diagnose --json``'s ``findings`` list.
+
+        Returns
+        -------
+        dict
+            ``effect``, ``parameters`` (SI units), ``interval`` (95 %), ``aliases``, the
+            held-out rms before and after it (N), ``p_value`` and the rest of its fields.
+        """
         return {
             "effect": self.effect,
             "parameters": self.parameters,
@@ -64,6 +72,14 @@ class DiagnosisResult:
     extended_heldout_rms_with_episodes: float | None = None
 
     def as_json(self) -> dict:
+        """The whole diagnosis as the JSON document of ``diagnose --json`` (the contract).
+
+        Returns
+        -------
+        dict
+            ``base``, ``findings``, ``extended``, ``not_named``, ``unexplained``,
+            ``competing_models``, ``episodes``, ``notes`` and ``info`` (SI units).
+        """
         return {
             "base": {
                 "parameters": self.base_parameters,

@@ -146,7 +146,18 @@ class Selection:
 
 
 def start(prob: Problem, base: BaseFit) -> Selection:
-    """The base model as a selection without findings."""
+    """The base model as a selection without findings.
+
+    Parameters
+    ----------
+    prob : Problem
+    base : BaseFit
+
+    Returns
+    -------
+    Selection
+        Theta zero, x the base fit's (padded to 10), no finding.
+    """
     size = prob.layout.size
     x = np.concatenate([base.x, np.zeros(10 - len(base.x))])
     return Selection(np.zeros(size), x, base.rotational, (), (), (), np.zeros((size, size)))

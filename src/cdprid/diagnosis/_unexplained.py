@@ -253,7 +253,21 @@ def _runs(mask):
 
 
 def decimate_runs(x, mask, step: int):
-    """Every ``step``-th sample of each contiguous run of ``mask``, and its run number."""
+    """Every ``step``-th sample of each contiguous run of ``mask``, and its run number.
+
+    Parameters
+    ----------
+    x : numpy.ndarray (n, ...)
+    mask : numpy.ndarray (n,) of bool
+    step : int
+        Keep every ``step``-th sample of each run.
+
+    Returns
+    -------
+    values : numpy.ndarray (k, ...)
+    run_id : numpy.ndarray (k,) of int
+        The run (0-based, in time order) of each kept sample.
+    """
     vals, run_id = [], []
     for k, (lo, hi) in enumerate(_runs(mask)):
         seg = x[lo:hi:step]
@@ -346,6 +360,21 @@ def periodogram(x, mask, dt: float):
     """Periodogram of a masked series (mean removed, zero outside the mask), ``(f, I)``.
 
     ``I = |FFT|^2 / n_used``: for white noise of variance s^2 its ordinates have mean s^2.
+
+    Parameters
+    ----------
+    x : numpy.ndarray (n,)
+    mask : numpy.ndarray (n,) of bool
+        The samples used.
+    dt : float
+        Sample period, s.
+
+    Returns
+    -------
+    f : numpy.ndarray
+        Frequencies, Hz.
+    I : numpy.ndarray
+        Ordinates, units of ``x`` squared.
     """
     x = np.where(mask, x - np.mean(x[mask]), 0.0)
     X = np.fft.rfft(x)

@@ -62,6 +62,17 @@ class CableContext:
         return getattr(self, key)
 
     def get(self, key: str, default=None):
-        """``c.get("slide", default)``: the attribute, or ``default`` when it is None."""
+        """``c.get("slide", default)``: the attribute, or ``default`` when it is None.
+
+        Parameters
+        ----------
+        key : str
+            An attribute of the context.
+        default : object, optional
+
+        Returns
+        -------
+        object
+        """
         value = getattr(self, key, None)
         return default if value is None else value

@@ -256,7 +256,13 @@ class EffectSpec:
 
     def forms(self) -> dict:
         """Its diagnosis forms by table name (``diagnosis`` under ``name``, then variants),
-        each variant reporting this effect's name."""
+        each variant reporting this effect's name.
+
+        Returns
+        -------
+        dict
+            Table name -> DiagnosisForm.
+        """
         out = {} if self.diagnosis is None else {self.name: self.diagnosis}
         for key, form in self.variants:
             out[key] = dataclasses.replace(form, vocabulary=self.name)
