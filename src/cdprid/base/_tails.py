@@ -1,14 +1,15 @@
 """Tail probabilities of the normal and chi-square laws through ``scipy.special`` alone.
 
-``scipy.stats`` costs about 0.65 s to import; the episodes' thresholds and p-values need four
-of its functions, which ``scipy.special`` computes with the same code (equal to the last bit,
-scipy 1.17). Importing them from here keeps ``cdprid identify``'s start-up short.
+``scipy.stats`` costs about 0.65 s to import; the episodes' thresholds and p-values need a
+few of its functions, which ``scipy.special`` computes with the same code (equal to the last
+bit, scipy 1.17). Importing them from here keeps ``cdprid identify``'s start-up short;
+``scipy.special`` itself is imported on first use (the base layer is on every command's
+``--help`` path, which imports no SciPy).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy import special
 
 __all__ = ["chi2_isf", "chi2_sf", "f_isf", "normal_isf", "normal_sf"]
 
@@ -26,6 +27,8 @@ def normal_sf(z):
     float or numpy.ndarray
         The probability, same shape as ``z``.
     """
+    from scipy import special
+
     return special.ndtr(-np.asarray(z, float))
 
 
@@ -42,6 +45,8 @@ def normal_isf(q):
     float or numpy.ndarray
         The value ``z`` with ``P(Z > z) = q``, same shape as ``q``.
     """
+    from scipy import special
+
     return -special.ndtri(np.asarray(q, float))
 
 
@@ -60,6 +65,8 @@ def chi2_sf(x, k):
     float or numpy.ndarray
         ``P(X > x)``, broadcast shape of ``x`` and ``k``.
     """
+    from scipy import special
+
     return special.chdtrc(np.asarray(k, float), np.asarray(x, float))
 
 
@@ -78,6 +85,8 @@ def chi2_isf(q, k):
     float or numpy.ndarray
         The value ``x`` with ``P(X > x) = q``, broadcast shape of ``q`` and ``k``.
     """
+    from scipy import special
+
     return special.chdtri(np.asarray(k, float), np.asarray(q, float))
 
 
@@ -98,6 +107,8 @@ def f_isf(q, dfn, dfd):
     float or numpy.ndarray
         The value ``f`` with ``P(F > f) = q``.
     """
+    from scipy import special
+
     dfn, dfd = np.asarray(dfn, float), np.asarray(dfd, float)
     y = special.betaincinv(dfd / 2.0, dfn / 2.0, np.asarray(q, float))
     return dfd * (1.0 - y) / (dfn * y)
