@@ -35,6 +35,7 @@ from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
 from cdprid.identify._cells import CellCalibration, calibrate_cells_wrench
 from cdprid.identify._episodes import _trimmed
+from cdprid.identify._free_eiv import pose_noise_bias
 from cdprid.identify._free_pushes import left_out
 from cdprid.identify._free_rows import (
     com_over_thirds,
@@ -157,7 +158,7 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
                          chunk: int = CHUNK, check_cutoff: bool = True,
                          keep_episodes: bool | None = False,
                          far_per_hour: float = FAR_PER_HOUR,
-                         tension_lag: float = 0.0) -> FreeMotionReport:
+                         tension_lag: float = 0.0, eiv: bool = True) -> FreeMotionReport:
     """Identify the platform from its free motion with locked winches (poses alone).
 
     Parameters
@@ -184,6 +185,9 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
     tension_lag : float
         Seconds added to the tension clock before the load cells are calibrated (their clock
         offset: positive when the tension log leads the poses; UACDPR: about 0.025 s).
+    eiv : bool
+        Remove the pose noise's second-order bias and add its Monte-Carlo covariance
+        (:func:`cdprid.identify._free_eiv.pose_noise_bias`); False: plain least squares.
 
     Returns
     -------
@@ -210,6 +214,9 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
     notes += [_METHOD_NOTE.format(6 - m, diff)] + (["cutoff chosen from the data"] if fix
                                                     else []) + extra[0]
     warns += extra[1]
+    if eiv:
+        res = _eiv_corrected(ds.robot, dsa, sig, motion, model, params, rho, chunk, idx, ref_i,
+                             res, notes, P)
     res = _window_scaled(P, idx, ref_i, names, chunk, sig.t, ref.value, res, notes, warns)
     theta, cov = scaled_estimate(res.x, res.cov, ref, ref_i)
     _, cov_iid = scaled_estimate(res.x, res.cov_iid, ref, ref_i)
@@ -227,7 +234,8 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
     c2 = min(2.0 * float(params["cutoff_hz"]), 0.4 / sig.dt)  # the same fit at twice the cutoff
     other = identify_free_motion(ds, reference, model, dict(params, cutoff_hz=c2), t_start,
                                  t_end, trim, chunk, check_cutoff=False,
-                                 keep_episodes=keep_episodes, far_per_hour=far_per_hour)
+                                 keep_episodes=keep_episodes, far_per_hour=far_per_hour,
+                                 eiv=eiv)
     return dataclasses.replace(rep, warnings=rep.warnings + tuple(_cutoff_warning(rep, other,
                                                                                  c2)))
 
@@ -235,8 +243,32 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
 _METHOD_NOTE = ("free motion: the Newton-Euler equations projected on the {} free directions of "
                 "the locked cables at each measured pose (null space of W^T), then through the "
                 "{} zero-phase low-pass (projected, then filtered: exact for any cutoff); "
-                "ordinary least squares with HAC std (the pose noise inside the regressor is "
-                "not corrected)")
+                "ordinary least squares with HAC std")
+
+
+def _eiv_corrected(robot, dsa, sig, motion, model, params, rho, chunk, idx, ref_i, res, notes,
+                   P):
+    """The fit with the pose noise's second-order bias removed and its Monte-Carlo covariance
+    added (:func:`cdprid.identify._free_eiv.pose_noise_bias`); a note says by how much."""
+    def rows(s, mo):
+        return projected_filtered_rows(robot, s, mo, model, params, rho, int(chunk))
+
+    pb = pose_noise_bias(dsa, sig, motion, rows, idx, ref_i, P, res.hac_bandwidth)
+    s = np.sqrt(np.clip(np.diag(res.cov), 1e-300, None))
+    k = int(np.argmax(np.abs(pb.bias) / s))
+    ratio = np.sqrt(np.clip(np.diag(pb.cov_boot), 0, None)) / s
+    rot = "" if pb.s_rot is None else f", {1e3 * pb.s_rot:.2g} mrad"
+    notes.append(f"errors in variables: the pose noise's second-order bias ({1e3 * pb.s_pos:.2g} "
+                 f"mm{rot}, from the poses' 4th differences) removed by an antithetic "
+                 f"parametric bootstrap ({pb.pairs} pairs of re-noised poses); largest shift "
+                 f"{res.names[k]} by {pb.bias[k] / s[k]:+.2f} std; the pose noise's bootstrap "
+                 f"std is {np.min(ratio):.2f}-{np.max(ratio):.2f} times the HAC std")
+    f = np.sqrt(np.maximum(1.0, pb.inflation))  # the correction's own variance, when it adds
+
+    def cov(c):
+        return f[:, None] * (pb.bread @ c @ pb.bread.T) * f[None, :] + pb.cov_mc
+
+    return dataclasses.replace(res, x=res.x - pb.bias, cov=cov(res.cov), cov_iid=cov(res.cov_iid))
 
 
 def _window_scaled(P, idx, ref_i, names, chunk, t, value, res, notes, warns):
