@@ -14,6 +14,13 @@ located by the episodes stage from the load cells) and (b) on the decays with th
 brakings left out exactly (the rows of the same command), at several cutoffs.
 
 Run: ``nice -n 10 .venv/bin/python -m benchmarks.free_motion_sim [--seeds 2]``.
+
+``--mc N`` instead runs the load-cell Monte Carlo of ``tests/identify/test_free_motion.py``
+(4-cable sim4 robot, 20 s, two pushes, pose noise 0.2 mm and 0.5 mrad times ``--noise``,
+random cell gains and offsets; seeds 100, 101, ...) with and without the errors-in-variables
+correction (``eiv``; a tree without it runs once) and prints every parameter's error in std
+units (mean, RMS, largest) and the 95 % intervals' coverage of the platform parameters and of
+the cells' gains and offsets.
 """
 
 from __future__ import annotations
@@ -86,11 +93,82 @@ def exact_fit(ds, spans, cutoff: float) -> tuple[float, float]:
     return float(rep.theta[3] / rep.theta[0]), float(rep.std[3] / rep.theta[0])
 
 
+def cells_recording(seed: int, folder: Path, noise: float = 1.0):
+    """The load-cell Monte Carlo's recording ``seed`` (as the test): its folder, the cells'
+    gains and offsets, and the platform's true parameters (m, m s_G, I_P)."""
+    from tests.identify.test_free_motion import IG as IG4
+    from tests.identify.test_free_motion import MASS as M4
+    from tests.identify.test_free_motion import SG as SG4
+    from tests.identify.test_free_motion import A as A4
+    from tests.identify.test_free_motion import B as B4
+
+    rd = {"name": "sim4", "cable": [{"exit": a.tolist(), "anchor": b.tolist()}
+                                    for a, b in zip(A4, B4, strict=True)],
+          "platform": {"mass": M4, "mass_uncertainty": 0.0}}
+    rng = np.random.default_rng(100 + seed)
+    pushes = [{"start_s": t0, "end_s": t0 + rng.uniform(1.5, 2.5),
+               "force_N": (rng.normal(0, 10, 3) * [1, 1, 0.3]).tolist(),
+               "moment_Nm": rng.normal(0, 1.0, 3).tolist()} for t0 in (3.0, 11.0)]
+    plant = FreePlatform(A4, B4, M4, SG4, IG4, [0.0, 0.0, 0.6])
+    t, P, Q, T = plant.run(20.0, pushes, p_start=[0.0, 0.0, 0.6],
+                           om_start=rng.normal(0, 0.5, 3))
+    Pn, Qn = noisy(P, Q, rng, 2e-4 * noise, 5e-4 * noise)
+    g, o = rng.uniform(0.85, 1.15, 4), rng.uniform(-5, 5, 4)
+    out = write_dataset(folder / f"cells{seed}_{noise:g}", robot_from_dict(rd), t, Pn, t,
+                        g * T + o + 0.5 * rng.standard_normal(T.shape), quaternion=Qn)
+    IP = IG4 + M4 * (SG4 @ SG4 * np.eye(3) - np.outer(SG4, SG4))
+    truth = np.array([M4, *(M4 * SG4), IP[0, 0], IP[0, 1], IP[0, 2], IP[1, 1], IP[1, 2],
+                      IP[2, 2]])
+    return out, g, o, truth
+
+
+def monte_carlo(n: int, noise: float) -> None:
+    """The load-cell Monte Carlo (module docstring): one table row per setting."""
+    import inspect
+
+    has_eiv = "eiv" in inspect.signature(identify_free_motion).parameters
+    settings = (True, False) if has_eiv else (None,)
+    z = {k: [] for k in settings}
+    cells = {k: [0, 0] for k in settings}
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in range(n):
+            out, g, o, truth = cells_recording(seed, Path(tmp), noise)
+            ds = read_dataset(out)
+            for k in settings:
+                kw = {} if k is None else {"eiv": k}
+                rep = identify_free_motion(ds, reference="mass", params={"cutoff_hz": 4.0},
+                                           check_cutoff=False, **kw)
+                z[k].append((rep.theta - truth)[1:] / rep.std[1:])
+                c = rep.cells
+                cells[k][0] += int(np.sum(np.abs(c.gain - g) < 1.96 * c.gain_std)
+                                   + np.sum(np.abs(c.offset - o) < 1.96 * c.offset_std))
+                cells[k][1] += 8
+                print(f"seed {seed} eiv {k}: z " + " ".join(
+                    f"{v:+.2f}" for v in z[k][-1]), flush=True)
+            names = rep.names[1:]
+    print(f"\n| eiv | statistic | {' | '.join(names)} |")
+    print("|---|---|" + "---:|" * len(names))
+    for k in settings:
+        Z = np.array(z[k])
+        for lab, v in (("mean z", Z.mean(0)), ("RMS z", np.sqrt(np.mean(Z ** 2, 0))),
+                       ("max abs z", np.max(np.abs(Z), 0)),
+                       ("covered (95 %)", np.sum(np.abs(Z) < 1.96, 0))):
+            fmt = "{:d}" if lab.startswith("covered") else "{:+.2f}"
+            print(f"| {k} | {lab} | " + " | ".join(fmt.format(int(x) if fmt == "{:d}" else x)
+                                                    for x in v) + " |")
+        print(f"| {k} | load cells covered | {cells[k][0]} of {cells[k][1]} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--scenarios", default="free,pushed,braked")
+    ap.add_argument("--mc", type=int, default=0, help="load-cell Monte Carlo seeds (0: off)")
+    ap.add_argument("--noise", type=float, default=1.0, help="--mc pose noise factor")
     a = ap.parse_args()
+    if a.mc:
+        monte_carlo(a.mc, a.noise)
+        return
     print("| scenario | seed | cutoff Hz | command: z_G (m) | episodes "
           "| exact spans out: z_G (m) |")
     print("|---|---:|---:|---|---:|---|")

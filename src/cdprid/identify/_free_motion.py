@@ -11,7 +11,9 @@ homogeneous in the platform parameters: the mass (a weighed mass or a stated sta
 :mod:`cdprid.identify._scale`) fixes the scale. The rows are projected at the measured poses
 and then filtered (:mod:`cdprid.identify._free_rows`: exact for any cutoff); pushes by hand
 are located and left out (:mod:`cdprid.identify._free_pushes`); the fit is checked on its
-time thirds and at twice the cutoff. HAC covariance, the reference's uncertainty propagated.
+time thirds and at twice the cutoff. The pose noise inside the rows (errors in variables) is
+corrected (:mod:`cdprid.identify._free_eiv`). HAC covariance, the reference's uncertainty
+propagated.
 Where load cells are present, each is calibrated against the identified dynamics in the
 wrench space (:func:`cdprid.identify._cells.calibrate_cells_wrench`).
 """
@@ -210,13 +212,13 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
     use = segment_mask(motion.t, motion.segments, trim) & _trimmed(motion.t, trim, ds.path)
     excl, eps, extra = _left_out(ds, sig, P, ref, ref_i, names, params, trim, far_per_hour,
                                  keep_episodes, use, chunk)
-    res = fit_rows(P, idx := np.flatnonzero(use & ~excl), ref_i, names, chunk)
+    res = _fit(P, idx := np.flatnonzero(use & ~excl), ref_i, names, chunk, ds.path)
     notes += [_METHOD_NOTE.format(6 - m, diff)] + (["cutoff chosen from the data"] if fix
                                                     else []) + extra[0]
     warns += extra[1]
     if eiv:
         res = _eiv_corrected(ds.robot, dsa, sig, motion, model, params, rho, chunk, idx, ref_i,
-                             res, notes, P)
+                             res, (notes, warns), P)
     res = _window_scaled(P, idx, ref_i, names, chunk, sig.t, ref.value, res, notes, warns)
     theta, cov = scaled_estimate(res.x, res.cov, ref, ref_i)
     _, cov_iid = scaled_estimate(res.x, res.cov_iid, ref, ref_i)
@@ -225,7 +227,7 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
         notes += [f"tension clock shifted by {float(tension_lag):+g} s before the load cells' "
                   "calibration (tension_lag)"] if tension_lag else []
         cells = _cells(ds, sig, motion, model, diff, params, idx, theta, cov, chunk, rho,
-                       notes, warns)
+                       notes, warns, eiv)
     rep = FreeMotionReport(model, tuple(names), theta, cov, cov_iid, ref, len(idx),
                            float(ref.value * res.sigma_rho), float(res.hac_bandwidth), cells,
                            diff, params, tuple(notes), tuple(warns), tuple(eps))
@@ -246,10 +248,24 @@ _METHOD_NOTE = ("free motion: the Newton-Euler equations projected on the {} fre
                 "ordinary least squares with HAC std")
 
 
-def _eiv_corrected(robot, dsa, sig, motion, model, params, rho, chunk, idx, ref_i, res, notes,
+def _fit(P, idx, ref_i, names, chunk, path):
+    """:func:`cdprid.identify._free_rows.fit_rows`, refused in one sentence when too few
+    samples are left."""
+    if len(idx) < 10 * P.shape[2]:
+        raise InputError(f"{path}: only {len(idx)} samples of free motion are left after the "
+                         "trimmed edges and the pushes located (at least "
+                         f"{10 * P.shape[2]} needed): record a longer release or pass "
+                         "--keep-episodes.")
+    return fit_rows(P, idx, ref_i, names, chunk)
+
+
+def _eiv_corrected(robot, dsa, sig, motion, model, params, rho, chunk, idx, ref_i, res, said,
                    P):
-    """The fit with the pose noise's second-order bias removed and its Monte-Carlo covariance
-    added (:func:`cdprid.identify._free_eiv.pose_noise_bias`); a note says by how much."""
+    """The fit with the pose noise's second-order bias removed and its covariance inflated by
+    the correction's own (:func:`cdprid.identify._free_eiv.pose_noise_bias`); a note says by
+    how much, a warning when the correction exceeds the least-squares std (``said``: the notes
+    and warnings lists)."""
+    notes, warns = said
     def rows(s, mo):
         return projected_filtered_rows(robot, s, mo, model, params, rho, int(chunk))
 
@@ -263,6 +279,12 @@ def _eiv_corrected(robot, dsa, sig, motion, model, params, rho, chunk, idx, ref_
                  f"parametric bootstrap ({pb.pairs} pairs of re-noised poses); largest shift "
                  f"{res.names[k]} by {pb.bias[k] / s[k]:+.2f} std; the pose noise's bootstrap "
                  f"std is {np.min(ratio):.2f}-{np.max(ratio):.2f} times the HAC std")
+    if abs(pb.bias[k]) > s[k]:
+        warns.append(f"the pose noise's bias correction moved {res.names[k]} by "
+                     f"{pb.bias[k] / s[k]:+.1f} std: it rests on white pose noise at the levels "
+                     "the 4th differences measure; coloured noise (a marker fit, a Kalman "
+                     "filter) or a motion with power near the Nyquist frequency leaves part of "
+                     "the bias (the load cells' intervals inherit it): larger swings shrink it")
     f = np.sqrt(np.maximum(1.0, pb.inflation))  # the correction's own variance, when it adds
 
     def cov(c):
@@ -321,16 +343,19 @@ def _episode_notes(eps, excl, keep_episodes, has_tension: bool, margin_s: float)
             f"{int(excl.sum())} samples, {margin_s:.2g} s of filter transient on each side"]
 
 
-#: Said with every load-cell calibration from free motion: what its intervals do not hold.
+#: Said with a load-cell calibration from free motion fitted without the errors-in-variables
+#: correction (``eiv=False``): what its intervals do not hold.
 CELLS_CAVEAT = ("load cells: their intervals hold the free-motion estimate's HAC covariance, "
                 "which does not hold the pose noise inside the regressor (uncorrected errors in "
-                "variables: on small simulated swings the platform estimate sits up to 4 std "
+                "variables: on small simulated swings the platform estimate sat up to 4 std "
                 "off, and the cells' 95 % intervals covered 18 of 32 gains and offsets); read "
                 "them as lower bounds and prefer a static calibration against known weights")
 
 
-def _cells(ds, sig, motion, model, diff, params, idx, theta, cov, chunk, rho, notes, warns):
-    """The load cells against the identified dynamics on the kept samples."""
+def _cells(ds, sig, motion, model, diff, params, idx, theta, cov, chunk, rho, notes, warns,
+           eiv=True):
+    """The load cells against the identified dynamics on the kept samples (with
+    :data:`CELLS_CAVEAT` when the pose noise was not corrected)."""
     wf, _, _ = _wrench_filter(ds.robot, diff, params, sig.dt, "matched")
     keep = np.zeros(len(sig.t), bool)
     keep[idx] = True
@@ -340,7 +365,8 @@ def _cells(ds, sig, motion, model, diff, params, idx, theta, cov, chunk, rho, no
     cells = calibrate_cells_wrench(reg, W, sig, wf, np.flatnonzero(keep2), theta, cov,
                                    int(chunk), rho)
     warns += list(cells.warnings)
-    warns.append(CELLS_CAVEAT)
+    if not eiv:
+        warns.append(CELLS_CAVEAT)
     return cells
 
 
