@@ -188,8 +188,7 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
         Seconds added to the tension clock before the load cells are calibrated (their clock
         offset: positive when the tension log leads the poses; UACDPR: about 0.025 s).
     eiv : bool
-        Remove the pose noise's second-order bias and add its Monte-Carlo covariance
-        (:func:`cdprid.identify._free_eiv.pose_noise_bias`); False: plain least squares.
+        Correct the pose noise's errors in variables (:mod:`cdprid.identify._free_eiv`).
 
     Returns
     -------
@@ -216,18 +215,15 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
     notes += [_METHOD_NOTE.format(6 - m, diff)] + (["cutoff chosen from the data"] if fix
                                                     else []) + extra[0]
     warns += extra[1]
-    if eiv:
-        res = _eiv_corrected(ds.robot, dsa, sig, motion, model, params, rho, chunk, idx, ref_i,
-                             res, (notes, warns), P)
+    res = _eiv_corrected(ds.robot, dsa, sig, motion, model, params, rho, chunk, idx, ref_i,
+                         res, (notes, warns), P) if eiv else res
     res = _window_scaled(P, idx, ref_i, names, chunk, sig.t, ref.value, res, notes, warns)
     theta, cov = scaled_estimate(res.x, res.cov, ref, ref_i)
     _, cov_iid = scaled_estimate(res.x, res.cov_iid, ref, ref_i)
-    cells = None
-    if ds.tension is not None:
-        notes += [f"tension clock shifted by {float(tension_lag):+g} s before the load cells' "
-                  "calibration (tension_lag)"] if tension_lag else []
-        cells = _cells(ds, sig, motion, model, diff, params, idx, theta, cov, chunk, rho,
-                       notes, warns, eiv)
+    notes += [f"tension clock shifted by {float(tension_lag):+g} s before the load cells' "
+              "calibration (tension_lag)"] if tension_lag and ds.tension is not None else []
+    cells = None if ds.tension is None else _cells(ds, sig, motion, model, diff, params, idx,
+                                                   theta, cov, chunk, rho, notes, warns, eiv)
     rep = FreeMotionReport(model, tuple(names), theta, cov, cov_iid, ref, len(idx),
                            float(ref.value * res.sigma_rho), float(res.hac_bandwidth), cells,
                            diff, params, tuple(notes), tuple(warns), tuple(eps))
@@ -235,11 +231,8 @@ def identify_free_motion(ds, reference: str | None = None, model: str = "auto",
         return rep
     c2 = min(2.0 * float(params["cutoff_hz"]), 0.4 / sig.dt)  # the same fit at twice the cutoff
     other = identify_free_motion(ds, reference, model, dict(params, cutoff_hz=c2), t_start,
-                                 t_end, trim, chunk, check_cutoff=False,
-                                 keep_episodes=keep_episodes, far_per_hour=far_per_hour,
-                                 eiv=eiv)
-    return dataclasses.replace(rep, warnings=rep.warnings + tuple(_cutoff_warning(rep, other,
-                                                                                 c2)))
+                                 t_end, trim, chunk, False, keep_episodes, far_per_hour, 0.0, eiv)
+    return dataclasses.replace(rep, warnings=rep.warnings + tuple(_cutoff_warning(rep, other, c2)))
 
 
 _METHOD_NOTE = ("free motion: the Newton-Euler equations projected on the {} free directions of "
