@@ -53,11 +53,15 @@ class PoseNoiseBias:
     ----------
     bias : ndarray (p - 1,)
         The estimated second-order bias, the parameters' units over the reference's.
+    share : float
+        The pose noise's largest share of the rows' power over the parameters' directions
+        (the largest eigenvalue of ``D`` in the metric of ``M``, reference left out): the
+        corrected estimate is ``1 / (1 - share)`` times noisier than least squares there.
     inflation : ndarray (p - 1,)
-        The corrected estimate's HAC variance over the least-squares one, both without the
-        leverage adjustment: the corrected normal matrix as bread and the corrected scores
-        ``(P_n^T P_n - D_n) x`` as meat (``D_n`` the noise's share of sample n, from the
-        pairs), over ``B^-1`` and ``P_n^T P_n x``.
+        How much more the corrected scores ``(P_n^T P_n - D_n) x`` vary than the plain ones
+        ``P_n^T P_n x`` (``D_n`` the noise's share of sample n, from the pairs): the ratio of
+        the HAC variances they give through the same corrected bread (no leverage
+        adjustment).
     cov_mc : ndarray (p - 1, p - 1)
         Monte-Carlo covariance of ``bias`` (its pairs' spread over their number).
     cov_boot : ndarray (p - 1, p - 1)
@@ -73,6 +77,7 @@ class PoseNoiseBias:
     """
 
     bias: np.ndarray
+    share: float
     inflation: np.ndarray
     cov_mc: np.ndarray
     cov_boot: np.ndarray
@@ -166,10 +171,12 @@ def pose_noise_bias(ds, sig, motion, rows, idx, ref_i: int, P, bandwidth: float,
     B, Bi = M0[np.ix_(o, o)], np.linalg.inv((M0 - D)[np.ix_(o, o)])
     g = np.einsum("npq,q->np", (Mn - Dn)[:, o, :], np.insert(xc, ref_i, 1.0))
     g0 = np.einsum("npq,q->np", Mn[:, o, :], np.insert(x0, ref_i, 1.0))
-    cov, B0 = Bi @ bartlett_meat(g, bandwidth) @ Bi.T, np.linalg.inv(B)
-    cov0 = B0 @ bartlett_meat(g0, bandwidth) @ B0.T
+    cov = Bi @ bartlett_meat(g, bandwidth) @ Bi.T  # the meats compared through one bread
+    cov0 = Bi @ bartlett_meat(g0, bandwidth) @ Bi.T
     halves = np.array(halves)
-    return PoseNoiseBias(x0 - xc, np.diag(cov) / np.diag(cov0),
+    Li = np.linalg.inv(np.linalg.cholesky(B))  # the noise's share in the rows' own metric
+    lam = float(np.max(np.linalg.eigvalsh(Li @ D[np.ix_(o, o)] @ Li.T)))
+    return PoseNoiseBias(x0 - xc, lam, np.diag(cov) / np.diag(cov0),
                          d.T @ d / max(1, len(d) - 1) / len(d),
                          halves.T @ halves / len(halves), Bi @ B, float(s_pos),
                          None if s_rot is None else float(s_rot), int(pairs))

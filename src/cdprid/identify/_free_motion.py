@@ -272,6 +272,11 @@ def _eiv_corrected(robot, dsa, sig, motion, model, params, rho, chunk, idx, ref_
                  f"parametric bootstrap ({pb.pairs} pairs of re-noised poses); largest shift "
                  f"{res.names[k]} by {pb.bias[k] / s[k]:+.2f} std; the pose noise's bootstrap "
                  f"std is {np.min(ratio):.2f}-{np.max(ratio):.2f} times the HAC std")
+    if pb.share > 0.5:
+        warns.append(f"the pose noise makes up {100 * pb.share:.0f} % of the free-motion rows' "
+                     "power in one combination of the parameters: the corrected estimate is "
+                     f"{1 / (1 - pb.share):.1f} times noisier there than least squares (whose "
+                     "bias it removes); a lower --params cutoff_hz or larger swings help")
     if abs(pb.bias[k]) > s[k]:
         warns.append(f"the pose noise's bias correction moved {res.names[k]} by "
                      f"{pb.bias[k] / s[k]:+.1f} std: it rests on white pose noise at the levels "
