@@ -455,3 +455,17 @@ def test_pose_noise_bias_removes_the_attenuation():
     assert abs(ols - pb.bias[0] + 2) < 3 * sd, (ols - pb.bias[0], sd)
     assert abs(np.sqrt(pb.cov_boot[0, 0]) / sd - 1) < 0.35, (np.sqrt(pb.cov_boot[0, 0]), sd)
     assert pb.inflation[0] > 0.5 and np.sqrt(pb.cov_mc[0, 0]) < sd
+
+
+def test_too_few_free_samples_are_refused_in_one_sentence():
+    """When the pushes and trimmed edges leave fewer samples than twice the parameters, the
+    fit is refused with an InputError naming the recording (was an UnboundLocalError in the
+    core's block factorisation when none were left)."""
+    from cdprid.identify._free_motion import _fit
+    from cdprid.model import PARAMETER_NAMES
+
+    P = np.random.default_rng(0).normal(size=(40, 2, 10))
+    for n in (0, 19):
+        with pytest.raises(InputError, match=f"rec: only {n} samples of free motion"):
+            _fit(P, np.arange(n), 0, PARAMETER_NAMES["full"], 4096, "rec")
+    assert len(_fit(P, np.arange(20), 0, PARAMETER_NAMES["full"], 4096, "rec").x) == 9

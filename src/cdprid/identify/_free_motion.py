@@ -244,10 +244,10 @@ _METHOD_NOTE = ("free motion: the Newton-Euler equations projected on the {} fre
 def _fit(P, idx, ref_i, names, chunk, path):
     """:func:`cdprid.identify._free_rows.fit_rows`, refused in one sentence when too few
     samples are left."""
-    if len(idx) < 10 * P.shape[2]:
+    if len(idx) < 2 * P.shape[2]:
         raise InputError(f"{path}: only {len(idx)} samples of free motion are left after the "
                          "trimmed edges and the pushes located (at least "
-                         f"{10 * P.shape[2]} needed): record a longer release or pass "
+                         f"{2 * P.shape[2]} needed): record a longer release or pass "
                          "--keep-episodes.")
     return fit_rows(P, idx, ref_i, names, chunk)
 
@@ -268,8 +268,8 @@ def _eiv_corrected(robot, dsa, sig, motion, model, params, rho, chunk, idx, ref_
     ratio = np.sqrt(np.clip(np.diag(pb.cov_boot), 0, None)) / s
     rot = "" if pb.s_rot is None else f", {1e3 * pb.s_rot:.2g} mrad"
     notes.append(f"errors in variables: the pose noise's second-order bias ({1e3 * pb.s_pos:.2g} "
-                 f"mm{rot}, from the poses' 4th differences) removed by an antithetic "
-                 f"parametric bootstrap ({pb.pairs} pairs of re-noised poses); largest shift "
+                 f"mm{rot}, from the poses' 4th differences) removed from the normal matrix "
+                 f"({pb.pairs} antithetic pairs of re-noised poses); largest shift "
                  f"{res.names[k]} by {pb.bias[k] / s[k]:+.2f} std; the pose noise's bootstrap "
                  f"std is {np.min(ratio):.2f}-{np.max(ratio):.2f} times the HAC std")
     if pb.share > 0.5:
