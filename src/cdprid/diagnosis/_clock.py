@@ -47,14 +47,16 @@ FIRST_GAIN = 0.03
 GRID_S = np.round(np.arange(-0.1, 0.1 + 1e-9, 0.002), 6)
 
 #: what the named clock offset's interval holds and what it does not (a note of the result;
-#: measured on floor8 seed 3, the same motion and truth with four noise realizations)
+#: measured on floor8 seed 3 with noise sources switched off and redrawn, results/
+#: many-effects-floor8.md)
 INTERVAL_CAVEAT = (
-    "The clock offset's 95 % interval holds the sampling error of the noise within this "
-    "recording (HAC variance, joint profile; estimates on halves, blocks and directions of "
-    "motion agree with it). It does not hold a bias the tension and pose noise give the "
-    "estimate over the whole recording: on the floor-winch benchmark four noise realizations "
-    "of one recording read 24.6-26.6 ms for a true 23.7 ms (23.8 ms without noise), and two "
-    "of the four intervals missed the truth by 0.3 and 1.5 ms; allow a few ms beyond it.")
+    "The clock offset is estimated in the metric of the load cells' noise through the wrench "
+    "matrix (force and moment rows correlated); its 95 % interval holds the sampling error of "
+    "the tension and pose noise within this recording (HAC variance, exact profile). It does "
+    "not hold the error the pose noise gives it through the estimated accelerations and "
+    "angular rates (errors in the variables): on the floor-winch benchmark +0.3 ms on average "
+    "over noise draws, +0.9 ms on one draw whose interval then missed the truth by 0.8 ms; "
+    "allow about 1 ms beyond it.")
 
 
 def clock_candidate(candidates) -> Candidate | None:
