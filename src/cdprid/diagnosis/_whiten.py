@@ -93,6 +93,23 @@ def _golden(cost_at, lo: float, hi: float, tol_s: float = 1e-4) -> tuple[float, 
     return (a, fa) if fa < fb else (b, fb)
 
 
+def _low_pass(prob: Problem, cutoff_hz: float | None):
+    """``(low, lags)``: a further zero-phase low-pass along time of ``(n, ...)`` arrays and
+    of ``(k, n, 6)`` stacks (the identity when ``cutoff_hz`` is None), and the HAC lags."""
+    if cutoff_hz is None:
+        return (lambda a: a), prob.lags
+    from cdprid.signal import zero_phase_filter
+
+    def low(a):
+        a = np.asarray(a)
+        if a.ndim == 3 and a.shape[1] != 6:  # (k, n, 6) stacks of shifts
+            return np.stack([low(x) for x in a])
+        return zero_phase_filter(a.reshape(a.shape[0], -1), prob.dt, cutoff_hz,
+                                 2).reshape(a.shape)
+
+    return low, int(math.ceil(3.0 / (cutoff_hz * prob.dt)))
+
+
 def whitened_delay(prob: Problem, s, di: int, cutoff_hz: float | None = None) -> dict:
     """The clock offset of the model ``s`` (delay active at theta index ``di``) estimated in
     the tension noise's metric (:func:`noise_metric`).
@@ -125,21 +142,7 @@ def whitened_delay(prob: Problem, s, di: int, cutoff_hz: float | None = None) ->
     tr = prob.train
     active = list(s.active_idx)
     others = [i for i in active if i != di]
-    lags = prob.lags
-    if cutoff_hz is None:
-        def low(a):
-            return a
-    else:
-        from cdprid.signal import zero_phase_filter
-
-        lags = int(math.ceil(3.0 / (cutoff_hz * prob.dt)))
-
-        def low(a):
-            a = np.asarray(a)
-            if a.ndim == 3 and a.shape[1] != 6:  # (k, n, 6) stacks of shifts
-                return np.stack([low(x) for x in a])
-            return zero_phase_filter(a.reshape(a.shape[0], -1), prob.dt, cutoff_hz,
-                                     2).reshape(a.shape)
+    low, lags = _low_pass(prob, cutoff_hz)
     y_now, Am, C = (low(a) for a in design(prob, s.theta, s.x, s.rotational))
     Linv = noise_metric(prob, y_now - np.einsum("nij,j->ni", Am, s.x[:Am.shape[2]]), tr)
     Co = C[tr][:, :, others]
