@@ -36,6 +36,7 @@ from cdprid.diagnosis._profile import (
 )
 from cdprid.diagnosis._result import Finding
 from cdprid.diagnosis._selection import Selection, linear_model, model_implausible, refit
+from cdprid.diagnosis._whiten import whitened_delay
 from cdprid.effects import DIAGNOSIS
 
 #: the clock is accepted first only when it improves the held-out residual by this much (a
@@ -46,14 +47,16 @@ FIRST_GAIN = 0.03
 GRID_S = np.round(np.arange(-0.1, 0.1 + 1e-9, 0.002), 6)
 
 #: what the named clock offset's interval holds and what it does not (a note of the result;
-#: measured on floor8 seed 3, the same motion and truth with four noise realizations)
+#: measured on floor8 seed 3 with noise sources switched off and redrawn, results/
+#: many-effects-floor8.md)
 INTERVAL_CAVEAT = (
-    "The clock offset's 95 % interval holds the sampling error of the noise within this "
-    "recording (HAC variance, joint profile; estimates on halves, blocks and directions of "
-    "motion agree with it). It does not hold a bias the tension and pose noise give the "
-    "estimate over the whole recording: on the floor-winch benchmark four noise realizations "
-    "of one recording read 24.6-26.6 ms for a true 23.7 ms (23.8 ms without noise), and two "
-    "of the four intervals missed the truth by 0.3 and 1.5 ms; allow a few ms beyond it.")
+    "The clock offset is estimated in the metric of the load cells' noise through the wrench "
+    "matrix (force and moment rows correlated); its 95 % interval holds the sampling error of "
+    "the tension and pose noise within this recording (HAC variance, exact profile). It does "
+    "not hold the error the pose noise gives it through the estimated accelerations and "
+    "angular rates (errors in the variables): on the floor-winch benchmark +0.3 ms on average "
+    "over noise draws, +0.9 ms on one draw whose interval then missed the truth by 0.8 ms; "
+    "allow about 1 ms beyond it.")
 
 
 def clock_candidate(candidates) -> Candidate | None:
@@ -164,16 +167,26 @@ def clock_check(prob: Problem, s: Selection, candidates, thr: float, gain: float
     return dataclasses.replace(t, accepted=t.accepted + (c,), findings=t.findings + (f,))
 
 
-def _joint_interval(prob: Problem, t: Selection, di: int) -> tuple[float, float, bool]:
-    """The delay's 95 % interval at the model ``t`` (delay active): its joint profile
-    calibrated on the HAC variance (:func:`cdprid.diagnosis._profile.profile_interval`)."""
-    grid, cost, _ = joint_profile(prob, t.theta, t.x, t.rotational, list(t.active_idx))
-    return profile_interval(grid, cost, float(t.theta[di]), float(t.th_cov[di, di]))
+def _whitened(prob: Problem, t: Selection, di: int) -> dict | None:
+    """:func:`cdprid.diagnosis._whiten.whitened_delay` of the model ``t``, or None when the
+    noise metric cannot be formed (a singular fit: the row-weighted estimate stands)."""
+    saved = dict(prob.cache.get("design", {}))  # the final model's linearisations stay
+    try:
+        w = whitened_delay(prob, t, di)
+    except (np.linalg.LinAlgError, ValueError, RuntimeError):
+        return None
+    finally:
+        prob.cache["design"] = saved
+    return w if np.isfinite(w["delay_s"]) and w["var"] > 0 else None
 
 
 def clock_interval(prob: Problem, s: Selection, extra: dict) -> tuple[Selection, dict]:
-    """The named clock offset's interval from the final model's joint profile (the union of
-    the profile-likelihood and Wald intervals); ``info`` for ``info["clock_profile"]``."""
+    """The named clock offset's value and interval in the tension noise's metric
+    (:func:`cdprid.diagnosis._whiten.whitened_delay`: the final model's joint profile over
+    exact shifts, every other parameter re-solved, in the metric of the cells' noise through
+    W; the union of its profile-likelihood and HAC Wald intervals). The model's other
+    parameters stay those of the row-weighted fit; ``info`` (for ``info["clock_profile"]``)
+    holds both profiles."""
     di = clock_index(prob)
     for k, c in enumerate(s.accepted):
         if not DIAGNOSIS[c.effect].clock or di not in s.active_idx:
@@ -181,12 +194,21 @@ def clock_interval(prob: Problem, s: Selection, extra: dict) -> tuple[Selection,
         grid, cost, _ = joint_profile(prob, s.theta, s.x, s.rotational, list(s.active_idx))
         lo, hi, open_ends = profile_interval(grid, cost, float(s.theta[di]),
                                              float(s.th_cov[di, di]))
-        f = s.findings[k]
-        key = DIAGNOSIS[c.effect].keys[0]
-        f = dataclasses.replace(f, interval={**f.interval, key: [lo, hi]})
         info = {"joint_delay_s": grid.tolist(), "joint_training_cost": cost.tolist(),
                 "joint_minimum_s": float(s.theta[di]), "joint_interval_s": [lo, hi],
                 "interval_reaches_grid_edge": open_ends, "interval_caveat": INTERVAL_CAVEAT}
+        f = s.findings[k]
+        key = DIAGNOSIS[c.effect].keys[0]
+        w = _whitened(prob, s, di)
+        if w is not None:
+            theta = np.array(s.theta, float)
+            theta[di] = w["delay_s"]
+            lo, hi, open_ends = w["interval"]
+            f = dataclasses.replace(f, parameters=vocab_params(c, theta, prob.layout, extra))
+            info.update({"whitened_training_cost": w["cost"].tolist(),
+                         "whitened_minimum_s": w["delay_s"], "whitened_interval_s": [lo, hi],
+                         "interval_reaches_grid_edge": open_ends})
+        f = dataclasses.replace(f, interval={**f.interval, key: [lo, hi]})
         return dataclasses.replace(s, findings=s.findings[:k] + (f,) + s.findings[k + 1:]), info
     return s, {}
 
@@ -204,10 +226,19 @@ def clock_size(prob: Problem, s: Selection, c, extra: dict) -> dict:
     saved = dict(prob.cache.get("design", {}))
     try:
         t = refit(prob, s, theta=theta, active_idx=sorted(set(s.active_idx) | set(idx)))
-        lo, hi, open_ends = _joint_interval(prob, t, idx[0])
+        w = _whitened(prob, t, idx[0])
+        if w is None:
+            grid, cost, _ = joint_profile(prob, t.theta, t.x, t.rotational,
+                                          list(t.active_idx))
+            lo, hi, open_ends = profile_interval(grid, cost, float(t.theta[idx[0]]),
+                                                 float(t.th_cov[idx[0], idx[0]]))
     finally:
         prob.cache["design"] = saved
     var = float(t.th_cov[idx[0], idx[0]])
+    if w is not None:
+        (lo, hi, open_ends), var = w["interval"], w["var"]
+        t = dataclasses.replace(t, theta=np.where(np.arange(len(t.theta)) == idx[0],
+                                                  w["delay_s"], t.theta))
     stat = float(t.theta[idx[0]] ** 2 / var) if var > 0 else 0.0
     key = DIAGNOSIS[c.effect].keys[0]
     return {"parameters": vocab_params(c, t.theta, prob.layout, extra), "interval": {key: [lo, hi]},
