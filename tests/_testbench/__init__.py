@@ -18,7 +18,11 @@ pyproject.toml. It is not part of the installed package.
 # ruff: noqa: F401  (explicit re-exports)
 
 from tests._testbench._cases import floor8_case as floor8_case
+from tests._testbench._cases import floor8_combined as floor8_combined
 from tests._testbench._cases import floor8_with as floor8_with
+from tests._testbench._episodes import Glitch as Glitch
+from tests._testbench._episodes import Push as Push
+from tests._testbench._episodes import push_wrench as push_wrench
 from tests._testbench._geometry import pulley_geometry as pulley_geometry
 from tests._testbench._motion import Motion as Motion
 from tests._testbench._motion import motion as motion
