@@ -4,7 +4,8 @@
 the robot; ``identify`` and ``diagnose`` call it before their fits and leave the samples of
 :attr:`Episodes.excluded` out (the blocks keep their own time stamps; nothing is bridged).
 
-1. Pose glitches (:mod:`cdprid.episodes._glitches`) are found on the raw positions.
+1. Pose glitches (:mod:`cdprid.episodes._glitches`) are found on the raw positions (and
+   orientations).
 2. The motion is differentiated (``euler-filtfilt`` at ``cutoff_hz``) and the measured wrench
    ``W tau`` and each cable's column of W go through the same zero-phase filter (matched).
 3. The paper's model (the full model when the platform rotates) plus the load-cell effects
@@ -372,7 +373,8 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     margin = max(2, int(math.ceil(2.0 / (cutoff_hz * dt))))
     keep = segment_mask(t, sig.segments, trim) & (np.ones(n, bool) if use is None
                                                   else np.asarray(use, bool))
-    glitch, gsize = find_glitches(sig.position, sig.segments)
+    glitch, gsize = find_glitches(sig.position, sig.segments,
+                                  sig.quaternion if sig.has_rotation else None)
     gl_excl = _dilate(glitch, margin)
     y, A, Wf, model, mo, c = _data(robot, sig, cutoff_hz)
     rows = np.std(y, 0) > 1e-9 * np.std(y, 0).max()  # nil rows (point mass): no test there
