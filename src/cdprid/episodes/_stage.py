@@ -384,10 +384,8 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     few_taut = scan_use.sum() < TAUT_SHARE_MIN * max(int((keep & ~gl_excl).sum()), 1)
     if few_taut:  # (almost) every sample below the taut threshold: scan them all, say so
         scan_use = keep & ~gl_excl
-    whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
-    Z = persistent_null(A, c, rows, lambda Z1: _noise_fit(y, Z1, scan_use, whiten)[:2])
-    found, excl, nm, beta, passes, caveat = _wrench_passes(y, Z, scan_use, gl_excl, dt, margin,
-                                                           cutoff_hz, far_per_hour, A.shape[2])
+    found, excl, nm, beta, passes, caveat = _null_and_passes(
+        y, A, c, rows, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour)
     if few_taut:
         caveat = ((caveat + "; ") if caveat else "") + (
             f"fewer than {TAUT_SHARE_MIN:.0%} of the samples have every tension above "
@@ -403,6 +401,32 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     eps += energy
     eps.sort(key=lambda e: e.start_s)
     return Episodes(tuple(eps), t, excl, margin * dt, far_per_hour, passes, caveat)
+
+
+#: times the persistent null is built: again without the episodes the first build's passes
+#: found (their residual is not the cells' error)
+NULL_BUILDS = 2
+
+
+def _null_and_passes(y, A, c, rows, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour):
+    """The persistent null (:func:`persistent_null`, the glitches' transients left out of its
+    band positions) and the fit -> locate passes (:func:`_wrench_passes`); when these find
+    episodes, the null is built again with the episodes' samples left out of its fits and
+    band positions too, and the passes run again on it. A push's residual is no cell's
+    error: taken for one, it moves the band positions of the hysteretic cells' play
+    operators, whose wrong state outlasts the push until the next full reversal (a false
+    episode seconds later, seen on the floor-winch robot with pushes and glitches)."""
+    whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
+    quiet = gl_excl
+    for _ in range(NULL_BUILDS):
+        Z = persistent_null(A, c, rows, lambda Z1, q=quiet: _noise_fit(
+            y, Z1, scan_use & ~q, whiten)[:2], quiet)
+        out = _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour,
+                             A.shape[2])
+        if not out[0] or np.array_equal(out[1], quiet):
+            break
+        quiet = out[1]
+    return out
 
 
 def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour, p):
