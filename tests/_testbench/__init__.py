@@ -4,7 +4,8 @@ It shares nothing with ``cdprid.model`` or ``cdprid.simulation``: its own swivel
 geometry (leave points, wrap angles, cable lengths), its own Newton-Euler, its own rotation
 integration (RK4 on quaternions), its own sensors (tension clock, white + AR(1) noise, per-cell
 offset and gain, pulley friction with the sign of where the cell sits, a hysteretic cell as a
-play operator written as a plain loop) and its own robots. cdprid is used only to write the
+play operator written as a plain loop), hand pushes (an outside wrench in its Newton-Euler)
+and marker glitches (:mod:`._episodes`), and its own robots. cdprid is used only to write the
 files (``cdprid.io.write_dataset``) and to build the ``CableRobot`` that robot.toml is written
 from (``cdprid.model.robot_from_dict``).
 

@@ -66,13 +66,14 @@ PUSH_MIN_TENSION_N = 15.0
 
 
 def floor8_combined(seed: int, clean: bool = False, n_pushes: int | None = None,
-                    n_glitches: int = 4) -> Recording:
+                    n_glitches: int = 4, duration_s: float | None = None) -> Recording:
     """:func:`floor8_case`'s robot, sensors and effects (its own trajectory draw) with 2-3
     hand pushes (10-40 N, 1-3 s, smooth ramps, a moment from a hand on the rim) and
     ``n_glitches`` marker glitches (1-3 samples, 3-8 cm, 2-6 deg); ``clean``: the same
     recording (same noise) without them. The pushes and glitches are in
-    ``Recording.pushes`` / ``.glitches`` and meta.toml's ``[[truth.episodes]]``."""
-    rob, s, dur, exit_error, drag = _floor8_draw(seed, None, None)
+    ``Recording.pushes`` / ``.glitches`` and meta.toml's ``[[truth.episodes]]``.
+    ``duration_s`` replaces the seed's 45-55 s (at least 25 s)."""
+    rob, s, dur, exit_error, drag = _floor8_draw(seed, duration_s, None)
     path = feasible_path(rob, np.random.default_rng(seed), dur)
     rng = np.random.default_rng(38_000 + seed)
     n = int(rng.integers(2, 4)) if n_pushes is None else n_pushes
