@@ -264,7 +264,8 @@ def _totals(rows: list) -> list:
         ps = [p for x in sel for p in x["pushes"]]
         se = [abs(p["start_err"]) for p in ps if p["start_err"] is not None]
         ee = [abs(p["end_err"]) for p in ps if p["end_err"] is not None]
-        clean = sum(len(r["clean"][who]["false"]) for r in rows if who in r["clean"])
+        twins = [r["clean"][who] for r in rows if who in r["clean"]]
+        clean = sum(len(x["false"]) for x in twins)
         hours = sum(r["clean"]["duration_s"] for r in rows) / 3600.0
         out.append(f"* **{who}**: {sum(p['located'] for p in ps)} of {len(ps)} pushes located "
                    f"(start errors max {max(se, default=float('nan')):.2f} s, end errors max "
@@ -273,7 +274,9 @@ def _totals(rows: list) -> list:
                    f"({hours:.3f} h); glitches excluded {sum(x['glitches'] for x in sel)} of "
                    f"{sum(len(r['combined']['glitches']) for r in rows)}; |mass error| max "
                    f"{100 * max(abs(x['mass_err']) for x in sel):.2f} % (goal 1 %), m s_G "
-                   f"error max {100 * max(x['ms_err'] for x in sel):.1f} % (goal 5 %).")
+                   f"error max {100 * max(x['ms_err'] for x in sel):.1f} % (goal 5 %); on the "
+                   f"clean twins {100 * max(abs(x['mass_err']) for x in twins):.2f} % and "
+                   f"{100 * max(x['ms_err'] for x in twins):.1f} %.")
     return out
 
 
@@ -292,9 +295,12 @@ def main(argv=None) -> int:
     p.add_argument("--no-diagnose", action="store_true", help="identify only (fast)")
     p.add_argument("--merge", nargs="*", default=None,
                    help=".jsonl files of earlier runs: one table from their rows")
+    p.add_argument("--commit", default=None,
+                   help="with --merge: the commit the merged rows were run at")
     a = p.parse_args(argv)
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True, cwd=ROOT).stdout.strip() or "unknown"
+    commit = a.commit or subprocess.run(["git", "rev-parse", "--short", "HEAD"],
+                                        capture_output=True, text=True,
+                                        cwd=ROOT).stdout.strip() or "unknown"
     cmd = " ".join(["python -m benchmarks.episodes_combined"] + list(argv or sys.argv[1:]))
     out = Path(a.out)
     rows = []
