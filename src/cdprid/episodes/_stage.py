@@ -403,19 +403,23 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     return Episodes(tuple(eps), t, excl, margin * dt, far_per_hour, passes, caveat)
 
 
-#: times the persistent null is built: again without the episodes the first build's passes
-#: found (their residual is not the cells' error)
-NULL_BUILDS = 2
+#: times the persistent null is built; 2 builds it again without the episodes the first
+#: build's passes found (their residual is not the cells' error). Measured on the floor-winch
+#: robot with pushes and glitches (benchmarks/episodes_combined.py): 2 removed the false
+#: episodes of two recordings at the 4 Hz cutoff but gave three new ones at identify's
+#: data-chosen cutoff (all next to a glitch's excluded stretch), so 1 (the glitches'
+#: transients alone are quiet)
+NULL_BUILDS = 1
 
 
 def _null_and_passes(y, A, c, rows, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour):
     """The persistent null (:func:`persistent_null`, the glitches' transients left out of its
     band positions) and the fit -> locate passes (:func:`_wrench_passes`); when these find
     episodes, the null is built again with the episodes' samples left out of its fits and
-    band positions too, and the passes run again on it. A push's residual is no cell's
-    error: taken for one, it moves the band positions of the hysteretic cells' play
-    operators, whose wrong state outlasts the push until the next full reversal (a false
-    episode seconds later, seen on the floor-winch robot with pushes and glitches)."""
+    band positions too, and the passes run again on it (with :data:`NULL_BUILDS` = 2). A
+    push's residual is no cell's error: taken for one, it moves the band positions of the
+    hysteretic cells' play operators, whose wrong state outlasts the push until the next
+    full reversal (``tests/episodes/test_band_quiet.py``)."""
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
     quiet = gl_excl
     for _ in range(NULL_BUILDS):
