@@ -27,6 +27,10 @@ DESCRIPTIONS = {
     "caspr.md": "CASPR single-link spatial robots: import, gentle cond, certified or why not",
     "report_example.md": "How report_example.png was made (command and commit)",
     "report_example.png": "report.html of the example dataset's diagnosis in headless Chromium",
+    "episodes.md": "Episodes: hidden pushes located and false episodes on clean recordings",
+    "episodes-combined.md": "Episodes with everything at once on the floor-winch 8-cable robot: "
+                            "pushes, glitches, load-cell effects; identify and diagnose",
+    "episodes-combined.jsonl": "Per-recording records behind episodes-combined.md",
 }
 
 

@@ -4,7 +4,8 @@ It shares nothing with ``cdprid.model`` or ``cdprid.simulation``: its own swivel
 geometry (leave points, wrap angles, cable lengths), its own Newton-Euler, its own rotation
 integration (RK4 on quaternions), its own sensors (tension clock, white + AR(1) noise, per-cell
 offset and gain, pulley friction with the sign of where the cell sits, a hysteretic cell as a
-play operator written as a plain loop) and its own robots. cdprid is used only to write the
+play operator written as a plain loop), hand pushes (an outside wrench in its Newton-Euler)
+and marker glitches (:mod:`._episodes`), and its own robots. cdprid is used only to write the
 files (``cdprid.io.write_dataset``) and to build the ``CableRobot`` that robot.toml is written
 from (``cdprid.model.robot_from_dict``).
 
@@ -18,7 +19,11 @@ pyproject.toml. It is not part of the installed package.
 # ruff: noqa: F401  (explicit re-exports)
 
 from tests._testbench._cases import floor8_case as floor8_case
+from tests._testbench._cases import floor8_combined as floor8_combined
 from tests._testbench._cases import floor8_with as floor8_with
+from tests._testbench._episodes import Glitch as Glitch
+from tests._testbench._episodes import Push as Push
+from tests._testbench._episodes import push_wrench as push_wrench
 from tests._testbench._geometry import pulley_geometry as pulley_geometry
 from tests._testbench._motion import Motion as Motion
 from tests._testbench._motion import motion as motion

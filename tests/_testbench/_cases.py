@@ -7,12 +7,17 @@ Coulomb friction of 1-3 N on every pulley (cells on the winch side); on even see
 hysteretic cell (2-4 N); an offset (3-8 N) on one cell; on odd seeds a gain (4-8 %) on
 another; on seeds 3, 7, ... viscous drag (5-15 N s/m); on seeds 2, 6, ... a 3 cm exit-point
 error. robot.toml states a mass 3 % below the truth.
+
+:func:`floor8_combined` (issue 38) adds what happens only sometimes: hand pushes and marker
+glitches (:mod:`._episodes`), and gives the same recording without them (its clean twin).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from tests._testbench._record import Recording, record
+from tests._testbench._episodes import draw_glitches, draw_pushes, push_wrench
+from tests._testbench._motion import motion
+from tests._testbench._record import Recording, _plant, feasible_path, record
 from tests._testbench._robots import floor8
 from tests._testbench._sensors import Sensors
 
@@ -21,6 +26,12 @@ def floor8_case(seed: int, duration_s: float | None = None, hysteresis: bool | N
                 noise: bool = True) -> Recording:
     """The seed's recording of the floor-winch robot (module docstring); ``hysteresis``
     forces a hysteretic cell on (True) or off (False)."""
+    rob, s, dur, exit_error, drag = _floor8_draw(seed, duration_s, hysteresis)
+    return record(rob, s, seed, dur, exit_error=exit_error, drag_Ns_per_m=drag, noise=noise)
+
+
+def _floor8_draw(seed: int, duration_s: float | None, hysteresis: bool | None):
+    """The robot, sensors, duration, exit-point errors and drag of :func:`floor8_case`."""
     rng = np.random.default_rng(37_000 + seed)
     rob = floor8()
     m = rob.m
@@ -46,7 +57,41 @@ def floor8_case(seed: int, duration_s: float | None = None, hysteresis: bool | N
                 tuple(off), tuple(gain), (coulomb,) * m, (0.0,) * m, True, tuple(hyst),
                 3e-4, 2e-4)
     dur = float(rng.uniform(45.0, 55.0)) if duration_s is None else duration_s
-    return record(rob, s, seed, dur, exit_error=exit_error, drag_Ns_per_m=drag, noise=noise)
+    return rob, s, dur, exit_error, drag
+
+
+#: the least platform-side tension during a drawn push (coarse check every 20 ms; or the
+#: trajectory's own least tension when lower), N
+PUSH_MIN_TENSION_N = 15.0
+
+
+def floor8_combined(seed: int, clean: bool = False, n_pushes: int | None = None,
+                    n_glitches: int = 4, duration_s: float | None = None) -> Recording:
+    """:func:`floor8_case`'s robot, sensors and effects (its own trajectory draw) with 2-3
+    hand pushes (10-40 N, 1-3 s, smooth ramps, a moment from a hand on the rim) and
+    ``n_glitches`` marker glitches (1-3 samples, 3-8 cm, 2-6 deg); ``clean``: the same
+    recording (same noise) without them. The pushes and glitches are in
+    ``Recording.pushes`` / ``.glitches`` and meta.toml's ``[[truth.episodes]]``.
+    ``duration_s`` replaces the seed's 45-55 s (at least 25 s)."""
+    rob, s, dur, exit_error, drag = _floor8_draw(seed, duration_s, None)
+    path = feasible_path(rob, np.random.default_rng(seed), dur)
+    rng = np.random.default_rng(38_000 + seed)
+    n = int(rng.integers(2, 4)) if n_pushes is None else n_pushes
+    t = np.arange(0.0, dur, 0.02)
+    mo = motion(path, t)
+    least = min(PUSH_MIN_TENSION_N, float(np.min(_plant(rob, rob.A + exit_error, mo, drag)[0])))
+    for _ in range(50):  # a push that would slacken a cable is drawn again
+        pushes = draw_pushes(rng, dur, n)
+        tau = _plant(rob, rob.A + exit_error, mo, drag, push_wrench(pushes, t))[0]
+        if np.min(tau) >= least:
+            break
+    else:
+        raise RuntimeError(f"floor8 seed {seed}: no push draw keeps the cables taut")
+    glitches = draw_glitches(rng, dur, n_glitches, pushes)
+    if clean:
+        pushes, glitches = (), ()
+    return record(rob, s, seed, dur, exit_error=exit_error, drag_Ns_per_m=drag, path=path,
+                  pushes=pushes, glitches=glitches)
 
 
 def floor8_with(effects: list, seed: int, noise_scale: float = 1.0,

@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from tests._testbench._episodes import apply_glitches, push_wrench
 from tests._testbench._geometry import pulley_geometry, total_length
 from tests._testbench._motion import Path, motion, newton_euler, random_path
 from tests._testbench._robots import Robot
@@ -38,6 +39,8 @@ class Recording:
     wrap_deg: np.ndarray  # (min, max) wrap angle over the recording per cable
     effects: list  # vocabulary (name, params) pairs of what the recording holds
     path: Path
+    pushes: tuple = ()  # _episodes.Push: outside wrenches on the platform (truth)
+    glitches: tuple = ()  # _episodes.Glitch: displaced motion-capture samples (truth)
 
 
 def _rotate(R, rv):
@@ -53,12 +56,14 @@ def _rotate(R, rv):
     return E @ R
 
 
-def _plant(rob: Robot, A, mo, drag):
+def _plant(rob: Robot, A, mo, drag, external=None):
     B = mo.p[:, None, :] + np.einsum("nij,mj->nmi", mo.R, rob.b)
     T, beta, free, u = pulley_geometry(A, rob.k, rob.r, B)
     W = np.concatenate([np.transpose(u, (0, 2, 1)),
                         np.transpose(np.cross(B - mo.p[:, None, :], u), (0, 2, 1))], axis=1)
     w = newton_euler(mo, rob.mass, rob.com, rob.inertia_G, rob.gravity, drag)
+    if external is not None:  # an outside wrench holds part of what the motion needs
+        w = w - external
     rows = slice(0, 3) if rob.max_angle_rad == 0 else slice(0, 6)
     Wr, wr = W[:, rows], w[:, rows]
     ref = np.full(rob.m, rob.tension_ref)
@@ -133,8 +138,12 @@ def feasible_path(rob: Robot, rng, duration_s: float, tries: int = 60) -> Path:
 
 
 def record(rob: Robot, s: Sensors, seed: int, duration_s: float = 50.0, exit_error=None,
-           drag_Ns_per_m: float = 0.0, noise: bool = True, path: Path | None = None) -> Recording:
-    """Simulate one recording of ``duration_s`` (pose clock from 0)."""
+           drag_Ns_per_m: float = 0.0, noise: bool = True, path: Path | None = None,
+           pushes=(), glitches=()) -> Recording:
+    """Simulate one recording of ``duration_s`` (pose clock from 0); ``pushes``
+    (:class:`._episodes.Push`) act on the platform on the plant's clock, ``glitches``
+    (:class:`._episodes.Glitch`) displace motion-capture samples after their noise. Neither
+    draws from the recording's random stream: without them the recording is the same."""
     rng = np.random.default_rng(seed)
     path = path or feasible_path(rob, rng, duration_s)
     exit_error = np.zeros((rob.m, 3)) if exit_error is None else np.asarray(exit_error, float)
@@ -144,7 +153,8 @@ def record(rob: Robot, s: Sensors, seed: int, duration_s: float = 50.0, exit_err
     plant_t = tension_t - s.clock_offset_s
     assert plant_t[0] >= 0.0, "the clock phase must exceed the clock offset"
     mo_t = motion(path, plant_t)
-    tau, beta, _ = _plant(rob, A_true, mo_t, drag_Ns_per_m)
+    tau, beta, _ = _plant(rob, A_true, mo_t, drag_Ns_per_m,
+                          push_wrench(pushes, plant_t) if pushes else None)
     assert np.min(tau) > 1.0, f"{rob.name}: slack cable ({np.min(tau):.2f} N)"
     ldot = _sliding(rob, A_true, mo_t)
     reading = cell_reading(s, tau, ldot, rng, noise)
@@ -152,10 +162,13 @@ def record(rob: Robot, s: Sensors, seed: int, duration_s: float = 50.0, exit_err
                   * ldot if s.cell_at_winch else 0.0)
     mo_p = motion(path, pose_t)
     pos, quat = mocap(s, mo_p.p, mo_p.q, rng, noise)
+    if glitches:
+        pos, quat = apply_glitches(pose_t, pos, quat, glitches)
     wrap = np.degrees(np.stack([beta.min(0), beta.max(0)], 1))
     return Recording(rob, s, exit_error, drag_Ns_per_m, pose_t, pos,
                      quat if rob.max_angle_rad > 0 else None, tension_t, reading, tau, cell,
-                     ldot, wrap, vocabulary_effects(rob, s, exit_error, drag_Ns_per_m), path)
+                     ldot, wrap, vocabulary_effects(rob, s, exit_error, drag_Ns_per_m), path,
+                     tuple(pushes), tuple(glitches))
 
 
 def _parameters_table(effects) -> dict:
@@ -189,6 +202,8 @@ def write(rec: Recording, out_dir, overwrite: bool = False):
              "effects": [n for n, _ in rec.effects]}
     if rec.effects:
         truth["effect_parameters"] = _parameters_table(rec.effects)
+    if rec.pushes or rec.glitches:  # what happens only sometimes: [[truth.episodes]]
+        truth["episodes"] = [e.truth() for e in rec.pushes + rec.glitches]
     sens = {k: (list(map(float, v)) if isinstance(v, tuple | list | np.ndarray) else v)
             for k, v in dataclasses.asdict(s).items()}
     meta = {"description": f"tests/_testbench recording of {rob.name}",

@@ -9,13 +9,18 @@ candidate left out) by more than the limit: :data:`GLITCH_SIGMAS` robust standar
 of the second difference, and at least :data:`GLITCH_MIN_M`. A glitch's samples are excluded
 from every fit with the differentiator's transient on both sides (the caller's margin);
 nothing is interpolated.
+
+With orientations, a glitch may also (or only) turn the platform: the test then runs on the
+positions of three points :data:`LEVER_M` from P along the platform's axes as well (a marker
+that far from P moves by the lever times the angle), with the same limits.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["GLITCH_MIN_M", "GLITCH_SIGMAS", "SPREAD", "find_glitches", "add_glitches"]
+__all__ = ["GLITCH_MIN_M", "GLITCH_SIGMAS", "LEVER_M", "SPREAD", "find_glitches",
+           "add_glitches"]
 
 #: candidates extend this many samples on each side of a large second difference
 SPREAD = 2
@@ -25,10 +30,15 @@ GLITCH_SIGMAS = 10.0
 GLITCH_MIN_M = 5e-3
 #: half-width of the local cubic that confirms a candidate, samples
 FIT_HALF = 12
+#: distance from P of the three points whose positions test the orientation, m (a marker on
+#: a platform of about half a metre: a 2 deg glitch moves it by 9 mm)
+LEVER_M = 0.25
 
 
-def find_glitches(position: np.ndarray, segments=None) -> tuple[np.ndarray, np.ndarray]:
-    """Samples of ``position`` (n, 3) that are pose glitches, and their displacement.
+def find_glitches(position: np.ndarray, segments=None,
+                  quaternion: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Samples of ``position`` (n, 3) (and ``quaternion``) that are pose glitches, and their
+    displacement.
 
     Parameters
     ----------
@@ -36,17 +46,26 @@ def find_glitches(position: np.ndarray, segments=None) -> tuple[np.ndarray, np.n
         Measured positions, m.
     segments : sequence of (int, int), optional
         Gap-free segments (each on its own); default the whole array.
+    quaternion : ndarray (n, 4), optional
+        Measured orientations ``[qw, qx, qy, qz]``: a sample whose orientation jumps is a
+        glitch too (tested on points :data:`LEVER_M` from P along the platform's axes).
 
     Returns
     -------
     glitch : ndarray (n,) of bool
     size : ndarray (n,)
-        Distance of a glitch from the local cubic, m (0 elsewhere).
+        Distance of a glitch from the local cubic, m (0 elsewhere): the largest of P's and
+        of the three lever points'.
     """
     x = np.asarray(position, float)
-    n = len(x)
+    if quaternion is not None:
+        from cdprid.core import rotation_matrices
+
+        R = rotation_matrices(np.asarray(quaternion, float))  # columns: the platform's axes
+        x = np.concatenate([x, LEVER_M * np.transpose(R, (0, 2, 1)).reshape(len(x), 9)], 1)
+    n, d = x.shape
     segments = tuple(segments or ((0, n),))
-    c = np.zeros((n, 3))
+    c = np.zeros((n, d))
     for a, b in segments:
         if b - a >= 3:
             c[a + 1:b - 1] = x[a + 1:b - 1] - 0.5 * (x[a:b - 2] + x[a + 2:b])
@@ -76,8 +95,8 @@ def _confirmed(x, candidate, limit, segments):
             continue
         tt = (ref - i).astype(float)
         coef = np.polyfit(tt, x[ref], 3)
-        d = x[i] - np.array([np.polyval(coef[:, j], 0.0) for j in range(3)])
-        size[i] = float(np.linalg.norm(d))
+        d = x[i] - coef[-1]  # the cubic at the candidate (tt = 0)
+        size[i] = float(np.max(np.linalg.norm(d.reshape(-1, 3), axis=1)))
         glitch[i] = bool(np.any(np.abs(d) > limit))
     return glitch, size
 

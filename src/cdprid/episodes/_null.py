@@ -348,7 +348,7 @@ def cell_error(c: Cells, coef, band=None) -> np.ndarray:
     return np.asarray(c.filt(raw), float)
 
 
-def band_positions(c: Cells, coef, residual, rows) -> np.ndarray:
+def band_positions(c: Cells, coef, residual, rows, quiet=None) -> np.ndarray:
     """Where each cell's force sits in its hysteresis band, +1 (rising) to -1 (falling), from a
     fit's coefficients of the columns (``coef``, :func:`columns`' order; per cable an offset,
     ``friction`` = minus the Coulomb force and ``half`` = minus the half-width, N, ...;
@@ -364,13 +364,22 @@ def band_positions(c: Cells, coef, residual, rows) -> np.ndarray:
     through a play operator of the fitted width, and the band position is
     ``(x - H[x]) / half-width``: +1 on a rising branch, -1 on a falling one, in between
     while the force crosses the band (also when a friction step smaller than the band is
-    swallowed). Cables whose ``half`` is not negative keep the rough position."""
+    swallowed). Cables whose ``half`` is not negative keep the rough position.
+
+    ``quiet`` (n,) marks samples whose residual is not the cells' error (a push, a pose
+    glitch's transient): there the balance would move every cell's tension by the push's
+    share (its force is real, the cells read it right) and put false reversals into the
+    play operator, whose state then stays wrong until the next full reversal; the
+    correction is left out there (the reading less its error)."""
     m = c.W.shape[2]
     coef = np.asarray(coef, float)
     friction, half = coef[m:2 * m], coef[2 * m:3 * m]
     rough = _per_segment(across_still, c, c.direction, c.moving)
     Wf = np.asarray(c.filt(c.W), float)[:, rows]
-    share = np.einsum("nim,ni->nm", Wf, np.asarray(residual, float)) / np.maximum(
+    residual = np.asarray(residual, float)
+    if quiet is not None:
+        residual = np.where(np.asarray(quiet, bool)[:, None], 0.0, residual)
+    share = np.einsum("nim,ni->nm", Wf, residual) / np.maximum(
         np.einsum("nim,nim->nm", Wf, Wf), 1e-300)
     x = c.reading - cell_error(c, coef, rough) - share + friction * c.sliding
     hw = np.maximum(-half, 1e-9)
@@ -380,10 +389,12 @@ def band_positions(c: Cells, coef, residual, rows) -> np.ndarray:
     return np.where(half < 0, band, rough)
 
 
-def persistent_null(A, c: Cells, rows, fit) -> np.ndarray:
+def persistent_null(A, c: Cells, rows, fit, quiet=None) -> np.ndarray:
     """The scan's regressor: the rigid body ``A`` (n, k, p) and the columns, the hysteresis
     columns from the band positions of a fit (``fit(Z) -> (residual (n, k), coefficients)``,
-    on the recording's used samples). ``rows`` selects the wrench rows in use (k of 6).
+    on the recording's used samples). ``rows`` selects the wrench rows in use (k of 6);
+    ``quiet`` (n,) the samples whose residual is an episode's, not the cells'
+    (:func:`band_positions`).
 
     A first fit, with the cells' motion told from their fast noise (:func:`cells`), gives
     the force residual and from it the filtered readings' noise (:func:`residual_noise`);
@@ -392,5 +403,5 @@ def persistent_null(A, c: Cells, rows, fit) -> np.ndarray:
     r, _ = fit(np.concatenate([A, columns(c)[:, rows]], axis=2))
     c = with_noise(c, residual_noise(r[:, :int(np.sum(np.asarray(rows)[:3]))], m))
     r, beta = fit(np.concatenate([A, columns(c)[:, rows]], axis=2))
-    band = band_positions(c, beta[p:], r, rows)
+    band = band_positions(c, beta[p:], r, rows, quiet)
     return np.concatenate([A, columns(c, band)[:, rows]], axis=2)
