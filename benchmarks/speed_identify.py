@@ -124,7 +124,7 @@ def largest_difference(a, b) -> float:
     if isinstance(a, list):
         if len(a) != len(b):
             return math.inf
-        return max((largest_difference(x, y) for x, y in zip(a, b)), default=0.0)
+        return max((largest_difference(x, y) for x, y in zip(a, b, strict=True)), default=0.0)
     if isinstance(a, bool) or not isinstance(a, (int, float)):
         return 0.0 if a == b else math.inf
     if a == b or (a != a and b != b):
