@@ -47,38 +47,37 @@ STAGES = [("align, noise model, motion", ("align", "resolve_params", "_choose_mo
 def child(dataset: str, out: str) -> None:
     """Run ``cdprid identify dataset --json out --force`` in this process with its stages
     timed; print one JSON line of stage times (s) on stderr."""
-    t0 = time.perf_counter()
-    from cdprid.cli._main import main
-
-    t_cli = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     import cdprid.identify  # noqa: F401  (the face the command imports)
     import cdprid.identify._batch as batch
+    from cdprid.cli._main import main
 
-    times = {"imports": time.perf_counter() - t0, "imports: cli": t_cli - t0}
+    times = {"imports": (time.perf_counter() - t0, time.process_time() - c0)}
 
     def wrap(name):
         f = getattr(batch, name)
 
         def g(*a, **k):
-            s = time.perf_counter()
+            s, c = time.perf_counter(), time.process_time()
             try:
                 return f(*a, **k)
             finally:
-                times[name] = times.get(name, 0.0) + time.perf_counter() - s
+                w0, c1 = times.get(name, (0.0, 0.0))
+                times[name] = (w0 + time.perf_counter() - s, c1 + time.process_time() - c)
         setattr(batch, name, g)
 
     for _, names in STAGES:
         for n in names:
             if hasattr(batch, n):
                 wrap(n)
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     try:
         main(["identify", dataset, "--json", out, "--force"])
     except SystemExit as e:
         if e.code not in (0, None):
             raise
-    times["command"] = time.perf_counter() - t1
-    times["total"] = time.perf_counter() - t0
+    times["command"] = (time.perf_counter() - t1, time.process_time() - c1)
+    times["total"] = (time.perf_counter() - t0, time.process_time() - c0)
     print("STAGES " + json.dumps(times), file=sys.stderr, flush=True)
 
 
@@ -102,15 +101,15 @@ def _run(argv, env) -> tuple[float, float, str]:
 
 
 def _stage_times(raw: dict) -> dict:
-    """Exclusive stage times (s) from a child's raw record."""
-    out = {"python start-up + imports": raw["imports"]}
-    acc = 0.0
+    """Exclusive stage times (wall, CPU) in s from a child's raw record."""
+    out = {"imports": tuple(raw["imports"])}
+    acc = [0.0, 0.0]
     for label, names in STAGES:
-        v = sum(raw.get(n, 0.0) for n in names)
+        v = tuple(sum(raw.get(n, (0.0, 0.0))[i] for n in names) for i in (0, 1))
         out[label] = v
-        acc += v
-    out["read, output, rest"] = raw["command"] - acc
-    out["in-process total"] = raw["total"]
+        acc = [acc[0] + v[0], acc[1] + v[1]]
+    out["read, output, rest"] = (raw["command"][0] - acc[0], raw["command"][1] - acc[1])
+    out["in-process total"] = tuple(raw["total"])
     return out
 
 
@@ -149,25 +148,27 @@ def run_trees(d: Path, trees: dict, dataset: Path, rounds: int) -> dict:
                 res[name]["cli"].append((w, c))
                 res[name]["stages"].append(_stage_times(raw))
             print(f"round {k} {name}: identify {w:.2f} s wall / {c:.2f} s CPU; in-process "
-                  f"{raw['total']:.2f} s", flush=True)
+                  f"{raw['total'][0]:.2f} s wall", flush=True)
     return res
 
 
 def table(res: dict, trees: list) -> list[str]:
-    """Markdown rows: wall and CPU of the command (least, median), the stages (median)."""
-    head = "| | " + " | ".join(f"{t}: least | {t}: median" for t in trees) + " |"
+    """Markdown rows: wall and CPU of the command and of each stage, least and median."""
+    head = "| | " + " | ".join(f"{t}: wall least / median | {t}: CPU least / median"
+                               for t in trees) + " |"
     lines = [head, "|---|" + "---:|---:|" * len(trees)]
 
     def row(label, per_tree):
         cells = []
         for v in per_tree:
-            cells += [f"{min(v):.2f}", f"{statistics.median(v):.2f}"]
+            for i in (0, 1):
+                x = [e[i] for e in v]
+                cells.append(f"{min(x):.2f} / {statistics.median(x):.2f}")
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
 
-    row("`cdprid identify` wall [s]", [[w for w, _ in res[t]["cli"]] for t in trees])
-    row("`cdprid identify` CPU [s]", [[c for _, c in res[t]["cli"]] for t in trees])
+    row("**`cdprid identify`** (fresh process)", [res[t]["cli"] for t in trees])
     for label in res[trees[0]]["stages"][0]:
-        row(f"in-process: {label} [s]", [[s[label] for s in res[t]["stages"]] for t in trees])
+        row(f"in-process: {label}", [[s[label] for s in res[t]["stages"]] for t in trees])
     return lines
 
 
@@ -200,9 +201,10 @@ def main_identify(d: Path, rev: str | None, rounds: int, dataset: Path,
              "less so). Each figure from a fresh process with the tree's JAX cache filled by a "
              "first round (dropped) and byte-compiled modules; the trees alternated, "
              f"{rounds} runs each (benchmarks/speed_identify.py). The stages: the command run "
-             "in-process with the pipeline's stage functions timed (exclusive; 'python "
-             "start-up + imports' from the first line of the script, the interpreter's own "
-             "start not included).", "", *table(res, names), ""]
+             "in-process with the pipeline's stage functions timed (exclusive; "
+             "'imports' from the first line of the script, the interpreter's own start not "
+             "included; CPU = the process's user + system time, all its threads).", "",
+             *table(res, names), ""]
     if len(names) > 1:
         lines.append(f"JSON outputs of the two trees: largest relative difference {diff:.2g}.")
     print("\n".join(lines), flush=True)
