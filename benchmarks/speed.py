@@ -1,12 +1,16 @@
 """Wall-clock figures of the main commands (cold start included), side by side in one run.
 
-Usage: python -m benchmarks.speed [--only commands|startup|diagnose|stages] [--baseline REV]
-[--load K] [--seed S] [--rounds N]
+Usage: python -m benchmarks.speed [--only commands|startup|diagnose|stages|identify]
+[--baseline REV] [--load K] [--seed S] [--rounds N] [--dataset DIR]
 prints tables and updates results/benchmarks.md (each section replaced, the others kept).
 ``--only stages`` times `diagnose` per stage on the floor-winch 8-cable case of issue 37
 (``tests._testbench.floor8_case(S)``, default S = 4), twice in one process (the first run
 with its JIT compile time), at this tree and with ``--baseline REV`` at REV alternated
 (``benchmarks/speed_stages.py``); it writes results/speed.md.
+``--only identify`` times `cdprid identify` with a filled compilation cache and per stage on
+``--dataset`` (default the shared craft-sim-orbits, issue 36's goal < 2 s), ``--rounds`` runs
+of each tree alternated with ``--baseline REV`` (``benchmarks/speed_identify.py``); it
+writes results/speed.md.
 ``--only diagnose`` times `cdprid diagnose` on two CRAFT-like recordings (the second start of
 the search runs), with ``--baseline REV`` at this tree and at REV alternated in one run, with
 ``--load K`` beside K busy processes (a shared machine; its own section).
@@ -292,10 +296,13 @@ def main() -> int:
     import argparse
 
     ap = argparse.ArgumentParser(description="Speed of the main commands.")
-    ap.add_argument("--only", choices=["commands", "startup", "diagnose", "stages"],
+    ap.add_argument("--only", choices=["commands", "startup", "diagnose", "stages", "identify"],
                     default=None)
     ap.add_argument("--seed", type=int, default=4, help="--only stages: floor8 case seed")
-    ap.add_argument("--rounds", type=int, default=1, help="--only stages: alternations")
+    ap.add_argument("--rounds", type=int, default=1,
+                    help="--only stages / identify: alternations (identify: default 5)")
+    ap.add_argument("--dataset", type=Path, default=None,
+                    help="--only identify: the recording (default: ../shared's orbits)")
     ap.add_argument("--baseline", default=None, metavar="REV",
                     help="also time identify (startup) or diagnose (--only diagnose) at this "
                          "git revision, alternated with this tree")
@@ -305,6 +312,19 @@ def main() -> int:
     if args.load < 0:
         ap.error("--load must be >= 0")
     out = ROOT / "results" / "benchmarks.md"
+    if args.only == "identify":
+        from benchmarks.speed_identify import DEFAULT, main_identify
+
+        out = ROOT / "results" / "speed.md"
+        ds = (args.dataset or DEFAULT).resolve()
+        if not ds.is_dir():
+            ap.error(f"--dataset {ds}: not a folder (the shared datasets sit beside the repo)")
+        rounds = 5 if args.rounds == 1 and "--rounds" not in sys.argv else args.rounds
+        with tempfile.TemporaryDirectory() as tmp:
+            lines = main_identify(Path(tmp), args.baseline, rounds, ds, _baseline_tree)
+            _merge(out, lines[0], "\n".join(lines))
+        print(f"wrote {out}")
+        return 0
     if args.only == "stages":
         out = ROOT / "results" / "speed.md"
         with tempfile.TemporaryDirectory() as tmp:

@@ -31,17 +31,40 @@ jax.config.update("jax_disable_most_optimizations",
 os.environ.setdefault("CDPRID_CACHE_DIR", "off")
 
 
+#: Compiled programs a test process keeps alive across test modules: after a module, JAX's
+#: caches are dropped once more programs than this were compiled since they were last dropped
+#: (``CDPRID_TEST_KEEP_PROGRAMS``; 0: after every module).
+KEEP_PROGRAMS = int(os.environ.get("CDPRID_TEST_KEEP_PROGRAMS", "400"))
+_compiled = [0]
+
+
+def _count_compiles(event: str, duration: float, **kw) -> None:
+    if event == "/jax/core/compile/backend_compile_duration":
+        _compiled[0] += 1
+
+
+jax.monitoring.register_event_duration_secs_listener(_count_compiles)
+
+
 @pytest.fixture(autouse=True, scope="module")
 def _fresh_jax_executables_per_module():
-    """Drop JAX's compiled executables after each test module.
+    """Drop JAX's compiled executables after a test module once the process has compiled more
+    than :data:`KEEP_PROGRAMS` programs since they were last dropped.
 
     One pytest process that had compiled the executables of ~400 tests segfaulted inside
     XLA:CPU's compiler (``backend_compile_and_load``, tests/identify/test_online.py, in CI and
     reproduced here twice at the same test); the same run with ``jax.clear_caches()`` after each
     module passed all 445 tests (2026-11-27). scripts/test.sh also runs one process per folder.
+    Below the bound, the modules of a folder share what they compiled (the same simulator,
+    identification and diagnosis programs are compiled by many modules; dropping them after
+    every module recompiled them each time).
     """
     yield
-    jax.clear_caches()
+    if os.environ.get("CDPRID_TEST_COUNT_COMPILES"):
+        print(f"\n[compiled programs since the last drop: {_compiled[0]}]")
+    if _compiled[0] > KEEP_PROGRAMS:
+        jax.clear_caches()
+        _compiled[0] = 0
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 DATASETS = SHARED / "datasets"

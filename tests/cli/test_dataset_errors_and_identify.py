@@ -174,5 +174,6 @@ def test_console_main_blas_threads(monkeypatch, given):
         return 0
 
     monkeypatch.setattr(cli_main, "main", fake_main)
+    monkeypatch.setattr(cli_main, "_end_process", lambda rc: rc)  # not this pytest process
     assert cli_main.console_main() == 0
     assert seen == [given or "1"]

@@ -176,12 +176,22 @@ def test_non_redundant_six_cable_robot_names_a_gain_not_a_geometry_error(tmp_pat
     assert r["outcome"] == "named", r
 
 
-def test_cli_json_contract(tmp_path):
+@pytest.fixture(scope="module")
+def viscous_sim(tmp_path_factory):
+    """`cdprid simulate --preset rich --seed 5` with a 6 N s/m viscous drag (52 s, CRAFT-like),
+    written once for the two tests that diagnose it (read only)."""
     from cdprid.cli import main
 
-    sim = tmp_path / "sim"
+    sim = tmp_path_factory.mktemp("viscous") / "sim"
     assert main(["simulate", "--preset", "rich", "--out", str(sim), "--seed", "5",
                  "--effect", "viscous_drag", "--param", "coefficient_Ns_per_m=6"]) == 0
+    return sim
+
+
+def test_cli_json_contract(viscous_sim, tmp_path):
+    from cdprid.cli import main
+
+    sim = viscous_sim
     out = tmp_path / "d.json"
     rep = tmp_path / "report"
     assert main(["diagnose", str(sim), "--json", str(out), "--report", str(rep), "--quiet",
@@ -294,17 +304,13 @@ def test_backward_step_drops_a_redundant_pick_and_keeps_a_needed_one():
 # ----------------------------------------------------------------------------- sample budget
 
 
-def test_sample_budget_subset_keeps_real_samples_and_says_so(tmp_path):
+def test_sample_budget_subset_keeps_real_samples_and_says_so(viscous_sim):
     """Above the budget: evenly spaced real blocks, joins excluded, a note; findings still come."""
-    from cdprid.cli import main
     from cdprid.diagnosis import diagnose
     from cdprid.diagnosis._budget import subset
     from cdprid.io import read_dataset
 
-    sim = tmp_path / "sim"
-    assert main(["simulate", "--preset", "rich", "--out", str(sim), "--seed", "5",
-                 "--effect", "viscous_drag", "--param", "coefficient_Ns_per_m=6"]) == 0
-    ds = read_dataset(sim)
+    ds = read_dataset(viscous_sim)
     n = len(ds.pose_t)
     assert subset(ds, max_samples=n) is None
     budget = n * 4 // 5  # two blocks of 20.8 s

@@ -161,9 +161,10 @@ def test_residual_jacobians_match_finite_differences():
 
 
 def test_json_names_the_weighting(tmp_path):
+    # the 26 s of test_eiv_recovers_the_truth_on_noise_free_rotating_data: same shapes, so the
+    # module's compiled simulation and identification are reused (16 s recompiled them all)
     robot = robot_from_dict(SIX_SUSPENDED)
-    ds = _dataset(tmp_path, robot, SMALL, SensorNoise(position_m=3e-4, tension_N=0.5),
-                  duration=16.0)
+    ds = _dataset(tmp_path, robot, SMALL, SensorNoise(position_m=3e-4, tension_N=0.5))
     assert identify_dataset(ds, bound=False).as_json()["weighting"] == "eiv"
     assert identify_dataset(ds, weighting="none", bound=False).as_json()["weighting"] == "none"
 
