@@ -403,34 +403,22 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     return Episodes(tuple(eps), t, excl, margin * dt, far_per_hour, passes, caveat)
 
 
-#: times the persistent null is built; 2 builds it again without the episodes the first
-#: build's passes found (their residual is not the cells' error). Measured on the floor-winch
-#: robot with pushes and glitches (benchmarks/episodes_combined.py): 2 removed the false
-#: episodes of two recordings at the 4 Hz cutoff but gave three new ones at identify's
-#: data-chosen cutoff (all next to a glitch's excluded stretch), so 1 (the glitches'
-#: transients alone are quiet)
-NULL_BUILDS = 1
-
-
 def _null_and_passes(y, A, c, rows, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour):
-    """The persistent null (:func:`persistent_null`, the glitches' transients left out of its
-    band positions) and the fit -> locate passes (:func:`_wrench_passes`); when these find
-    episodes, the null is built again with the episodes' samples left out of its fits and
-    band positions too, and the passes run again on it (with :data:`NULL_BUILDS` = 2). A
-    push's residual is no cell's error: taken for one, it moves the band positions of the
-    hysteretic cells' play operators, whose wrong state outlasts the push until the next
-    full reversal (``tests/episodes/test_band_quiet.py``)."""
+    """The persistent null (:func:`persistent_null`, the glitches' transients ``gl_excl`` left
+    out of its band positions: their residual is no cell's error, and taken for one it moves
+    the hysteretic cells' play operators, whose wrong state outlasts it until the next full
+    reversal, ``tests/episodes/test_band_quiet.py``) and the fit -> locate passes
+    (:func:`_wrench_passes`).
+
+    The null is built once. Building it again without the episodes the first passes found
+    was measured on the floor-winch robot with pushes and glitches
+    (benchmarks/episodes_combined.py): it removed the false episodes of two recordings at the
+    4 Hz cutoff but gave three new ones at identify's data-chosen cutoff (all next to a
+    glitch's excluded stretch), so it is not done (docs/episodes.md)."""
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
-    quiet = gl_excl
-    for _ in range(NULL_BUILDS):
-        Z = persistent_null(A, c, rows, lambda Z1, q=quiet: _noise_fit(
-            y, Z1, scan_use & ~q, whiten)[:2], quiet)
-        out = _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour,
-                             A.shape[2])
-        if not out[0] or np.array_equal(out[1], quiet):
-            break
-        quiet = out[1]
-    return out
+    Z = persistent_null(A, c, rows, lambda Z1: _noise_fit(y, Z1, scan_use, whiten)[:2], gl_excl)
+    return _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour,
+                          A.shape[2])
 
 
 def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour, p):
