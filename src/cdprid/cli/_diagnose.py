@@ -31,7 +31,7 @@ def _run(args) -> int:
                    keep_episodes=args.keep_episodes)
     for note in res.notes:
         print(f"note: {note}")
-    print(f"base model: m = {res.base_parameters['m']['value']:.5g} kg, held-out force residual "
+    print(f"base model: m = {res.base_parameters['m'].value:.5g} kg, held-out force residual "
           f"rms {res.base_heldout_rms:.4g} N")
     if not res.findings:
         print("findings: none (no candidate effect passes the tests)")
@@ -45,13 +45,13 @@ def _run(args) -> int:
               + (f", {e['energy_J']:+.2g} J" if "energy_J" in e else "")
               + (f", p = {e['p_value']:.2g}" if e["kind"] != "pose_glitches" else ""))
     with_ep = res.extended_heldout_rms_with_episodes
-    print(f"extended model: m = {res.extended_parameters['m']['value']:.5g} kg, held-out force "
+    print(f"extended model: m = {res.extended_parameters['m'].value:.5g} kg, held-out force "
           f"residual rms {res.extended_heldout_rms:.4g} N"
           + (f" ({with_ep:.4g} N with the episodes)" if res.episodes and with_ep else ""))
     for c in res.competing:
-        print(f"competing model: {c['by']} {format_values(c['parameters'])} instead of "
-              f"{c['replaces']}: held-out force residual rms {c['heldout_force_rms_N']:.4g} N "
-              f"({100 * c['relative_difference']:+.2f} %, p = {c['p_worse']:.2g} that it is "
+        print(f"competing model: {c.by} {format_values(c.parameters)} instead of "
+              f"{c.replaces}: held-out force residual rms {c.heldout_force_rms_N:.4g} N "
+              f"({100 * c.relative_difference:+.2f} %, p = {c.p_worse:.2g} that it is "
               "worse): the data cannot tell the two models apart")
     w = res.info.get("weight_at_rest")
     if w:
@@ -59,11 +59,11 @@ def _run(args) -> int:
               f"tensions, {w['corrected_kg']:.4g} kg with the extended model's sensor "
               "corrections (compare with the identified m)")
     for u in res.unexplained:
-        print(f"unexplained: {u['where']}: {u['size']:.3g} N rms, like {u['correlates_with']} "
-              f"(p = {u['p_value']:.2e})")
-    for u in res.info.get("not_named", []):
-        print(f"not named: {u['effect']} {format_values(u['parameters'])}, 95 % interval "
-              f"{format_values(u['interval'])} (p = {u['p_value']:.2g} alone: {u['why']})")
+        print(f"unexplained: {u.where}: {u.size:.3g} N rms, like {u.correlates_with} "
+              f"(p = {u.p_value:.2e})")
+    for u in res.not_named:
+        print(f"not named: {u.effect} {format_values(u.parameters)}, 95 % interval "
+              f"{format_values(u.interval)} (p = {u.p_value:.2g} alone: {u.why})")
     if args.json:
         print(f"wrote {write_json(args.json, res.as_json(), force=args.force)}")
     if args.report:

@@ -18,8 +18,15 @@ from cdprid.diagnosis._budget import subset as subset
 from cdprid.diagnosis._candidates import CANDIDATE_EFFECTS as CANDIDATE_EFFECTS
 from cdprid.diagnosis._candidates import Candidate as Candidate
 from cdprid.diagnosis._candidates import candidate_list as candidate_list
+from cdprid.diagnosis._context import DiagnosisContext as DiagnosisContext
 from cdprid.diagnosis._model import ThetaLayout as ThetaLayout
 from cdprid.diagnosis._model import rotvec_from_quat as rotvec_from_quat
+from cdprid.diagnosis._parts import CompetingModel as CompetingModel
+from cdprid.diagnosis._parts import NotNamed as NotNamed
+from cdprid.diagnosis._parts import ParameterEstimate as ParameterEstimate
+from cdprid.diagnosis._parts import ParameterEstimates as ParameterEstimates
+from cdprid.diagnosis._parts import RankedCandidate as RankedCandidate
+from cdprid.diagnosis._parts import Unexplained as Unexplained
 from cdprid.diagnosis._pipeline import diagnose as diagnose
 from cdprid.diagnosis._problem import design as design
 from cdprid.diagnosis._problem import force_heldout_rms as force_heldout_rms

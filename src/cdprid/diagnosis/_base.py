@@ -17,6 +17,7 @@ import numpy as np
 
 from cdprid.core import differentiate_pose, least_squares
 from cdprid.diagnosis._model import regs_jit, rotvec_from_quat
+from cdprid.diagnosis._parts import ParameterEstimate, ParameterEstimates
 from cdprid.diagnosis._problem import Problem, cable_side
 from cdprid.diagnosis._testing import estimate_noise, wald
 from cdprid.model import PARAMETER_NAMES
@@ -27,7 +28,7 @@ class BaseFit:
     """The paper's model fitted to the data (before any effect)."""
 
     x: np.ndarray  # (4,) m, m s_G, or (10,) with the inertia when ``rotational``
-    parameters: dict
+    parameters: ParameterEstimates
     residual_rms: list
     residual: np.ndarray  # (n, 6) unweighted, filtered
     y: np.ndarray  # (n, 6) filtered measured wrench at theta = 0
@@ -90,11 +91,12 @@ def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
     res = y0 - np.einsum("nij,j->ni", A, x)
     Zb, yb = A * wrow[None, :, None], y0 * wrow
     _, _, Vb, _ = wald(Zb[train], yb[train], [0], prob.lags)
-    params = {
-        nm: {"value": float(v_), "std": float(np.sqrt(Vb[i, i])),
-             "rel_std_percent": float(100 * np.sqrt(Vb[i, i]) / max(abs(v_), 1e-300))}
+    params = ParameterEstimates({
+        nm: ParameterEstimate(
+            value=float(v_), std=float(np.sqrt(Vb[i, i])),
+            rel_std_percent=float(100 * np.sqrt(Vb[i, i]) / max(abs(v_), 1e-300)))
         for i, (nm, v_) in enumerate(zip(names, x, strict=True))
-    }
+    })
     rms = [float(np.sqrt(np.mean(res[train][:, i] ** 2))) for i in range(6)]
     return prob, BaseFit(x, params, rms, res, y0, A4, A10, rot)
 

@@ -12,6 +12,7 @@ import dataclasses
 
 import numpy as np
 
+from cdprid.diagnosis._context import DiagnosisContext
 from cdprid.diagnosis._model import ThetaLayout
 from cdprid.effects import DIAGNOSIS, VOCABULARY
 
@@ -104,8 +105,8 @@ def _split(form, values) -> list:
     return out
 
 
-def vocab_params(c: Candidate, th_values: np.ndarray, layout: ThetaLayout, extra: dict,
-                 th_cov=None) -> dict:
+def vocab_params(c: Candidate, th_values: np.ndarray, layout: ThetaLayout,
+                 extra: DiagnosisContext, th_cov=None) -> dict:
     """A candidate's parameters in the vocabulary's JSON form, from theta."""
     form = DIAGNOSIS[c.effect]
     idx = layout.candidate_indices(c.effect, c.cable)
@@ -142,7 +143,8 @@ def implausible(effect: str, params: dict) -> str:
     return ""
 
 
-def vocab_interval(c: Candidate, th_values, th_std, layout, extra) -> dict:
+def vocab_interval(c: Candidate, th_values, th_std, layout,
+                   extra: DiagnosisContext) -> dict:
     """95 % intervals of a candidate's parameters (JSON form) from theta's std."""
     z = 1.959963984540054
     form = DIAGNOSIS[c.effect]

@@ -28,11 +28,13 @@ from cdprid.diagnosis._budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis._candidates import alias_label, candidate_list
 from cdprid.diagnosis._clock import INTERVAL_CAVEAT, clock_check, clock_interval, clock_stage
 from cdprid.diagnosis._competing import competing_models
+from cdprid.diagnosis._context import DiagnosisContext
 from cdprid.diagnosis._lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis._problem import Problem, force_heldout_rms, measured, prepare
 from cdprid.diagnosis._regeometry import geometry_reselection
 from cdprid.diagnosis._replace import adopt_better
 from cdprid.diagnosis._restart import MIN_FINDINGS, choose, pair_start
+from cdprid.diagnosis._parts import ParameterEstimate, ParameterEstimates
 from cdprid.diagnosis._result import DiagnosisResult
 from cdprid.diagnosis._selection import (
     Selection,
@@ -80,17 +82,29 @@ def weight_at_rest(prob: Problem, theta, min_rest_s: float = 0.5, max_speed: flo
     return out
 
 
+@dataclasses.dataclass(frozen=True)
+class Search:
+    """The search's settings (:func:`diagnose`'s parameters of the same names)."""
+
+    alpha: float
+    n_null: int
+    max_effects: int
+    min_gain: float
+    seed: int
+
+
 def summarize(prob: Problem, base: BaseFit, s: Selection, noise: NoiseLevels, settings: dict):
     """Extended-model parameters, held-out force RMS (base, extended), BIC and the info dict."""
     train, wrow, lags = prob.train, prob.wrow, prob.lags
     Zfw, yfw, _, _ = linear_model(prob, s)
     names = PARAMETER_NAMES["full" if s.rotational else "translation"]
     _, beta_f, V_f, _ = wald(Zfw[train], yfw[train], [0], lags)
-    ext_params = {
-        nm: {"value": float(beta_f[i]), "std": float(np.sqrt(V_f[i, i])),
-             "rel_std_percent": float(100 * np.sqrt(V_f[i, i]) / max(abs(beta_f[i]), 1e-300))}
+    ext_params = ParameterEstimates({
+        nm: ParameterEstimate(
+            value=float(beta_f[i]), std=float(np.sqrt(V_f[i, i])),
+            rel_std_percent=float(100 * np.sqrt(V_f[i, i]) / max(abs(beta_f[i]), 1e-300)))
         for i, nm in enumerate(names)
-    }
+    })
     Zb, yb = base.A * wrow[None, :, None], base.y * wrow
     n_eff = max(10.0, train.sum() / max(1.0, lags / 2.0))
     e_b = yb[train] - np.einsum("nip,p->ni", Zb[train], np.linalg.lstsq(
@@ -137,7 +151,7 @@ def _split_at_joins(sig, joins):
     return dataclasses.replace(sig, segments=tuple(segments))
 
 
-def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say,
+def _problem(ds, train_until, *, cutoff_hz, trim, n_folds, taut_N, max_samples, say,
              keep_episodes=False):
     """The problem on the whole recording or on its budgeted subset (on the recording's own
     clock) without its episodes (:mod:`cdprid.episodes`, unless kept), its lengths stream, the
@@ -180,6 +194,7 @@ def _problem(ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say
 def diagnose(
     ds: Dataset,
     train_until: float | None = None,
+    *,
     cutoff_hz: float = CUTOFF_HZ,
     trim: float = TRIM_S,
     n_folds: int = 5,
@@ -208,8 +223,7 @@ def diagnose(
     n_folds : int
         Number of contiguous time blocks for held-out validation.
     alpha : float
-        Family-wise false-positive rate (Bonferroni over all candidates, and over the
-        structure signals of ``unexplained``).
+        Family-wise false-positive rate (of the candidates' tests; of ``unexplained``'s).
     n_null : int
         Null residual replicates simulated from the fitted base model to calibrate thresholds.
     max_effects : int
@@ -233,53 +247,56 @@ def diagnose(
     DiagnosisResult
     """
     say = _timed_say(progress, t0 := time.perf_counter())
+    cfg = Search(alpha, n_null, max_effects, min_gain, seed)
     prob, sub, lengths, notes, (eps, prob_with) = _problem(
-        ds, train_until, cutoff_hz, trim, n_folds, taut_N, max_samples, say, keep_episodes)
-    prob, base, noise, extra = _base_stage(prob, notes, say)
-    candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot)
-    s, (other, second), clock_info, ranking, thr_first = _search(
-        prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain, seed, say)
-    s, hints, withdrawn, clock_info, regeo = _checks(
-        prob, base, s, candidates, feats := _structure(prob), alpha, min_gain, thr_first,
-        max_effects, extra, say, clock_info)
-    s, competing, n_alt, clock_info = _competing_stage(prob, s, candidates, min_gain, extra, say,
-                                                       other, thr_first, clock_info, notes)
-    unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say)
+        ds, train_until, cutoff_hz=cutoff_hz, trim=trim, n_folds=n_folds, taut_N=taut_N,
+        max_samples=max_samples, say=say, keep_episodes=keep_episodes)
+    prob, base, noise, ctx, candidates = _base_stage(prob, notes, say)
+    s, (other, second), clock, ranking, thr_first = _search(
+        prob, base, noise, ctx, candidates, cfg, say)
+    s, hints, withdrawn, clock, regeo = _checks(
+        prob, base, s, candidates, feats := _structure(prob), cfg, thr_first=thr_first,
+        ctx=ctx, say=say, clock_info=clock)
+    s, competing, n_alt, clock = _competing_stage(
+        prob, s, candidates, cfg, thr_first, other, ctx=ctx, say=say, notes=notes, clock_info=clock)
+    unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn, noise, alpha=alpha, say=say)
     findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
         "train_until": train_until, "taut_threshold_N": taut_N,
         "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
-    _complete_info(info, not_named_sizes(prob, base, s, candidates, extra, thr_first), rule,
-                   el_info, clock_info, second, t0, sub, regeo)
-    info["verdict"] = verdict(prob, noise, s.x, ext_ho, len(findings), seed)
-    say(f"done in {info['wall_time_s']:.1f} s: {len(findings)} finding(s)")
-    res = DiagnosisResult(base.parameters, base.residual_rms, base_ho, findings,
-                          ext_params, ext_ho, ranking, info, _arrays(prob, base, resid),
-                          unexplained=unexplained, notes=notes, competing=competing)
-    return _with_episodes(res, eps, prob, prob_with, s)
+    _complete_info(info, not_named=not_named_sizes(prob, base, s, candidates, ctx, thr_first),
+                   rule=rule, el_info=el_info, clock_info=clock, second=second, t0=t0,
+                   sub=sub, regeo=regeo)
+    return _result(prob, prob_with, eps, s, base, resid, noise, seed=seed, say=say,
+                   base_heldout_rms=base_ho, findings=findings, extended_parameters=ext_params,
+                   extended_heldout_rms=ext_ho, ranking=ranking, info=info,
+                   unexplained=unexplained, notes=notes, competing=competing)
 
 
-def _competing_stage(prob, s, candidates, min_gain, extra, say, other, thr, clock_info, notes):
+def _competing_stage(prob, s, candidates, cfg: Search, thr, other, *, ctx: DiagnosisContext,
+                     say, notes, clock_info):
     """Competing models of the final model; one that predicts the held-out data materially
     better replaces it (:func:`cdprid.diagnosis._replace.adopt_better`, with a note), and
     the competing models are then those of the new model; a named clock offset's interval
     gets its note (:data:`cdprid.diagnosis._clock.INTERVAL_CAVEAT`). Returns ``(selection,
     competing models, alternatives refitted, clock info)``."""
-    better: list = []
-    competing, n_alt = competing_models(prob, s, candidates, min_gain, extra, say, other,
+    better, min_gain = [], cfg.min_gain
+    competing, n_alt = competing_models(prob, s, candidates, min_gain, ctx, say, other,
                                         better=better)
     if better:
-        s, clock_info, note = adopt_better(prob, s, better, candidates, thr, min_gain, extra,
-                                           say, clock_info)
+        s, clock_info, note = adopt_better(prob, s, better, candidates, thr=thr,
+                                           min_gain=min_gain, extra=ctx, say=say,
+                                           clock_info=clock_info)
         notes.append(note)
-        competing, n_more = competing_models(prob, s, candidates, min_gain, extra, say, other)
+        competing, n_more = competing_models(prob, s, candidates, min_gain, ctx, say, other)
         n_alt += n_more
     if any(DIAGNOSIS[c.effect].clock for c in s.accepted):  # what its interval holds
         notes.append(INTERVAL_CAVEAT)
     return s, competing, n_alt, clock_info
 
 
-def _complete_info(info, not_named, rule, el_info, clock_info, second, t0, sub, regeo) -> None:
+def _complete_info(info, *, not_named, rule, el_info, clock_info, second, t0, sub,
+                   regeo) -> None:
     """The stages' remaining entries of ``info`` (the budgeted subset's when there is one)."""
     info.update({"not_named": not_named, "unexplained_rule": rule, "lengths": el_info,
                  "clock_profile": clock_info, "second_start": second,
@@ -289,17 +306,26 @@ def _complete_info(info, not_named, rule, el_info, clock_info, second, t0, sub, 
         info["subset"] = sub.as_json()
 
 
-def _with_episodes(res: DiagnosisResult, eps, prob: Problem, prob_with: Problem, s):
-    """The result with its episodes and the extended model's held-out force rms with the
-    episodes' samples kept (the fit unchanged: ``prob``'s training samples and weights)."""
+def _result(prob: Problem, prob_with: Problem, eps, s, base: BaseFit, resid, noise, *, seed,
+            say, **parts) -> DiagnosisResult:
+    """The result: ``parts`` (:class:`DiagnosisResult`'s fields) with the verdict in its
+    ``info``, the base fit's, the arrays the report plots, the episodes and the extended
+    model's held-out force rms with the episodes' samples kept (the fit unchanged: ``prob``'s
+    training samples and weights)."""
+    info, n = parts["info"], len(parts["findings"])
+    info["verdict"] = verdict(prob, noise, s.x, parts["extended_heldout_rms"], n, seed)
+    say(f"done in {info['wall_time_s']:.1f} s: {n} finding(s)")
     Z, y, _, _ = linear_model(prob, s)  # the final model's linearisation
     kept = dataclasses.replace(prob_with, train=prob.train, wrow=prob.wrow)
-    return dataclasses.replace(res, episodes=eps.as_json(),
-                               extended_heldout_rms_with_episodes=force_heldout_rms(kept, Z, y))
+    return DiagnosisResult(base_parameters=base.parameters,
+                           base_residual_rms=base.residual_rms,
+                           arrays=_arrays(prob, base, resid), episodes=eps.as_json(),
+                           extended_heldout_rms_with_episodes=force_heldout_rms(kept, Z, y),
+                           **parts)
 
 
-def _checks(prob, base, s, candidates, feats, alpha, min_gain, thr_first, max_effects, extra,
-            say, clock_info):
+def _checks(prob, base, s, candidates, feats, cfg: Search, *, thr_first,
+            ctx: DiagnosisContext, say, clock_info):
     """The stages that may take a finding back: backward elimination, geometry selected again
     given the complete sensor side (:mod:`cdprid.diagnosis._regeometry`), stability over halves
     of the recording and groups of cables (an unstable geometry error is withdrawn before it
@@ -309,21 +335,22 @@ def _checks(prob, base, s, candidates, feats, alpha, min_gain, thr_first, max_ef
     beside it); then the clock's
     interval from the final model's joint profile. Returns ``(selection, hints, withdrawn
     findings for unexplained, clock info, info["geometry_reselection"])``."""
-    s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, extra, say)
+    alpha, min_gain = cfg.alpha, cfg.min_gain
+    s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, ctx, say)
     s, regeo = geometry_reselection(prob, base, s, candidates, alpha, min_gain, thr_first,
-                                    max_effects, extra, say)
-    s, unstable = stability_stage(prob, s, extra, say)
-    s, withdrawn = geometry_stage(prob, s, candidates, min_gain, extra, say)
-    s, implausible_now = plausibility_stage(prob, s, extra, say)
+                                    cfg.max_effects, ctx, say)
+    s, unstable = stability_stage(prob, s, ctx, say)
+    s, withdrawn = geometry_stage(prob, s, candidates, min_gain, ctx, say)
+    s, implausible_now = plausibility_stage(prob, s, ctx, say)
     if unstable or withdrawn or implausible_now:  # what the others carried may not be needed
         # (given the model alone: the unexplained structure's signals were weighed in the
         # first pass; here a generic sign-of-velocity signal would displace friction)
-        s, _ = backward_stage(prob, s, {}, alpha, min_gain, thr_first, extra, say)
-    s, joint_clock = clock_interval(prob, s, extra)
+        s, _ = backward_stage(prob, s, {}, alpha, min_gain, thr_first, ctx, say)
+    s, joint_clock = clock_interval(prob, s, ctx)
     return s, hints, unstable + withdrawn + implausible_now, {**clock_info, **joint_clock}, regeo
 
 
-def _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say):
+def _unexplained(prob, s, feats, hints, withdrawn, noise, *, alpha, say):
     """The ``unexplained`` stage on the final model, with the withdrawn findings after it (a
     hint of backward elimination about an effect the final model names again, e.g. after a
     competing model replaced a finding by it, is left out)."""
@@ -367,7 +394,8 @@ def _structure(prob) -> dict:
 
 def _base_stage(prob, notes: list, say):
     """The base model's fit, the noise levels estimated from the data and the context the
-    candidates' checks read (``extra``): ``(prob, base, noise, extra)``."""
+    candidates' checks read and the candidates: ``(prob, base, noise, context,
+    candidates)``."""
     prob, base = base_fit(prob)
     if base.rotational:
         notes.append(f"the platform rotates by up to {prob.rotation_deg:.2g} deg: the base model "
@@ -380,59 +408,61 @@ def _base_stage(prob, notes: list, say):
     say(f"noise estimated from the data: position {1e3 * noise.position_m:.3f} mm, tensions "
         f"{np.mean(noise.tension_N):.3f} N (rms over cables)")
     axes = np.asarray(prob.d.robot.pulley_axis, float)
-    extra = {"rotation_amplitude": noise.rotation_amplitude,
-             "rotation_amplitude_std": noise.rotation_amplitude_std,
-             "pulley_axis": axes[0] if np.allclose(axes, axes[0]) else axes,
-             "finding_floor_N": finding_floor_N(prob.tension[prob.use]),
-             "base_mass_kg": float(base.x[0])}
-    return prob, base, noise, extra
+    ctx = DiagnosisContext(rotation_amplitude=noise.rotation_amplitude,
+                           rotation_amplitude_std=noise.rotation_amplitude_std,
+                           pulley_axis=axes[0] if np.allclose(axes, axes[0]) else axes,
+                           finding_floor_N=finding_floor_N(prob.tension[prob.use]),
+                           base_mass_kg=float(base.x[0]))
+    candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot)
+    return prob, base, noise, ctx, candidates
 
 
-def _search(prob, base, noise, extra, candidates, alpha, n_null, max_effects, min_gain, seed,
-            say):
+def _search(prob, base, noise, ctx: DiagnosisContext, candidates, cfg: Search, say):
     """The clock stage, the greedy forward steps and the swap stage:
     ``(selection, clock_info, first step's ranking, first step's threshold)``."""
+    alpha, min_gain = cfg.alpha, cfg.min_gain
     s0, clock_info = clock_stage(prob, base, start(prob, base), candidates, alpha, min_gain,
-                                 extra, say)
+                                 ctx, say)
     s = s0
     ranking, thr_first = [], alpha / len(candidates)
-    rng = np.random.default_rng(seed)
-    for step in range(1, max_effects + 1):
+    rng = np.random.default_rng(cfg.seed)
+    for step in range(1, cfg.max_effects + 1):
         # null replicates calibrate the first step's threshold; later steps reuse it
-        nulls = null_residuals(prob, noise, s.x[:4], n_null, rng) if step == 1 else ()
-        nxt, rank, thr = forward_step(prob, base, s, candidates, nulls, alpha, min_gain, extra,
+        nulls = null_residuals(prob, noise, s.x[:4], cfg.n_null, rng) if step == 1 else ()
+        nxt, rank, thr = forward_step(prob, base, s, candidates, nulls, alpha, min_gain, ctx,
                                       say, step, thr_first if step > 1 else 1.0)
         if step == 1:
             ranking, thr_first = rank, thr
         if nxt is None:
             break
-        s = clock_check(prob, nxt, candidates, thr_first, min_gain, extra, say, f"step {step}")
-    s = swap_stage(prob, s, candidates, min_gain, extra, say)
-    s, other, second = _second_start(prob, base, s0, s, candidates, alpha, thr_first,
-                                     max_effects, min_gain, extra, say)
+        s = clock_check(prob, nxt, candidates, thr_first, min_gain, ctx, say, f"step {step}")
+    s = swap_stage(prob, s, candidates, min_gain, ctx, say)
+    s, other, second = _second_start(prob, base, s0, s, candidates, cfg, thr=thr_first,
+                                     ctx=ctx, say=say)
     return s, (other, second), clock_info, ranking, thr_first
 
 
-def _second_start(prob, base, s0, s, candidates, alpha, thr, max_effects, min_gain, extra,
+def _second_start(prob, base, s0, s, candidates, cfg: Search, *, thr, ctx: DiagnosisContext,
                   say):
     """The search started again from the best pair (:mod:`cdprid.diagnosis._restart`) when
     the greedy path named at least two effects: ``(kept model, the other or None, what was
     done for info["second_start"])``."""
+    alpha, min_gain = cfg.alpha, cfg.min_gain
     if len(s.accepted) - len(s0.accepted) < MIN_FINDINGS:
         return s, None, {"tried": False}
-    t, pair = pair_start(prob, base, s0, candidates, min_gain, thr, extra, say,
+    t, pair = pair_start(prob, base, s0, candidates, min_gain, thr, ctx, say,
                          known=s.accepted)
     pair = None if pair is None else [alias_label(c) for c in pair]
     if t is None:
         return s, None, {"tried": True, "pair": pair,
                          "kept": "greedy path" if pair else "greedy path (no pair passes)"}
-    for step in range(3, max_effects + 1):
-        nxt, _, _ = forward_step(prob, base, t, candidates, (), alpha, min_gain, extra, say,
+    for step in range(3, cfg.max_effects + 1):
+        nxt, _, _ = forward_step(prob, base, t, candidates, (), alpha, min_gain, ctx, say,
                                  step, thr)
         if nxt is None:
             break
-        t = clock_check(prob, nxt, candidates, thr, min_gain, extra, say, f"step {step}")
-    t = swap_stage(prob, t, candidates, min_gain, extra, say)
+        t = clock_check(prob, nxt, candidates, thr, min_gain, ctx, say, f"step {step}")
+    t = swap_stage(prob, t, candidates, min_gain, ctx, say)
     if set(t.accepted) == set(s.accepted):
         say("pair start: the same model as the greedy path")
         return s, None, {"tried": True, "pair": pair, "kept": "same model"}

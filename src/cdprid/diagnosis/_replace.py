@@ -19,11 +19,12 @@ import dataclasses
 
 from cdprid.diagnosis._candidates import alias_label
 from cdprid.diagnosis._clock import clock_check, clock_interval
+from cdprid.diagnosis._context import DiagnosisContext
 from cdprid.diagnosis._selection import Selection, with_vocabulary
 
 
-def adopt_better(prob, s: Selection, better: list, candidates, thr: float, min_gain: float,
-                 extra: dict, say, clock_info: dict) -> tuple[Selection, dict, str]:
+def adopt_better(prob, s: Selection, better: list, candidates, *, thr: float, min_gain: float,
+                 extra: DiagnosisContext, say, clock_info: dict) -> tuple[Selection, dict, str]:
     """The named model ``s`` replaced by the best materially better alternative.
 
     Parameters
@@ -39,7 +40,7 @@ def adopt_better(prob, s: Selection, better: list, candidates, thr: float, min_g
         The search's p-value threshold (for the clock offset tried again).
     min_gain : float
         The search's held-out gate (relative).
-    extra : dict
+    extra : DiagnosisContext
         The context of the candidates' checks.
     say : callable
     clock_info : dict

@@ -26,6 +26,7 @@ import itertools
 import numpy as np
 
 from cdprid.diagnosis._candidates import vocab_interval, vocab_params
+from cdprid.diagnosis._context import DiagnosisContext
 from cdprid.diagnosis._problem import Problem, heldout_rms, subset_heldout_rms
 from cdprid.diagnosis._result import Finding
 from cdprid.diagnosis._selection import (
@@ -90,7 +91,7 @@ def best_pair(prob: Problem, base, s: Selection, candidates, min_gain: float, th
 
 
 def pair_start(prob: Problem, base, s: Selection, candidates, min_gain: float, thr_p: float,
-               extra: dict, say, known=()):
+               extra: DiagnosisContext, say, *, known=()):
     """``(selection, pair)``: the selection ``s`` extended by the best pair
     (:func:`best_pair`) and refitted, and that pair. The selection is ``None`` when no pair
     passes (the pair ``None`` too), when both members are among ``known`` (the findings of

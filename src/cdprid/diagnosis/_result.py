@@ -4,10 +4,42 @@ from __future__ import annotations
 
 import dataclasses
 
+from cdprid.diagnosis._parts import (
+    CompetingModel,
+    JsonView,
+    NotNamed,
+    ParameterEstimates,
+    RankedCandidate,
+    Unexplained,
+    parts,
+)
 
-@dataclasses.dataclass(frozen=True)
-class Finding:
-    """One accepted effect."""
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Finding(JsonView):
+    """One accepted effect (read also as its JSON object: ``finding["effect"]``).
+
+    Attributes
+    ----------
+    effect : str
+        The vocabulary effect.
+    parameters : dict
+        Its values (SI units).
+    interval : dict
+        95 % intervals.
+    aliases : list of str
+        Candidates the data cannot tell from it.
+    heldout_rms_before, heldout_rms_after : float
+        Held-out rms without and with it (weighted units).
+    p_value : float
+        Bonferroni-adjusted p-value of its test.
+    statistic : float
+        Its Wald statistic.
+    threshold : float
+        The threshold its p-value passed.
+    separated_by : dict
+        Alias label -> what trajectory or measurement would tell the two apart.
+    """
 
     effect: str
     parameters: dict
@@ -43,33 +75,74 @@ class Finding:
             "separated_by": self.separated_by,
         }
 
+    @classmethod
+    def of(cls, v) -> Finding:
+        """``v`` itself, or the finding of its JSON object.
+
+        Parameters
+        ----------
+        v : Finding or mapping
+
+        Returns
+        -------
+        Finding
+        """
+        return v if isinstance(v, cls) else cls(**v)
+
 
 @dataclasses.dataclass(frozen=True)
 class DiagnosisResult:
-    """Everything :func:`diagnose` found; ``as_json()`` is the CLI's JSON contract."""
+    """Everything :func:`diagnose` found; ``as_json()`` is the CLI's JSON contract.
 
-    base_parameters: dict
+    The parts are typed (:class:`ParameterEstimates`, :class:`Finding`,
+    :class:`RankedCandidate`, :class:`Unexplained`, :class:`CompetingModel`, and
+    :attr:`not_named`) and read also as the dicts of earlier releases
+    (``res.base_parameters["m"]["value"]`` is ``res.base_parameters["m"].value``); given as
+    dicts (JSON objects) they are converted on construction.
+    """
+
+    base_parameters: ParameterEstimates
     base_residual_rms: list
     base_heldout_rms: float
-    findings: list
-    extended_parameters: dict
+    findings: list[Finding]
+    extended_parameters: ParameterEstimates
     extended_heldout_rms: float
-    ranking: list
+    ranking: list[RankedCandidate]
     info: dict
     arrays: dict = dataclasses.field(default_factory=dict, repr=False)
     #: residual structure the extended model leaves, and hints (vocabulary effects removed
     #: by backward elimination): ``where``, ``size`` (N), ``correlates_with``, ``p_value``
-    unexplained: list = dataclasses.field(default_factory=list)
+    unexplained: list[Unexplained] = dataclasses.field(default_factory=list)
     #: sentences the user must read with the numbers (e.g. a budgeted subset of the recording)
     notes: list = dataclasses.field(default_factory=list)
     #: complete alternative models within the noise of the final one
     #: (:func:`cdprid.diagnosis._competing.competing_models`), best first
-    competing: list = dataclasses.field(default_factory=list)
+    competing: list[CompetingModel] = dataclasses.field(default_factory=list)
     #: the located episodes (:meth:`cdprid.episodes.Episode.as_json`), left out of the fits
     #: unless ``keep_episodes``
     episodes: list = dataclasses.field(default_factory=list)
     #: the extended model's held-out force rms (N) with the episodes' samples kept
     extended_heldout_rms_with_episodes: float | None = None
+
+    def __post_init__(self):
+        for name, convert in (("base_parameters", ParameterEstimates.of),
+                              ("extended_parameters", ParameterEstimates.of),
+                              ("findings", lambda v: parts(Finding, v)),
+                              ("ranking", lambda v: parts(RankedCandidate, v)),
+                              ("unexplained", lambda v: parts(Unexplained, v)),
+                              ("competing", lambda v: parts(CompetingModel, v))):
+            object.__setattr__(self, name, convert(getattr(self, name)))
+
+    @property
+    def not_named(self) -> list[NotNamed]:
+        """The effects a real recording always holds, sized and not named
+        (``info["not_named"]``, typed).
+
+        Returns
+        -------
+        list of NotNamed
+        """
+        return parts(NotNamed, self.info.get("not_named", []))
 
     def as_json(self) -> dict:
         """The whole diagnosis as the JSON document of ``diagnose --json`` (the contract).
@@ -82,13 +155,13 @@ class DiagnosisResult:
         """
         return {
             "base": {
-                "parameters": self.base_parameters,
+                "parameters": self.base_parameters.as_json(),
                 "residual_rms": self.base_residual_rms,
                 "heldout_residual_rms": self.base_heldout_rms,
             },
             "findings": [f.as_json() for f in self.findings],
             "extended": {
-                "parameters": self.extended_parameters,
+                "parameters": self.extended_parameters.as_json(),
                 "heldout_residual_rms": self.extended_heldout_rms,
                 "heldout_residual_rms_with_episodes": self.extended_heldout_rms_with_episodes,
                 "effects": [f.effect for f in self.findings],
@@ -96,9 +169,9 @@ class DiagnosisResult:
             },
             "unexplained": [{k: v for k, v in u.items() if k != "significant"}
                             for u in self.unexplained],
-            "ranking": self.ranking,
+            "ranking": [r.as_json() for r in self.ranking],
             "not_named": list(self.info.get("not_named", [])),
-            "competing_models": list(self.competing),
+            "competing_models": [c.as_json() for c in self.competing],
             "notes": list(self.notes),
             "episodes": list(self.episodes),
             "info": {k: v for k, v in self.info.items()

@@ -24,7 +24,9 @@ from cdprid.diagnosis._candidates import (
     vocab_interval,
     vocab_params,
 )
+from cdprid.diagnosis._context import DiagnosisContext
 from cdprid.diagnosis._model import ThetaLayout
+from cdprid.diagnosis._parts import RankedCandidate
 from cdprid.diagnosis._problem import Problem, design, heldout_rms, seed_design
 from cdprid.diagnosis._profile import clock_index, joint_delay
 from cdprid.diagnosis._refit import refit_gauss_newton
@@ -208,7 +210,7 @@ def refit(prob: Problem, s: Selection, theta=None, active_idx=None, rotational=N
                                active_idx=tuple(active), th_cov=th_cov, status=status)
 
 
-def with_vocabulary(prob: Problem, s: Selection, extra: dict) -> Selection:
+def with_vocabulary(prob: Problem, s: Selection, extra: DiagnosisContext) -> Selection:
     """Findings' parameters and intervals recomputed from the current theta."""
     std = np.sqrt(np.clip(np.diag(s.th_cov), 0, None))
     fs = tuple(dataclasses.replace(
@@ -291,7 +293,7 @@ def effect_size_N(prob: Problem, s: Selection, c) -> float:
 MASS_RATIO = 2.0
 
 
-def implausible_findings(prob: Problem, t: Selection, extra: dict):
+def implausible_findings(prob: Problem, t: Selection, extra: DiagnosisContext):
     """``(k, reason)`` for every finding of ``t`` whose refitted parameters lie outside their
     vocabulary range (:func:`cdprid.diagnosis._candidates.implausible`), in model order."""
     for k, c in enumerate(t.accepted):
@@ -300,19 +302,19 @@ def implausible_findings(prob: Problem, t: Selection, extra: dict):
             yield k, why
 
 
-def model_implausible(prob: Problem, t: Selection, extra: dict) -> str:
+def model_implausible(prob: Problem, t: Selection, extra: DiagnosisContext) -> str:
     """A reason when the jointly refitted model is implausible, else '': an earlier
     finding pushed outside its plausible range, or a mass changed by more than
     :data:`MASS_RATIO` from the base model's."""
     for k, why in implausible_findings(prob, t, extra):
         return f"{t.accepted[k].label} becomes {why}"
-    m0 = extra.get("base_mass_kg")
+    m0 = DiagnosisContext.of(extra).base_mass_kg
     if m0 and not (m0 / MASS_RATIO < t.x[0] < m0 * MASS_RATIO):
         return f"the mass becomes {t.x[0]:.3g} kg (base model {m0:.3g} kg)"
     return ""
 
 
-def refit_rejected(prob: Problem, t: Selection, c, extra: dict) -> str:
+def refit_rejected(prob: Problem, t: Selection, c, extra: DiagnosisContext) -> str:
     """Why candidate ``c``, refitted in ``t``, may not be named ('' when it may): its own
     parameters or the joint model implausible, or its force below the finding floor."""
     why = implausible(c.effect, vocab_params(c, t.theta, prob.layout, extra, t.th_cov)) \
@@ -320,14 +322,14 @@ def refit_rejected(prob: Problem, t: Selection, c, extra: dict) -> str:
     if why:
         return f"refits to an implausible value ({why})"
     if not extends_base(c):
-        size, floor = effect_size_N(prob, t, c), extra.get("finding_floor_N", 0.0)
+        size, floor = effect_size_N(prob, t, c), DiagnosisContext.of(extra).finding_floor_N
         if size < floor:
             return f"its force, {size:.2g} N rms, is below the detection floor {floor:.2g} N"
     return ""
 
 
 def try_candidate(prob: Problem, s: Selection, c, rms_before: float, min_gain: float,
-                  extra: dict):
+                  extra: DiagnosisContext):
     """Add one candidate, refit, and check plausibility and the held-out gain after the refit.
 
     Returns ``(selection, parameters, rms_after, '')`` or ``(None, None, nan, reason)``.
@@ -375,8 +377,8 @@ def forward_step(prob, base, s, candidates, null_gen, alpha, min_gain, extra, sa
     scored, pcols, yt, thr_p = score_step(prob, Zbase, y_target, cand_cols, null_gen, alpha,
                                           n_tests)
     thr_p = min(thr_p, thr_floor)
-    ranking = [{"candidate": c.label, "statistic": float(st), "dof": int(q),
-                "p_value": float(p), "p_bonferroni": float(min(1.0, p * n_tests))}
+    ranking = [RankedCandidate(candidate=c.label, statistic=float(st), dof=int(q),
+                               p_value=float(p), p_bonferroni=float(min(1.0, p * n_tests)))
                for p, c, st, q, _ in scored[:15]]
     # the significant leaders, tried in order of their (linearised) held-out prediction
     leaders = []
@@ -411,7 +413,8 @@ def forward_step(prob, base, s, candidates, null_gen, alpha, min_gain, extra, sa
     return None, ranking, thr_p
 
 
-def swap_stage(prob: Problem, s: Selection, candidates, min_gain: float, extra: dict, say):
+def swap_stage(prob: Problem, s: Selection, candidates, min_gain: float,
+               extra: DiagnosisContext, say):
     """Replace findings by better alternatives; ties within ``min_gain`` become aliases."""
     layout = prob.layout
     ties: dict = {}
@@ -456,7 +459,7 @@ def swap_stage(prob: Problem, s: Selection, candidates, min_gain: float, extra: 
 
 
 def backward_stage(prob: Problem, s: Selection, feats: dict, alpha: float, min_gain: float,
-                   thr_p: float, extra: dict, say):
+                   thr_p: float, extra: DiagnosisContext, say):
     """Backward elimination given the others and the unexplained structure.
 
     Returns the selection and the hints (findings removed because an unexplained structure
@@ -507,7 +510,7 @@ def _say_signatures(accepted, Z, sigs: dict, cols_of, train, say) -> None:
                     f"{rho:.3f}): {c.label} is tested only against the rest of it")
 
 
-def withdraw(prob: Problem, s: Selection, k: int, extra: dict) -> Selection:
+def withdraw(prob: Problem, s: Selection, k: int, extra: DiagnosisContext) -> Selection:
     """The model refitted without its finding ``k`` (the backward, stability, geometry and
     plausibility stages take findings back with it)."""
     c = s.accepted[k]

@@ -14,6 +14,7 @@ import numpy as np
 
 from cdprid.diagnosis._candidates import vocab_interval, vocab_params
 from cdprid.diagnosis._clock import clock_size
+from cdprid.diagnosis._context import DiagnosisContext
 from cdprid.diagnosis._selection import candidate_columns, linear_model, score_step
 from cdprid.diagnosis._testing import partial_wald
 from cdprid.effects import DIAGNOSIS
@@ -21,7 +22,7 @@ from cdprid.effects import DIAGNOSIS
 __all__ = ["not_named_sizes"]
 
 
-def not_named_sizes(prob, base, s, candidates, extra: dict, thr_p: float) -> list:
+def not_named_sizes(prob, base, s, candidates, extra: DiagnosisContext, thr_p: float) -> list:
     """``[{effect, parameters, interval, p_value, statistic, named: False, why}]`` of every
     ``report_size`` candidate not in the final selection ``s``; ``thr_p`` is the search's
     first-step threshold on the p-value (Bonferroni, calibrated by null replicates)."""

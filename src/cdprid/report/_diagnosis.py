@@ -16,14 +16,14 @@ def not_named_lines(result) -> list[str]:
     Parameters
     ----------
     result : DiagnosisResult
-        Its ``info["not_named"]`` items are listed.
+        Its ``not_named`` items are listed.
 
     Returns
     -------
     list of str
         Markdown lines; [] when there is nothing to list.
     """
-    items = result.info.get("not_named") or []
+    items = result.not_named
     if not items:
         return []
     lines = ["", "## Checked and not named", "",
@@ -32,8 +32,8 @@ def not_named_lines(result) -> list[str]:
              "correction.", "", "| effect | size | 95 % interval | p | why not named |",
              "|---|---|---|---|---|"]
     for u in items:
-        lines.append(f"| {u['effect']} | {format_values(u['parameters'])} | "
-                     f"{format_values(u['interval'])} | {u['p_value']:.2g} | {u['why']} |")
+        lines.append(f"| {u.effect} | {format_values(u.parameters)} | "
+                     f"{format_values(u.interval)} | {u.p_value:.2g} | {u.why} |")
     return lines + [""]
 
 
@@ -59,9 +59,9 @@ def competing_lines(result) -> list[str]:
              "| instead of | this model has | with | held-out force rms, N | difference | "
              "p_worse |", "|---|---|---|---|---|---|"]
     for m in items:
-        lines.append(f"| {m['replaces']} | {m['by']} | {format_values(m['parameters'])} | "
-                     f"{m['heldout_force_rms_N']:.4g} | {100 * m['relative_difference']:+.2f} % "
-                     f"| {m['p_worse']:.2g} |")
+        lines.append(f"| {m.replaces} | {m.by} | {format_values(m.parameters)} | "
+                     f"{m.heldout_force_rms_N:.4g} | {100 * m.relative_difference:+.2f} % "
+                     f"| {m.p_worse:.2g} |")
     return lines + [""]
 
 
@@ -112,8 +112,8 @@ def unexplained_lines(result) -> list[str]:
                   "explaining it and was removed.", "",
                   "| where | size [N rms] | correlates with | p (Holm) |", "|---|---|---|---|"]
         for u in result.unexplained:
-            lines.append(f"| {u['where']} | {u['size']:.3g} | {u['correlates_with']} | "
-                         f"{u['p_value']:.2e} |")
+            lines.append(f"| {u.where} | {u.size:.3g} | {u.correlates_with} | "
+                         f"{u.p_value:.2e} |")
         lines.append("")
     if rule:
         lines += ["Every test:", "", "| test | correlates with | where | size [N] | p raw | "
@@ -148,7 +148,7 @@ def unexplained_figure(result, out: Path) -> Path:
     axs[0].set_ylabel("extended residual [N]")
     axs[0].set_xlabel("t [s]")
     axs[0].legend(fontsize=8)
-    axs[0].set_title("; ".join(f"{u['correlates_with'][:40]} ({u['size']:.2g} N)"
+    axs[0].set_title("; ".join(f"{u.correlates_with[:40]} ({u.size:.2g} N)"
                                for u in result.unexplained[:3]) or "nothing unexplained",
                      fontsize=8)
     for i, c in enumerate("xyz"):
@@ -285,7 +285,7 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     lines += [f"## Base model ({kind}, matched filtering)", "",
               "| parameter | estimate | std (HAC) | %std |", "|---|---|---|---|"]
     for k, v in bp.items():
-        lines.append(f"| {k} | {v['value']:.6g} | {v['std']:.3g} | {v['rel_std_percent']:.3g} |")
+        lines.append(f"| {k} | {v.value:.6g} | {v.std:.3g} | {v.rel_std_percent:.3g} |")
     lines += ["", "Residual RMS per wrench axis (fx, fy, fz [N], mx, my, mz [N m]): "
               + ", ".join(f"{r:.4g}" for r in result.base_residual_rms), ""]
     lines += ["## Findings", ""]
@@ -305,9 +305,9 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     lines += ["## Extended model", "", "| parameter | estimate | std (HAC) | change vs base |",
               "|---|---|---|---|"]
     for k, v in result.extended_parameters.items():
-        ch = (f"{v['value'] - bp[k]['value']:+.4g}" if k in bp
+        ch = (f"{v.value - bp[k].value:+.4g}" if k in bp
               else "not in the base model")  # never "+nan" in a report
-        lines.append(f"| {k} | {v['value']:.6g} | {v['std']:.3g} | {ch} |")
+        lines.append(f"| {k} | {v.value:.6g} | {v.std:.3g} | {ch} |")
     lines += ["", f"Held-out force residual RMS: base {result.base_heldout_rms:.4g} N -> "
               f"extended {result.extended_heldout_rms:.4g} N ({result.info['heldout']}).", ""]
     if verdict:
@@ -324,8 +324,8 @@ def save_report(result, out_dir, dataset_name: str = "dataset") -> Path:
     lines += ["## Candidate ranking (first step)", "",
               "| candidate | statistic | dof | p | p Bonferroni |", "|---|---|---|---|---|"]
     for r in result.ranking:
-        lines.append(f"| {r['candidate']} | {r['statistic']:.1f} | {r['dof']} | "
-                     f"{r['p_value']:.2e} | {r['p_bonferroni']:.2e} |")
+        lines.append(f"| {r.candidate} | {r.statistic:.1f} | {r.dof} | "
+                     f"{r.p_value:.2e} | {r.p_bonferroni:.2e} |")
     lines += ["", "## Figures", ""] + [f"![{p.stem}]({p.name})" for p in figs]
     (out / "report.md").write_text("\n".join(lines) + "\n")
     return out / "report.md"

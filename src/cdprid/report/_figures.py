@@ -105,8 +105,8 @@ def diagnosis_figures(result, out_dir) -> list[Path]:
 
     if result.ranking:
         fig, ax = plt.subplots(figsize=(8, 4))
-        labels = [r["candidate"] for r in result.ranking][:12][::-1]
-        vals = [max(r["statistic"], 1e-3) for r in result.ranking][:12][::-1]
+        labels = [r.candidate for r in result.ranking][:12][::-1]
+        vals = [max(r.statistic, 1e-3) for r in result.ranking][:12][::-1]
         ax.barh(labels, vals)
         ax.set_xscale("log")
         ax.set_xlabel("Wald statistic (HAC)")

@@ -79,8 +79,8 @@ def _competing(res) -> str:
             "aliases, or the model of the search's other start, refitted) predict the "
             "held-out data worse than the final model." if tried
             else "None: no finding has an alias to try.") + "</p>")
-    rows = [[m["replaces"], m["by"], _values(m["parameters"]), fmt(m["heldout_force_rms_N"]),
-             f"{100 * m['relative_difference']:+.2f} %", fmt(m["p_worse"], 2)]
+    rows = [[m.replaces, m.by, _values(m.parameters), fmt(m.heldout_force_rms_N),
+             f"{100 * m.relative_difference:+.2f} %", fmt(m.p_worse, 2)]
             for m in res.competing]
     return ("<h2>Competing models</h2><p>Complete alternatives within the noise of the final "
             "model: the data cannot choose between them.</p>" + table(
@@ -92,9 +92,11 @@ def _estimates(res) -> str:
     bp, ep = res.base_parameters, res.extended_parameters
     rows = []
     for k in dict.fromkeys(list(bp) + list(ep)):
-        b, e = bp.get(k, {}), ep.get(k, {})
-        rows.append([k, fmt(b.get("value"), 6), fmt(b.get("std"), 3), fmt(e.get("value"), 6),
-                     fmt(e.get("std"), 3)])
+        b, e = bp.get(k), ep.get(k)
+        rows.append([k, fmt(None if b is None else b.value, 6),
+                     fmt(None if b is None else b.std, 3),
+                     fmt(None if e is None else e.value, 6),
+                     fmt(None if e is None else e.std, 3)])
     return ("<h2>Estimates</h2>" + table(
         ["parameter", "base model", "std (HAC)", "extended model", "std (HAC)"], rows,
         numeric={1, 2, 3, 4})
@@ -103,18 +105,18 @@ def _estimates(res) -> str:
 
 
 def _unexplained(res) -> str:
-    rows = [[u["where"], fmt(u["size"], 3), u["correlates_with"], f"{u['p_value']:.2e}"]
+    rows = [[u.where, fmt(u.size, 3), u.correlates_with, f"{u.p_value:.2e}"]
             for u in res.unexplained]
     out = "<h2>What remains unexplained</h2>"
     out += (table(["where", "size [N rms]", "correlates with", "p (Holm)"], rows, numeric={1, 3})
             if rows else "<p>Nothing: no test finds a material structure in the residual of "
             "the extended model.</p>")
-    nn = res.info.get("not_named") or []
+    nn = res.not_named
     if nn:
         out += "<p>Checked and not named:</p>" + table(
             ["effect", "size", "95 % interval", "p", "why not named"],
-            [[u["effect"], _values(u["parameters"]), _values(u["interval"]),
-              fmt(u["p_value"], 2), u["why"]] for u in nn], numeric={3})
+            [[u.effect, _values(u.parameters), _values(u.interval),
+              fmt(u.p_value, 2), u.why] for u in nn], numeric={3})
     return out
 
 

@@ -125,11 +125,11 @@ def diagnosis_variables(result, data: dict, made_by: dict) -> dict:
     eps = episodes_of(result) or episodes_of(data)
     out = {
         "parameter_names": list(bp),
-        "estimates": [float(v["value"]) for v in bp.values()],
-        "std": [float(v["std"]) for v in bp.values()],
+        "estimates": [float(v.value) for v in bp.values()],
+        "std": [float(v.std) for v in bp.values()],
         "extended_parameter_names": list(ep),
-        "extended_estimates": [float(v["value"]) for v in ep.values()],
-        "extended_std": [float(v["std"]) for v in ep.values()],
+        "extended_estimates": [float(v.value) for v in ep.values()],
+        "extended_std": [float(v.std) for v in ep.values()],
         "findings": [f.as_json() for f in result.findings],
         "episodes": _episode_arrays(eps),
         "json": data,
