@@ -315,13 +315,19 @@ def _result(prob: Problem, prob_with: Problem, eps, s, base: BaseFit, resid, noi
     info, n = parts["info"], len(parts["findings"])
     info["verdict"] = verdict(prob, noise, s.x, parts["extended_heldout_rms"], n, seed)
     say(f"done in {info['wall_time_s']:.1f} s: {n} finding(s)")
-    Z, y, _, _ = linear_model(prob, s)  # the final model's linearisation
-    kept = dataclasses.replace(prob_with, train=prob.train, wrow=prob.wrow)
     return DiagnosisResult(base_parameters=base.parameters,
                            base_residual_rms=base.residual_rms,
                            arrays=_arrays(prob, base, resid), episodes=eps.as_json(),
-                           extended_heldout_rms_with_episodes=force_heldout_rms(kept, Z, y),
+                           extended_heldout_rms_with_episodes=_with_episodes(prob, prob_with, s),
                            **parts)
+
+
+def _with_episodes(prob: Problem, prob_with: Problem, s) -> float:
+    """The extended model's held-out force rms with the episodes' samples kept (the fit
+    unchanged: ``prob``'s training samples and weights)."""
+    Z, y, _, _ = linear_model(prob, s)  # the final model's linearisation
+    kept = dataclasses.replace(prob_with, train=prob.train, wrow=prob.wrow)
+    return force_heldout_rms(kept, Z, y)
 
 
 def _checks(prob, base, s, candidates, feats, cfg: Search, *, thr_first,
