@@ -118,7 +118,7 @@ def test_attributes_and_keys_agree(name):
     for u, js in zip(res.not_named, d["not_named"], strict=True):
         assert (u.effect, u.parameters, u.interval, u.p_value, u.why) == (
             js["effect"], js["parameters"], js["interval"], js["p_value"], js["why"])
-        assert u.named is False and u == js
+        assert isinstance(u, NotNamed) and u.named is False and u == js
 
 
 def test_unexplained_items_keep_their_keys_and_order():

@@ -4,11 +4,10 @@ A package of named stages (see ``docs/diagnosis.md``): :mod:`.problem` (data, ma
 criterion), :mod:`.model` (one forward model for every effect), :mod:`.base` (base fit, noise,
 null model), :mod:`.candidates` (effect x cable and their vocabulary form), :mod:`.testing`
 (HAC Wald tests), :mod:`.selection` (forward steps, swap, backward elimination), :mod:`.refit`
-(Gauss-Newton), :mod:`.unexplained` (residual structure), :mod:`.result` and :mod:`._parts` (frozen, typed
-results that read also as their JSON objects), :mod:`._context` (what the checks read besides
-the fit) and
-:mod:`.pipeline` (:func:`diagnose`, the stages in order). The report writer is
-:func:`cdprid.report._diagnosis.save_report`.
+(Gauss-Newton), :mod:`.unexplained` (residual structure), :mod:`.result` and :mod:`._parts`
+(frozen, typed results that read also as their JSON objects), :mod:`._context` (what the
+checks read besides the fit) and :mod:`.pipeline` (:func:`diagnose`, the stages in order).
+The report writer is :func:`cdprid.report._diagnosis.save_report`.
 """
 
 # ruff: noqa: F401  (explicit re-exports)
