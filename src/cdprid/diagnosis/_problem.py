@@ -102,7 +102,7 @@ class Problem:
 
 
 def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CUTOFF_HZ,
-            trim: float = TRIM_S, n_folds: int = 5, taut_N: float = TAUT_THRESHOLD_N,
+            trim: float = TRIM_S, n_folds: int = 5, taut_N: float = TAUT_THRESHOLD_N, *,
             joins: tuple = (), clock=None) -> Problem:
     """Align, differentiate, build the forward-model data and the masks: samples inside the
     trimmed recording where every cable is taut (:func:`cdprid.core.taut_mask`, as real data).
