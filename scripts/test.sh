@@ -42,12 +42,13 @@ for f in tests/test_*.py; do GROUPS_+=("$f"); done
 # Two folders at a time (CDPRID_TEST_JOBS, default: the number of cores, at most 4): each
 # pytest process spends most of its time in XLA's single-threaded compiler, so a second process
 # uses the second core (26 min -> see the README's "How long"). The heaviest folders start
-# first; each folder's output is printed whole when it ends, in the order they end.
+# first; each folder's output is printed whole when it ends, in the order they end, with its
+# wall and CPU seconds (CPU: what to compare on a shared machine) and the sum at the end.
 JOBS="${CDPRID_TEST_JOBS:-$(nproc 2>/dev/null || echo 2)}"
 if [ "$JOBS" -gt 4 ]; then JOBS=4; fi
 if [ "$JOBS" -lt 1 ]; then JOBS=1; fi
-HEAVY=(tests/identify tests/diagnosis tests/core tests/cli tests/io tests/tuning tests/excitation
-       tests/effects)  # by CPU seconds, 2026-11-28 (README "How long")
+HEAVY=(tests/identify tests/diagnosis tests/core tests/excitation tests/io tests/tuning tests/cli
+       tests/effects)  # by seconds, 2026-11-28 15:25 (a whole run at load 5-9)
 ORDERED=()
 for h in "${HEAVY[@]}"; do
   for g in "${GROUPS_[@]}"; do [ "$g" = "$h" ] && ORDERED+=("$g"); done
@@ -61,20 +62,24 @@ export LOGS
 run_one() {
   local g="$1" key rc s
   key="$(echo "$g" | tr '/.' '__')"
+  local sel=() cpu TIMEFORMAT='%U %S'
+  if [ "${CI:-}" = "true" ]; then sel=(-m "slow or not slow"); fi
   s=$SECONDS
   set +e
-  if [ "${CI:-}" = "true" ]; then
-    .venv/bin/python -m pytest -q -p no:cacheprovider -m "slow or not slow" "$g" > "$LOGS/$key.log" 2>&1
-  else
-    .venv/bin/python -m pytest -q -p no:cacheprovider "$g" > "$LOGS/$key.log" 2>&1
-  fi
+  # bash's time keyword: the folder's CPU seconds (user + sys of the pytest process and the
+  # commands it starts), which say more than wall seconds on a shared machine
+  { time .venv/bin/python -m pytest -q -p no:cacheprovider "${sel[@]}" "$g" \
+      > "$LOGS/$key.log" 2>&1 ; } 2> "$LOGS/$key.time"
   rc=$?
   set -e
   echo "$rc" > "$LOGS/$key.rc"
+  cpu="$(awk '{printf "%.0f", $1 + $2}' "$LOGS/$key.time" 2>/dev/null || echo '?')"
+  echo "$cpu" > "$LOGS/$key.cpu"
   if command -v flock >/dev/null 2>&1; then
-    { echo "[test] $g ($((SECONDS - s)) s, exit $rc)"; cat "$LOGS/$key.log"; } | flock "$LOGS/.lock" cat
+    { echo "[test] $g ($((SECONDS - s)) s, $cpu CPU s, exit $rc)"; cat "$LOGS/$key.log"; } \
+      | flock "$LOGS/.lock" cat
   else
-    echo "[test] $g ($((SECONDS - s)) s, exit $rc)"; cat "$LOGS/$key.log"
+    echo "[test] $g ($((SECONDS - s)) s, $cpu CPU s, exit $rc)"; cat "$LOGS/$key.log"
   fi
   return 0  # the folder's exit code is in $LOGS/$key.rc, read below
 }
@@ -83,15 +88,17 @@ export -f run_one
 start=$SECONDS
 printf '%s\n' "${ORDERED[@]}" | xargs -P "$JOBS" -I{} bash -c 'run_one "$@"' _ {} || true
 failed=()
+cpu_all=0
 for g in "${ORDERED[@]}"; do
   key="$(echo "$g" | tr '/.' '__')"
+  cpu_all=$((cpu_all + $(cat "$LOGS/$key.cpu" 2>/dev/null || echo 0)))
   rc="$(cat "$LOGS/$key.rc" 2>/dev/null || echo missing)"
   # 5: nothing collected (a folder whose tests are all deselected) is not a failure
   if [ "$rc" != "0" ] && [ "$rc" != "5" ]; then
     failed+=("$g (exit $rc)")
   fi
 done
-echo "[test] ${#GROUPS_[@]} folders in $((SECONDS - start)) s ($JOBS at a time)"
+echo "[test] ${#GROUPS_[@]} folders in $((SECONDS - start)) s ($JOBS at a time; $cpu_all CPU s in all)"
 if [ "${#failed[@]}" -gt 0 ]; then
   echo "[test] FAILED: ${failed[*]}"
   exit 1

@@ -109,8 +109,14 @@ def test_rls_with_prior_starts_at_prior(rng):
 # ----------------------------------------------------------------------------- data path
 
 
-def test_online_motion_equals_batch_differentiator(robot, sim_noisy):
-    res = online_identify(_signals(sim_noisy), robot)
+@pytest.fixture(scope="module")
+def noisy_plain(robot, sim_noisy):
+    """The noisy recording identified online with the defaults (no episode detector)."""
+    return online_identify(_signals(sim_noisy), robot)
+
+
+def test_online_motion_equals_batch_differentiator(noisy_plain, sim_noisy):
+    res = noisy_plain
     v, a = differentiate(sim_noisy.position, 0.01, method="sihd2-cascade")
     np.testing.assert_allclose(res.velocity, v, rtol=0, atol=1e-12)
     np.testing.assert_allclose(res.acceleration, a, rtol=0, atol=1e-12)
@@ -171,22 +177,36 @@ def test_full_model_angular_rates_match_batch_motion(robot):
 # ----------------------------------------------------------------------------- tracking
 
 
-def test_mass_step_tracked_with_forgetting(robot, sim_noisy):
+@pytest.fixture(scope="module")
+def sim_heavy(robot):
+    """The noisy recording's path with a payload 2.5 kg heavier (its centre of mass 20 % closer
+    to P): the second half of a mid-recording payload step."""
     truth = craft_like_truth()
     heavy = InertialParameters(truth.mass + 2.5, truth.com * 0.8, truth.inertia_com)
-    tr = preset("paper-orbits", robot, duration=14.0)
-    s2 = simulate(robot, tr, params=heavy, seed=4)
-    a, b = _signals(sim_noisy), _signals(s2)
-    n1 = a["t"].size
-    sig = {k: np.concatenate([a[k], b[k]]) for k in ("position", "quaternion", "tension")}
-    sig["t"] = np.arange(n1 + b["t"].size) * 0.01
-    m_new = float(heavy.mass)
+    return heavy, simulate(robot, preset("paper-orbits", robot, duration=14.0), params=heavy,
+                           seed=4)
+
+
+def _payload_step(sim_noisy, sim_heavy):
+    """The payload grows mid-recording, the platform on the same path: the first half of the
+    noisy recording, then the second half of the heavier one (the recordings' length, so the
+    scans compiled by the other tests of the module are reused). Returns the signals and the
+    index of the step."""
+    a, b = _signals(sim_noisy), _signals(sim_heavy[1])
+    n1 = a["t"].size // 2
+    return {k: np.concatenate([a[k][:n1], b[k][n1:]]) for k in a}, n1
+
+
+def test_mass_step_tracked_with_forgetting(robot, sim_noisy, sim_heavy):
+    truth = craft_like_truth()
+    sig, n1 = _payload_step(sim_noisy, sim_heavy)
+    m_new = float(sim_heavy[0].mass)
     track = online_identify(sig, robot, forgetting=0.995)
     m = track.x[:, 0]
     assert abs(m[n1 - 1] - float(truth.mass)) < 0.02 * float(truth.mass)  # before the step
     assert abs(m[-1] - m_new) < 0.02 * m_new
-    # follows within a few seconds (memory dt / (1 - lambda) = 2 s)
-    assert np.all(np.abs(m[n1 + 800:] - m_new) < 0.02 * m_new)
+    # follows within a few seconds (memory dt / (1 - lambda) = 2 s): from 6 s after the step
+    assert np.all(np.abs(m[n1 + 600:] - m_new) < 0.02 * m_new)
     # growing memory does not track: still far from the new mass at the end
     stuck = online_identify(sig, robot, forgetting=1.0).x[-1, 0]
     assert abs(stuck - m_new) > 0.05 * m_new
@@ -346,3 +366,104 @@ def test_run_online_cli_forgetting_and_out_csv(ds_path, tmp_path, capsys):
     args.differentiator = "savgol"
     with pytest.raises(UserError, match="not available on line"):
         run_online_cli(ds, args, {})
+
+
+# ----------------------------------------------------------------------------- episodes
+# Episodes flagged online (issue 38 item 5): a push is flagged as it happens and kept out of
+# the recursive least squares; a payload step is reported as a step and tracked; clean data
+# give nothing. Data from the simulator's ``external_wrench`` effect (the cables take the push)
+# and from the payload step above (this was tests/identify/test_online_episodes.py; here the
+# module's simulations and compiled scans are shared).
+
+PUSH = (7.0, 8.0, [12.0, 0.0, 16.0])  # 20 N for 1 s, partly vertical: it pulls the mass
+
+
+@pytest.fixture(scope="module")
+def pushed_sim(robot):
+    from cdprid.effects import Effect
+
+    a, b, f = PUSH
+    eff = [Effect("external_wrench", {"start_s": a, "end_s": b, "force_N": f,
+                                      "moment_Nm": [0.0, 0.0, 0.0]})]
+    return simulate(robot, preset("paper-orbits", robot, duration=14.0), seed=3, effects=eff)
+
+
+@pytest.fixture(scope="module")
+def pushed(pushed_sim):
+    return _signals(pushed_sim)
+
+
+def test_clean_data_give_no_episode(robot, sim_noisy, noisy_plain):
+    clean = _signals(sim_noisy)
+    res = online_identify(clean, robot, episodes=True)
+    assert res.episodes == ()
+    assert res.used[-1]  # never frozen
+    # the detector changes nothing on clean data: the same estimate as without it
+    np.testing.assert_allclose(res.x[-1], noisy_plain.x[-1], rtol=1e-12, atol=1e-12)
+
+
+def test_push_flagged_and_kept_out_of_the_update(robot, noisy_plain, pushed):
+    ref = noisy_plain.x[-1, 0]
+    frozen = online_identify(pushed, robot, episodes=True)
+    free = online_identify(pushed, robot, episodes={"freeze": False})
+    (ep,) = frozen.episodes
+    assert ep.kind == "external_wrench"
+    assert abs(ep.start_s - PUSH[0]) <= 0.2
+    assert PUSH[1] <= ep.end_s <= PUSH[1] + 1.0  # the matched filter's tail
+    # the push's direction: along (12, 0, 16) (the residual is minus the push)
+    d = np.asarray(ep.force_N) / np.linalg.norm(ep.force_N)
+    assert d @ np.array([0.6, 0.0, 0.8]) > 0.95
+    # impulse: 20 N over 1 s less half of the two 0.1 s ramps, within the filter's tail
+    assert 0.8 * 19.0 <= np.linalg.norm(ep.detail["impulse_Ns"]) <= 1.05 * 19.0
+    # frozen during the episode: the rows are out of the fit
+    t = frozen.t
+    inside = (t > ep.start_s + 0.2) & (t < ep.end_s)
+    assert not frozen.used[inside].any() and free.used[inside].all()
+    # the mass is not pulled: frozen within a fifth of the unfrozen pull
+    pull_free, pull_frozen = abs(free.x[-1, 0] - ref), abs(frozen.x[-1, 0] - ref)
+    assert pull_free > 0.05  # the push does pull the mass when it is fitted
+    assert pull_frozen < 0.2 * pull_free
+    # reporting alone (freeze=False) flags the same episode
+    assert [e.kind for e in free.episodes] == ["external_wrench"]
+    assert abs(free.episodes[0].start_s - ep.start_s) < 0.05
+
+
+def test_payload_step_reported_and_tracked(robot, sim_noisy, sim_heavy):
+    truth = craft_like_truth()
+    sig, n1 = _payload_step(sim_noisy, sim_heavy)
+    t_step = sig["t"][n1]
+    res = online_identify(sig, robot, episodes=True)
+    (ep,) = res.episodes
+    assert ep.kind == "payload_step"
+    assert abs(ep.start_s - t_step) <= 0.2
+    assert abs(ep.detail["mass_change_kg"] - 2.5) < 0.1
+    m_new = float(sim_heavy[0].mass)
+    assert abs(res.x[n1 - 1, 0] - float(truth.mass)) < 0.01 * float(truth.mass)
+    after = sig["t"] >= t_step + 5.0  # tracked within 5 s
+    assert np.all(np.abs(res.x[after, 0] - m_new) < 0.01 * m_new)
+    # without the restart (reported only) the growing memory does not track (and the
+    # discrepancy keeps being reported)
+    stuck = online_identify(sig, robot, episodes={"freeze": False})
+    assert stuck.episodes[0].kind == "payload_step"
+    assert abs(stuck.x[-1, 0] - m_new) > 0.05 * m_new
+
+
+def test_cli_online_json_has_the_episodes(pushed_sim, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    ds = write_simulation(pushed_sim, tmp_path / "ds")
+    out = tmp_path / "res.json"
+    assert main(["identify", str(ds), "--online", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "episode: external_wrench" in text and "update frozen" in text
+    data = json.loads(out.read_text())
+    (ep,) = data["episodes"]
+    assert set(ep) >= {"start_s", "end_s", "kind", "p_value", "force_N", "moment_Nm", "size_N",
+                       "size_Nm", "impulse_Ns"}
+    assert ep["kind"] == "external_wrench" and ep["p_value"] is None
+    assert abs(ep["start_s"] - PUSH[0]) <= 0.2
+    m_frozen = data["parameters"]["m"]["value"]
+    out2 = tmp_path / "kept.json"
+    assert main(["identify", str(ds), "--online", "--keep-episodes", "--json", str(out2)]) == 0
+    kept = json.loads(out2.read_text())
+    assert len(kept["episodes"]) == 1 and any("--keep-episodes" in n for n in kept["notes"])
+    assert abs(kept["parameters"]["m"]["value"] - 9.88) > abs(m_frozen - 9.88)
