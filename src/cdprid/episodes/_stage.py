@@ -299,8 +299,10 @@ def _data(robot, sig, cutoff_hz):
 def _robust_fit(y, Z, rows, whiten, steps: int = 3, prior=None):
     """:func:`_fit` with the samples whose residual is beyond :data:`REJECT_SIGMAS` robust std
     (the rows' MAD) in any row left out, refitted ``steps`` times: a push must not pull the
-    fit (it would leave an offset everywhere else)."""
+    fit (it would leave an offset everywhere else). A step that would fit the same samples
+    again is not run (its fit, and every later one, would be the same)."""
     r, beta = _fit(y, Z, rows, whiten, prior)
+    used = rows
     for _ in range(steps):
         x = r[rows]
         med = np.median(x, 0)  # a pushed fit is offset elsewhere: centre on the bulk
@@ -308,7 +310,10 @@ def _robust_fit(y, Z, rows, whiten, steps: int = 3, prior=None):
         ok = np.all(np.abs(r - med) <= REJECT_SIGMAS * np.maximum(mad, 1e-12), axis=1)
         if (rows & ok).sum() < max(10 * Z.shape[2], rows.sum() // 2):
             break
-        r, beta = _fit(y, Z, rows & ok, whiten, prior)
+        if np.array_equal(rows & ok, used):
+            break
+        used = rows & ok
+        r, beta = _fit(y, Z, used, whiten, prior)
     return r, beta
 
 
