@@ -14,7 +14,7 @@ the robot; ``identify`` and ``diagnose`` call it before their fits and leave the
    drifting zero, and one clock offset; a few columns per cable, their hysteresis columns
    from a first fit) is fitted by least squares on the samples outside the episodes,
    whitened by the residual's noise model, the persistent columns' coefficients held near
-   their fit on every usable sample by a ridge (:data:`PERSISTENT_RIDGE`; the energy test of
+   their fit on every usable sample outside the episodes by a ridge (:data:`PERSISTENT_RIDGE`; the energy test of
    step 4 takes the rigid body fitted alone); the residual is scanned
    (:mod:`cdprid.episodes._scan`) at the stated false-alarm rate; each flagged stretch is
    refined to the interval where a constant wrench explains the most. Repeated until the
@@ -82,15 +82,16 @@ MAX_SHARE = 0.5
 #: share of an episode's mean residual one load cell's column must explain to be a step
 STEP_SHARE = 0.95
 #: ridge on the persistent columns' coefficients (:mod:`cdprid.episodes._null`) toward their
-#: fit on every usable sample (the glitches' stretches included), in units of each column's
-#: whitened squared norm on the fit's samples: where the fit's samples determine a
-#: combination of them by less than this share of a column's information, it stays at the
-#: whole-recording value. On a redundant robot the cells' offsets, gains and drifts along
-#: the internal-force directions (tensions W maps to nothing) are nearly collinear; leaving
-#: a glitch's stretch out moved them by up to 4 N and left a local 1 N shift beside the
-#: stretch, two false episodes on the floor-winch robot's seed 3 (results/episodes-combined.md;
-#: 1e-3 left one, 1e-2 and 1e-1 none)
-PERSISTENT_RIDGE = 1e-2
+#: fit on every usable sample outside the episodes found so far (the glitches' stretches
+#: included), in units of each column's whitened squared norm on the fit's samples: where the
+#: fit's samples determine a combination of them by less than this share of a column's
+#: information, it stays at that value. On a redundant robot the cells' offsets, gains and
+#: drifts along the internal-force directions (tensions W maps to nothing) are nearly
+#: collinear; leaving a glitch's stretch out moved them by up to 4 N and left a local 1 N
+#: shift beside the stretch: false episodes on the floor-winch robot with glitches
+#: (results/episodes-combined.md: seed 3 at identify's cutoff, 0.01 left one, 0.1 and 1 none;
+#: the 28 s recording of tests/episodes/test_combined_floor8.py at 4 Hz none at 0.01 and 0.1)
+PERSISTENT_RIDGE = 0.1
 
 
 @dataclasses.dataclass(frozen=True)
@@ -442,24 +443,25 @@ def _null_and_passes(y, A, c, rows, uses, gl_excl, dt, margin, cutoff_hz, far_pe
     glitch's excluded stretch), so it is not done (docs/episodes.md).
 
     ``uses`` is ``(scan_use, usable)``: the samples scanned, and every usable one (the
-    glitches' stretches included) for the whole-recording fit that anchors the persistent
-    columns' coefficients (:data:`PERSISTENT_RIDGE`)."""
+    glitches' stretches included) for the fit that anchors the persistent columns'
+    coefficients (:data:`PERSISTENT_RIDGE`)."""
     scan_use, usable = uses
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
     Z = persistent_null(A, c, rows, lambda Z1: _noise_fit(y, Z1, scan_use, whiten)[:2], gl_excl)
-    anchor = _noise_fit(y, Z, usable, whiten)[1][A.shape[2]:]
-    return _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour,
-                          A.shape[2], (anchor, PERSISTENT_RIDGE))
+    return _wrench_passes(y, Z, (scan_use, usable), gl_excl, dt, margin, cutoff_hz,
+                          far_per_hour, A.shape[2])
 
 
-def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour, p,
-                   prior=None):
+def _wrench_passes(y, Z, uses, gl_excl, dt, margin, cutoff_hz, far_per_hour, p):
     """Fit -> locate -> refit passes: ``(episodes (a, b, T, mean), excluded, noise model,
     beta, passes, caveat)``; ``beta`` is the rigid body's (the first ``p`` columns of ``Z``)
     fitted alone on the last fit's samples and whitening, for the energy test. When the
     episodes would cover more than :data:`MAX_SHARE` of the scanned samples, the residual is
     not local in time (the model misses something all along: the diagnosis's question): no
-    wrench episode is reported, and ``caveat`` says so."""
+    wrench episode is reported, and ``caveat`` says so. ``uses`` is ``(scan_use, usable)``
+    (:func:`_null_and_passes`): each pass anchors the persistent columns on ``usable`` less
+    the episodes found so far (:data:`PERSISTENT_RIDGE`)."""
+    scan_use, usable = uses
     level = window_level(far_per_hour)
     max_lag = int(math.ceil(1.5 / (cutoff_hz * dt)))  # correlation length, filtered residual
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
@@ -467,7 +469,9 @@ def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour,
     excl, found, passes, caveat = gl_excl.copy(), [], 0, None
     while passes < PASSES:
         passes += 1
-        r, _, whiten = _noise_fit(y, Z, scan_use & ~excl, whiten, prior=prior)
+        anchor = _noise_fit(y, Z, usable & ~(excl & ~gl_excl), whiten)[1][p:]
+        r, _, whiten = _noise_fit(y, Z, scan_use & ~excl, whiten,
+                                  prior=(anchor, PERSISTENT_RIDGE))
         beta = _robust_fit(y, Z[..., :p], scan_use & ~excl, whiten)[1]
         nm = noise_model(r, scan_use & ~excl, max_lag, rho)
         whiten = nm.whiten
