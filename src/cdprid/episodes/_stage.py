@@ -469,9 +469,12 @@ def _wrench_passes(y, Z, uses, gl_excl, dt, margin, cutoff_hz, far_per_hour, p):
     excl, found, passes, caveat = gl_excl.copy(), [], 0, None
     while passes < PASSES:
         passes += 1
-        anchor = _noise_fit(y, Z, usable & ~(excl & ~gl_excl), whiten)[1][p:]
-        r, _, whiten = _noise_fit(y, Z, scan_use & ~excl, whiten,
-                                  prior=(anchor, PERSISTENT_RIDGE))
+        rows = scan_use & ~excl
+        anchor_rows = usable & ~(excl & ~gl_excl)
+        r, b, w = _noise_fit(y, Z, anchor_rows, whiten)
+        if not np.array_equal(anchor_rows, rows):  # the same samples: the anchor is the fit
+            r, _, w = _noise_fit(y, Z, rows, whiten, prior=(b[p:], PERSISTENT_RIDGE))
+        whiten = w
         beta = _robust_fit(y, Z[..., :p], scan_use & ~excl, whiten)[1]
         nm = noise_model(r, scan_use & ~excl, max_lag, rho)
         whiten = nm.whiten
