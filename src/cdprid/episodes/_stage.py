@@ -83,15 +83,16 @@ MAX_SHARE = 0.5
 STEP_SHARE = 0.95
 #: ridge on the persistent columns' coefficients (:mod:`cdprid.episodes._null`) toward their
 #: fit on every usable sample outside the episodes found so far (the glitches' stretches
-#: included), in units of each column's whitened squared norm on the fit's samples: where the
-#: fit's samples determine a combination of them by less than this share of a column's
-#: information, it stays at that value. On a redundant robot the cells' offsets, gains and
-#: drifts along the internal-force directions (tensions W maps to nothing) are nearly
-#: collinear; leaving a glitch's stretch out moved them by up to 4 N and left a local 1 N
-#: shift beside the stretch: false episodes on the floor-winch robot with glitches
-#: (results/episodes-combined.md: seed 3 at identify's cutoff, 0.01 left one, 0.1 and 1 none;
-#: the 28 s recording of tests/episodes/test_combined_floor8.py at 4 Hz none at 0.01 and 0.1)
-PERSISTENT_RIDGE = 0.1
+#: included, each glitch's core, half the filter's transient on each side, left out), in units
+#: of each column's whitened squared norm on the fit's samples: where the fit's samples
+#: determine a combination of them by less than this share of a column's information, it
+#: stays at that value. On a redundant robot the cells' offsets, gains and drifts along the
+#: internal-force directions (tensions W maps to nothing) are nearly collinear; leaving a
+#: glitch's stretch out moved them by up to 4 N and left a local 1 N shift beside the
+#: stretch: false episodes on the floor-winch robot with glitches (results/episodes-combined.md;
+#: 0.1 and 0.03 gave a 0.5 N one beside a glitch of the 16 s rotating 8-cable recording of
+#: tests/episodes/test_episodes.py, whose four glitches are a quarter of it)
+PERSISTENT_RIDGE = 0.01
 
 
 @dataclasses.dataclass(frozen=True)
@@ -410,7 +411,8 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     if few_taut:  # (almost) every sample below the taut threshold: scan them all, say so
         scan_use = keep & ~gl_excl
     found, excl, nm, beta, passes, caveat = _null_and_passes(
-        y, A, c, rows, (scan_use, keep if few_taut else keep & ~slack), gl_excl, dt, margin,
+        y, A, c, rows, (scan_use, (keep if few_taut else keep & ~slack)
+                        & ~_dilate(glitch, margin // 2)), gl_excl, dt, margin,
         cutoff_hz, far_per_hour)
     if few_taut:
         caveat = ((caveat + "; ") if caveat else "") + (
@@ -443,8 +445,8 @@ def _null_and_passes(y, A, c, rows, uses, gl_excl, dt, margin, cutoff_hz, far_pe
     glitch's excluded stretch), so it is not done (docs/episodes.md).
 
     ``uses`` is ``(scan_use, usable)``: the samples scanned, and every usable one (the
-    glitches' stretches included) for the fit that anchors the persistent columns'
-    coefficients (:data:`PERSISTENT_RIDGE`)."""
+    glitches' stretches included, their cores not) for the fit that anchors the persistent
+    columns' coefficients (:data:`PERSISTENT_RIDGE`)."""
     scan_use, usable = uses
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
     Z = persistent_null(A, c, rows, lambda Z1: _noise_fit(y, Z1, scan_use, whiten)[:2], gl_excl)
