@@ -2,8 +2,9 @@
 38): load-cell and clock effects, AR(1) noise, two hand pushes and four marker glitches that
 move and turn the platform (28 s). The episodes stage as ``identify`` calls it locates every
 push (start and end within 0.5 s) and every glitch, and finds nothing on the clean twin (the
-same recording, the same noise, without them). What is still wrong: a false 1 N episode at
-23.48-23.78 s, next to the last glitch's excluded stretch (open, results/episodes-combined.md).
+same recording, the same noise, without them), and nothing beside the glitches' excluded
+stretches (a false 1 N episode at 23.48-23.78 s before the persistent columns were anchored,
+results/episodes-combined.md).
 The whole benchmark, with identify's and diagnose's estimates, is
 ``benchmarks/episodes_combined.py``."""
 
@@ -64,8 +65,8 @@ def test_pushes_and_glitches_located_and_clean_twin_quiet(combined, tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="open: a false 1 N episode at 23.48-23.78 s next to the "
-                   "last glitch's excluded stretch (results/episodes-combined.md)")
 def test_no_false_episode_beside_the_glitches(combined):
+    """Before the persistent columns were anchored (``PERSISTENT_RIDGE``): a false 1 N
+    episode at 23.48-23.78 s, next to the last glitch's excluded stretch."""
     rec, eps = combined
     assert [e.describe() for e in eps if not _near(rec, e)] == []

@@ -22,14 +22,21 @@ within a swing) rises by more than its null spread, which comes from the recordi
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
-from scipy.optimize import nnls
 
 from cdprid.base import normal_isf, normal_sf
 from cdprid.episodes._scan import runs
 
 __all__ = ["LOCKED_RANGE_M", "TREND_S", "MIN_S", "locked", "energy_runs", "braking_runs",
            "passive_loss", "winch_power", "outside_work"]
+
+
+def _uniform_filter1d(x, k: int, mode: str = "nearest"):
+    """:func:`scipy.ndimage.uniform_filter1d`, imported when the energy test runs (locked
+    winches only): ``cdprid identify`` on moving winches never pays scipy.ndimage's import."""
+    from scipy.ndimage import uniform_filter1d as f
+
+    return f(x, k, mode=mode)
+
 
 #: winches locked: every geometric cable length stays within this range (1-99 %), m (a
 #: calibration error moves them by millimetres on a swinging platform, a winch by decimetres)
@@ -157,8 +164,8 @@ def energy_runs(t, E, use, exclude, far_per_hour: float):
     """
     dt = float(np.median(np.diff(t)))
     n, k = len(t), max(1, int(round(TREND_S / dt)))
-    trend = uniform_filter1d(E, k, mode="nearest")
-    hp = trend - uniform_filter1d(trend, k, mode="nearest")
+    trend = _uniform_filter1d(E, k, mode="nearest")
+    hp = trend - _uniform_filter1d(trend, k, mode="nearest")
     ref = use & ~exclude
     if ref.sum() < 2 * k:
         return []
@@ -223,11 +230,13 @@ def passive_loss(t, E, speed, ref) -> tuple:
     dt = float(np.median(np.diff(t)))
     k = max(1, int(round(TREND_S / dt)))
     v = np.abs(np.asarray(speed, float))
-    X = np.stack([uniform_filter1d(v, k, mode="nearest"),
-                  uniform_filter1d(v * v, k, mode="nearest")], axis=1)
-    rate = np.gradient(uniform_filter1d(np.asarray(E, float), k, mode="nearest"), dt)
+    X = np.stack([_uniform_filter1d(v, k, mode="nearest"),
+                  _uniform_filter1d(v * v, k, mode="nearest")], axis=1)
+    rate = np.gradient(_uniform_filter1d(np.asarray(E, float), k, mode="nearest"), dt)
     if np.sum(ref) < 2 * k:
         return np.zeros(len(t)), np.zeros(2)
+    from scipy.optimize import nnls  # locked winches only (see _uniform_filter1d)
+
     coef = nnls(-X[ref], rate[ref])[0]
     P = np.stack([v, v * v], axis=1) @ coef
     return np.concatenate([[0.0], np.cumsum(0.5 * (P[1:] + P[:-1])) * dt]), coef
@@ -252,7 +261,7 @@ def braking_runs(t, E, speed, use, exclude, far_per_hour: float):
     use[:k // 2], use[n - k // 2:] = False, False  # the moving mean is whole only here
     ref = use & ~np.asarray(exclude, bool)
     lost, _ = passive_loss(t, E, speed, ref)
-    trend = uniform_filter1d(E + lost, k, mode="nearest")
+    trend = _uniform_filter1d(E + lost, k, mode="nearest")
     n_per_s = sum(2.0 / w for w in WINDOWS_S)
     z_thr = float(normal_isf(far_per_hour / (3600.0 * n_per_s)))
     bad, cref = (np.concatenate([[0], np.cumsum(~x)]) for x in (use, ref))

@@ -13,8 +13,9 @@ the robot; ``identify`` and ``diagnose`` call it before their fits and leave the
    offset, Coulomb friction on its pulley, a hysteretic band, a relative gain and a slowly
    drifting zero, and one clock offset; a few columns per cable, their hysteresis columns
    from a first fit) is fitted by least squares on the samples outside the episodes,
-   whitened by the residual's noise model (the energy test of step 4 takes the rigid body
-   fitted alone); the residual is scanned
+   whitened by the residual's noise model, the persistent columns' coefficients held near
+   their fit on every usable sample outside the episodes by a ridge (:data:`PERSISTENT_RIDGE`; the energy test of
+   step 4 takes the rigid body fitted alone); the residual is scanned
    (:mod:`cdprid.episodes._scan`) at the stated false-alarm rate; each flagged stretch is
    refined to the interval where a constant wrench explains the most. Repeated until the
    episodes stop changing (at most :data:`PASSES` passes).
@@ -80,6 +81,18 @@ REJECT_SIGMAS = 5.0
 MAX_SHARE = 0.5
 #: share of an episode's mean residual one load cell's column must explain to be a step
 STEP_SHARE = 0.95
+#: ridge on the persistent columns' coefficients (:mod:`cdprid.episodes._null`) toward their
+#: fit on every usable sample outside the episodes found so far (the glitches' stretches
+#: included, each glitch's core, half the filter's transient on each side, left out), in units
+#: of each column's whitened squared norm on the fit's samples: where the fit's samples
+#: determine a combination of them by less than this share of a column's information, it
+#: stays at that value. On a redundant robot the cells' offsets, gains and drifts along the
+#: internal-force directions (tensions W maps to nothing) are nearly collinear; leaving a
+#: glitch's stretch out moved them by up to 4 N and left a local 1 N shift beside the
+#: stretch: false episodes on the floor-winch robot with glitches (results/episodes-combined.md;
+#: 0.1 and 0.03 gave a 0.5 N one beside a glitch of the 16 s rotating 8-cable recording of
+#: tests/episodes/test_episodes.py, whose four glitches are a quarter of it)
+PERSISTENT_RIDGE = 0.01
 
 
 @dataclasses.dataclass(frozen=True)
@@ -285,11 +298,13 @@ def _data(robot, sig, cutoff_hz):
     return y, A, Wf, model, mo, c
 
 
-def _robust_fit(y, Z, rows, whiten, steps: int = 3):
+def _robust_fit(y, Z, rows, whiten, steps: int = 3, prior=None):
     """:func:`_fit` with the samples whose residual is beyond :data:`REJECT_SIGMAS` robust std
     (the rows' MAD) in any row left out, refitted ``steps`` times: a push must not pull the
-    fit (it would leave an offset everywhere else)."""
-    r, beta = _fit(y, Z, rows, whiten)
+    fit (it would leave an offset everywhere else). A step that would fit the same samples
+    again is not run (its fit, and every later one, would be the same)."""
+    r, beta = _fit(y, Z, rows, whiten, prior)
+    used = rows
     for _ in range(steps):
         x = r[rows]
         med = np.median(x, 0)  # a pushed fit is offset elsewhere: centre on the bulk
@@ -297,11 +312,14 @@ def _robust_fit(y, Z, rows, whiten, steps: int = 3):
         ok = np.all(np.abs(r - med) <= REJECT_SIGMAS * np.maximum(mad, 1e-12), axis=1)
         if (rows & ok).sum() < max(10 * Z.shape[2], rows.sum() // 2):
             break
-        r, beta = _fit(y, Z, rows & ok, whiten)
+        if np.array_equal(rows & ok, used):
+            break
+        used = rows & ok
+        r, beta = _fit(y, Z, used, whiten, prior)
     return r, beta
 
 
-def _noise_fit(y, Z, rows, whiten, rounds: int = 2):
+def _noise_fit(y, Z, rows, whiten, rounds: int = 2, prior=None):
     """:func:`_robust_fit` weighted by its own residual's row covariance: ``rounds`` times the
     robust covariance of the last residual (:func:`robust_whitening`) whitens the next fit.
     Returns ``(residual, beta, whitening)``.
@@ -312,15 +330,17 @@ def _noise_fit(y, Z, rows, whiten, rounds: int = 2):
     the well-measured directions into the poorly measured ones, locally, where a column is
     large (on the 8-cable redundant robot: window statistics of 60-150 against a threshold
     of 34 on clean recordings)."""
-    r, beta = _robust_fit(y, Z, rows, whiten)
+    r, beta = _robust_fit(y, Z, rows, whiten, prior=prior)
     for _ in range(rounds):
         whiten = robust_whitening(r[rows])[0]
-        r, beta = _robust_fit(y, Z, rows, whiten)
+        r, beta = _robust_fit(y, Z, rows, whiten, prior=prior)
     return r, beta, whiten
 
 
-def _fit(y, Z, rows, whiten):
-    """Least squares of ``y ~ Z beta`` on ``rows``, whitened (6 x 6); the residual (n, 6)."""
+def _fit(y, Z, rows, whiten, prior=None):
+    """Least squares of ``y ~ Z beta`` on ``rows``, whitened (6 x 6); the residual (n, 6).
+    ``prior = (beta0 (q,), lam)``: a ridge ``lam |s (beta - beta0)|^2`` on the last q
+    coefficients, ``s`` their columns' whitened norms on ``rows`` (:data:`PERSISTENT_RIDGE`)."""
     Zw = np.einsum("ij,njp->nip", whiten, Z[rows]).reshape(-1, Z.shape[2])
     yw = (y[rows] @ whiten.T).reshape(-1)
     scale = np.linalg.norm(Zw, axis=0)
@@ -328,7 +348,13 @@ def _fit(y, Z, rows, whiten):
     Zs = Zw / scale
     # normal equations of the scaled columns (p x p, ~10x faster than an SVD of the
     # (6 n, p) matrix); rcond 1e-15 on the Gram matrix is 3e-8 on the singular values
-    beta = np.linalg.lstsq(Zs.T @ Zs, Zs.T @ yw, rcond=1e-15)[0] / scale
+    G, g = Zs.T @ Zs, Zs.T @ yw
+    if prior is not None:
+        b0, lam = prior
+        q = len(b0)
+        G[-q:, -q:] += lam * np.eye(q)  # in the scaled columns' units: lam on the diagonal
+        g[-q:] += lam * np.asarray(b0, float) * scale[-q:]
+    beta = np.linalg.lstsq(G, g, rcond=1e-15)[0] / scale
     return y - np.einsum("nip,p->ni", Z, beta), beta
 
 
@@ -385,7 +411,9 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     if few_taut:  # (almost) every sample below the taut threshold: scan them all, say so
         scan_use = keep & ~gl_excl
     found, excl, nm, beta, passes, caveat = _null_and_passes(
-        y, A, c, rows, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour)
+        y, A, c, rows, (scan_use, (keep if few_taut else keep & ~slack)
+                        & ~_dilate(glitch, margin // 2)), gl_excl, dt, margin,
+        cutoff_hz, far_per_hour)
     if few_taut:
         caveat = ((caveat + "; ") if caveat else "") + (
             f"fewer than {TAUT_SHARE_MIN:.0%} of the samples have every tension above "
@@ -403,7 +431,7 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     return Episodes(tuple(eps), t, excl, margin * dt, far_per_hour, passes, caveat)
 
 
-def _null_and_passes(y, A, c, rows, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour):
+def _null_and_passes(y, A, c, rows, uses, gl_excl, dt, margin, cutoff_hz, far_per_hour):
     """The persistent null (:func:`persistent_null`, the glitches' transients ``gl_excl`` left
     out of its band positions: their residual is no cell's error, and taken for one it moves
     the hysteretic cells' play operators, whose wrong state outlasts it until the next full
@@ -414,20 +442,28 @@ def _null_and_passes(y, A, c, rows, scan_use, gl_excl, dt, margin, cutoff_hz, fa
     was measured on the floor-winch robot with pushes and glitches
     (benchmarks/episodes_combined.py): it removed the false episodes of two recordings at the
     4 Hz cutoff but gave three new ones at identify's data-chosen cutoff (all next to a
-    glitch's excluded stretch), so it is not done (docs/episodes.md)."""
+    glitch's excluded stretch), so it is not done (docs/episodes.md).
+
+    ``uses`` is ``(scan_use, usable)``: the samples scanned, and every usable one (the
+    glitches' stretches included, their cores not) for the fit that anchors the persistent
+    columns' coefficients (:data:`PERSISTENT_RIDGE`)."""
+    scan_use, usable = uses
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
     Z = persistent_null(A, c, rows, lambda Z1: _noise_fit(y, Z1, scan_use, whiten)[:2], gl_excl)
-    return _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour,
-                          A.shape[2])
+    return _wrench_passes(y, Z, (scan_use, usable), gl_excl, dt, margin, cutoff_hz,
+                          far_per_hour, A.shape[2])
 
 
-def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour, p):
+def _wrench_passes(y, Z, uses, gl_excl, dt, margin, cutoff_hz, far_per_hour, p):
     """Fit -> locate -> refit passes: ``(episodes (a, b, T, mean), excluded, noise model,
     beta, passes, caveat)``; ``beta`` is the rigid body's (the first ``p`` columns of ``Z``)
     fitted alone on the last fit's samples and whitening, for the energy test. When the
     episodes would cover more than :data:`MAX_SHARE` of the scanned samples, the residual is
     not local in time (the model misses something all along: the diagnosis's question): no
-    wrench episode is reported, and ``caveat`` says so."""
+    wrench episode is reported, and ``caveat`` says so. ``uses`` is ``(scan_use, usable)``
+    (:func:`_null_and_passes`): each pass anchors the persistent columns on ``usable`` less
+    the episodes found so far (:data:`PERSISTENT_RIDGE`)."""
+    scan_use, usable = uses
     level = window_level(far_per_hour)
     max_lag = int(math.ceil(1.5 / (cutoff_hz * dt)))  # correlation length, filtered residual
     whiten = np.diag(1.0 / np.maximum(np.std(y[scan_use], 0), 1e-9))
@@ -435,7 +471,12 @@ def _wrench_passes(y, Z, scan_use, gl_excl, dt, margin, cutoff_hz, far_per_hour,
     excl, found, passes, caveat = gl_excl.copy(), [], 0, None
     while passes < PASSES:
         passes += 1
-        r, _, whiten = _noise_fit(y, Z, scan_use & ~excl, whiten)
+        rows = scan_use & ~excl
+        anchor_rows = usable & ~(excl & ~gl_excl)
+        r, b, w = _noise_fit(y, Z, anchor_rows, whiten)
+        if not np.array_equal(anchor_rows, rows):  # the same samples: the anchor is the fit
+            r, _, w = _noise_fit(y, Z, rows, whiten, prior=(b[p:], PERSISTENT_RIDGE))
+        whiten = w
         beta = _robust_fit(y, Z[..., :p], scan_use & ~excl, whiten)[1]
         nm = noise_model(r, scan_use & ~excl, max_lag, rho)
         whiten = nm.whiten
