@@ -410,10 +410,10 @@ def find_episodes(robot, sig, cutoff_hz: float = CUTOFF_HZ, far_per_hour: float 
     few_taut = scan_use.sum() < TAUT_SHARE_MIN * max(int((keep & ~gl_excl).sum()), 1)
     if few_taut:  # (almost) every sample below the taut threshold: scan them all, say so
         scan_use = keep & ~gl_excl
+    # the anchor fit's samples (PERSISTENT_RIDGE): the glitches' stretches in, their cores out
+    usable = (keep if few_taut else keep & ~slack) & ~_dilate(glitch, margin // 2)
     found, excl, nm, beta, passes, caveat = _null_and_passes(
-        y, A, c, rows, (scan_use, (keep if few_taut else keep & ~slack)
-                        & ~_dilate(glitch, margin // 2)), gl_excl, dt, margin,
-        cutoff_hz, far_per_hour)
+        y, A, c, rows, (scan_use, usable), gl_excl, dt, margin, cutoff_hz, far_per_hour)
     if few_taut:
         caveat = ((caveat + "; ") if caveat else "") + (
             f"fewer than {TAUT_SHARE_MIN:.0%} of the samples have every tension above "
@@ -473,12 +473,12 @@ def _wrench_passes(y, Z, uses, gl_excl, dt, margin, cutoff_hz, far_per_hour, p):
         passes += 1
         rows = scan_use & ~excl
         anchor_rows = usable & ~(excl & ~gl_excl)
-        r, b, w = _noise_fit(y, Z, anchor_rows, whiten)
+        r, anchor, w = _noise_fit(y, Z, anchor_rows, whiten)
         if not np.array_equal(anchor_rows, rows):  # the same samples: the anchor is the fit
-            r, _, w = _noise_fit(y, Z, rows, whiten, prior=(b[p:], PERSISTENT_RIDGE))
+            r, _, w = _noise_fit(y, Z, rows, whiten, prior=(anchor[p:], PERSISTENT_RIDGE))
         whiten = w
-        beta = _robust_fit(y, Z[..., :p], scan_use & ~excl, whiten)[1]
-        nm = noise_model(r, scan_use & ~excl, max_lag, rho)
+        beta = _robust_fit(y, Z[..., :p], rows, whiten)[1]
+        nm = noise_model(r, rows, max_lag, rho)
         whiten = nm.whiten
         found = locate(r, scan_use, dt, nm, level, guard=margin)
         new = gl_excl.copy()
