@@ -225,3 +225,67 @@ def test_geometry_against_its_sensor_side_alternative(ratio, expected):
         assert ALTERNATIVE_DM_LEVEL < p < 1 - ALTERNATIVE_DM_LEVEL, p
     assert geometry_verdict(rms_geo, rms_alt, p, 0.01) == expected
     assert geometry_verdict(rms_geo, None, 0.0, 0.01) == "geometry"  # nothing to weigh
+
+
+def _tie(replaces, by, p=0.36):
+    return {"replaces": replaces, "by": by, "parameters": {"cable": 6},
+            "heldout_force_rms_N": 0.76, "relative_difference": 0.001, "p_worse": p}
+
+
+def test_a_frame_tilt_tied_with_a_geometry_error_is_withdrawn(monkeypatch):
+    """Issue 37: a frame tilt the data cannot tell from an exit-point error (a competing model)
+    is named neither; one tied only with a sensor-side effect stays, as do the other findings
+    (the rule's logic; the refit is stubbed, the end-to-end case is the slow test below)."""
+    from cdprid.diagnosis import _stability
+    from cdprid.diagnosis import candidate_list
+
+    cands = candidate_list(M, False)
+    tilt, off = Candidate("frame_tilt"), Candidate("tension_offset", 7)
+    s = SimpleNamespace(accepted=(off, tilt), findings=(
+        SimpleNamespace(parameters={"cable": 7, "offset_N": 3.8}),
+        SimpleNamespace(parameters={"tilt_rad": [-0.0016, -0.0004]})))
+    withdrawn = []
+
+    def fake_withdraw(prob, s, k, extra):
+        withdrawn.append(s.accepted[k])
+        return SimpleNamespace(accepted=s.accepted[:k] + s.accepted[k + 1:],
+                               findings=s.findings[:k] + s.findings[k + 1:])
+
+    monkeypatch.setattr(_stability, "withdraw", fake_withdraw)
+    monkeypatch.setattr(_stability, "effect_size_N", lambda prob, s, c: 0.23)
+    say = []
+    t, out = _stability.survey_ties(None, s, [_tie("frame_tilt", "exit_point_error:cable=6"),
+                                              _tie("frame_tilt", "tension_gain:cable=6")],
+                                    cands, {}, say.append)
+    assert withdrawn == [tilt] and t.accepted == (off,)
+    assert len(out) == 1 and out[0]["withdrawn_finding"] == "frame_tilt", out
+    text = out[0]["correlates_with"]
+    assert "exit_point_error:cable=6" in text and "tension_gain" not in text, text
+    assert "neither is named" in text and "frame_tilt" in text, text
+    # tied only with a sensor-side effect, or an offset tied with a geometry error: kept
+    withdrawn.clear()
+    t, out = _stability.survey_ties(None, s, [_tie("frame_tilt", "tension_gain:cable=6"),
+                                              _tie("tension_offset:cable=7",
+                                                   "exit_point_error:cable=2")],
+                                    cands, {}, say.append)
+    assert withdrawn == [] and out == [] and t is s
+
+
+@pytest.mark.slow  # a full diagnosis of a 52 s 8-cable recording, 60-80 s on 2 cores
+def test_no_frame_tilt_named_where_an_exit_point_error_predicts_as_well(tmp_path):
+    """The independent floor-winch simulator's recording (floor8_combined seed 2, its clean
+    twin: friction, a hysteretic cell, an offset, a clock offset and a 3 cm exit-point error,
+    no tilt): before, a 1.6 mrad frame tilt was named, tied with an exit-point error on cable
+    6 (p = 0.36); now neither is named and the tilt is under ``unexplained``."""
+    from cdprid.diagnosis import diagnose
+    from cdprid.io import read_dataset
+    from tests._testbench import floor8_combined, write
+
+    path = write(floor8_combined(2, clean=True), tmp_path / "clean2")
+    res = diagnose(read_dataset(path), None, alpha=1e-3, n_null=30, max_effects=8, seed=0)
+    named = [f.effect for f in res.findings]
+    assert "frame_tilt" not in named, named
+    assert {"time_delay", "pulley_friction", "load_cell_hysteresis",
+            "tension_offset"} <= set(named), named
+    tied = [u for u in res.unexplained if u.get("withdrawn_finding") == "frame_tilt"]
+    assert tied and "exit_point_error" in tied[0]["correlates_with"], res.unexplained
