@@ -45,12 +45,7 @@ from cdprid.diagnosis._selection import (
     swap_stage,
 )
 from cdprid.diagnosis._sizes import not_named_sizes
-from cdprid.diagnosis._stability import (
-    geometry_stage,
-    plausibility_stage,
-    stability_stage,
-    survey_ties,
-)
+from cdprid.diagnosis._stability import geometry_stage, plausibility_stage, stability_stage
 from cdprid.diagnosis._testing import wald
 from cdprid.diagnosis._unexplained import (
     finding_floor_N,
@@ -262,9 +257,9 @@ def diagnose(
     s, hints, withdrawn, clock, regeo = _checks(
         prob, base, s, candidates, feats := _structure(prob), cfg, thr_first=thr_first,
         ctx=ctx, say=say, clock_info=clock)
-    s, competing, n_alt, clock, tied = _competing_stage(
+    s, competing, n_alt, clock = _competing_stage(
         prob, s, candidates, cfg, thr_first, other, ctx=ctx, say=say, notes=notes, clock_info=clock)
-    unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn + tied, noise, alpha, say)
+    unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn, noise, alpha=alpha, say=say)
     findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
         "train_until": train_until, "taut_threshold_N": taut_N,
@@ -283,10 +278,8 @@ def _competing_stage(prob, s, candidates, cfg: Search, thr, other, *, ctx: Diagn
     """Competing models of the final model; one that predicts the held-out data materially
     better replaces it (:func:`cdprid.diagnosis._replace.adopt_better`, with a note), and
     the competing models are then those of the new model; a named clock offset's interval
-    gets its note (:data:`cdprid.diagnosis._clock.INTERVAL_CAVEAT`); a survey-only finding
-    tied with a geometry error is withdrawn (:func:`cdprid.diagnosis._stability.survey_ties`).
-    Returns ``(selection, competing models, alternatives refitted, clock info, the withdrawn
-    findings' unexplained entries)``."""
+    gets its note (:data:`cdprid.diagnosis._clock.INTERVAL_CAVEAT`). Returns ``(selection,
+    competing models, alternatives refitted, clock info)``."""
     better, min_gain = [], cfg.min_gain
     competing, n_alt = competing_models(prob, s, candidates, min_gain, ctx, say, other,
                                         better=better)
@@ -297,16 +290,9 @@ def _competing_stage(prob, s, candidates, cfg: Search, thr, other, *, ctx: Diagn
         notes.append(note)
         competing, n_more = competing_models(prob, s, candidates, min_gain, ctx, say, other)
         n_alt += n_more
-    s, tied = survey_ties(prob, s, competing, candidates, ctx, say)
-    if tied:  # the competing models and the clock's interval are those of the new model
-        s, joint = clock_interval(prob, s, ctx)
-        clock_info = {**{k: v for k, v in clock_info.items() if not k.startswith("joint_")
-                         and k != "interval_reaches_grid_edge"}, **joint}
-        competing, n_more = competing_models(prob, s, candidates, min_gain, ctx, say, other)
-        n_alt += n_more
     if any(DIAGNOSIS[c.effect].clock for c in s.accepted):  # what its interval holds
         notes.append(INTERVAL_CAVEAT)
-    return s, competing, n_alt, clock_info, tied
+    return s, competing, n_alt, clock_info
 
 
 def _complete_info(info, *, not_named, rule, el_info, clock_info, second, t0, sub,
@@ -370,7 +356,7 @@ def _checks(prob, base, s, candidates, feats, cfg: Search, *, thr_first,
     return s, hints, unstable + withdrawn + implausible_now, {**clock_info, **joint_clock}, regeo
 
 
-def _unexplained(prob, s, feats, hints, withdrawn, noise, alpha, say):
+def _unexplained(prob, s, feats, hints, withdrawn, noise, *, alpha, say):
     """The ``unexplained`` stage on the final model, with the withdrawn findings after it (a
     hint of backward elimination about an effect the final model names again, e.g. after a
     competing model replaced a finding by it, is left out)."""

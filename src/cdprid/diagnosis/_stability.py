@@ -482,39 +482,5 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
     return s, out
 
 
-def survey_ties(prob: Problem, s: Selection, competing: list, candidates: list, extra: dict,
-                say) -> tuple[Selection, list]:
-    """A finding only a survey tells (``survey_only``: the frame's tilt) that a complete model
-    with a geometry error in its place predicts as well (a competing model: the data cannot
-    tell the two apart) is withdrawn and reported under ``unexplained`` with every such
-    reading: naming either would be a guess between two geometries (an episodes_combined
-    floor8 recording: a 1.6 mrad tilt, never simulated, tied with a 3.7 cm exit-point error
-    on cable 6, p = 0.36 that it predicts worse). Returns the model and the entries."""
-    by_label = {alias_label(c): c for c in candidates}
-    out = []
-    for c in [c for c in s.accepted if DIAGNOSIS[c.effect].survey_only]:
-        lab = alias_label(c)
-        ties = [m for m in competing if m["replaces"] == lab and m["by"] in by_label
-                and DIAGNOSIS[by_label[m["by"]].effect].displacement]
-        if not ties:
-            continue
-        k = s.accepted.index(c)
-        f = s.findings[k]
-        readings = "; ".join(
-            f"{m['by']} {m['parameters']} (held-out force rms {m['heldout_force_rms_N']:.4g} N, "
-            f"{100 * m['relative_difference']:+.2f} %, p = {m['p_worse']:.2g} that it predicts "
-            "worse)" for m in ties)
-        say(f"geometry: {c.label} and {', '.join(m['by'] for m in ties)} predict the held-out "
-            "data alike: the data cannot tell them apart; neither is named")
-        out.append({"where": c.label, "size": effect_size_N(prob, s, c), "p_value": 1.0,
-                    "test": "frame geometry against geometry errors (held-out)",
-                    "withdrawn_finding": lab,
-                    "correlates_with": f"acts like {c.vocabulary_effect} {f.parameters}; the "
-                    f"other reading: {readings}. The data cannot tell them apart: neither is "
-                    "named; a level of the frame or a survey of the point would tell"})
-        s = withdraw(prob, s, k, extra)
-    return s, out
-
-
 __all__ = ["geometry_stage", "geometry_verdict", "plausibility_stage", "restated",
-           "stability_stage", "survey_ties", "survey_tolerance_m"]
+           "stability_stage", "survey_tolerance_m"]

@@ -53,11 +53,6 @@ class DiagnosisForm:
         Its label in ``aliases`` (default ``effect`` or ``effect:cable=i``).
     displacement : bool
         Shrink poorly determined directions of its 3-vector (weakly observable components).
-    survey_only : bool
-        A geometry parameter of the frame only a survey or a level tells (``frame_tilt``): when
-        a complete model with a geometry error (a displacement form) in its place predicts the
-        held-out data as well, neither is named (reported under ``unexplained`` with both
-        readings).
     bounds : dict
         Plausibility bound of a refitted parameter's magnitude (degenerate linearisation).
     nonneg : tuple of str
@@ -99,7 +94,6 @@ class DiagnosisForm:
     vocabulary: str | None = None
     alias: str | None = None
     displacement: bool = False
-    survey_only: bool = False
     bounds: dict = dataclasses.field(default_factory=dict)
     nonneg: tuple = ()
     ranges: dict = dataclasses.field(default_factory=dict)

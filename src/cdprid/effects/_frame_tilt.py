@@ -62,6 +62,6 @@ SPEC = EffectSpec(
     place=Place.GRAVITY, once=True,
     gravity=lambda g, p: tilt_matrix(*p["tilt_rad"]).T @ g,
     diagnosis=DiagnosisForm(
-        blocks=(("tilt", 2),), keys=("tilt_rad",), bounds={"tilt_rad": 0.05}, survey_only=True,
+        blocks=(("tilt", 2),), keys=("tilt_rad",), bounds={"tilt_rad": 0.05},
         gravity=lambda g, q: tilt_gravity(g, q["tilt"])),
 )
