@@ -3,7 +3,7 @@
 import numpy as np
 from scipy import stats
 
-from cdprid.base import chi2_isf, chi2_sf, f_isf, normal_isf, normal_sf
+from cdprid.base import chi2_isf, chi2_logsf, chi2_sf, f_isf, f_sf, normal_isf, normal_sf
 
 
 def test_tails_equal_scipy_stats():
@@ -23,3 +23,29 @@ def test_tails_equal_scipy_stats():
             assert np.allclose(stats.f.sf(f, k, nu), q, rtol=1e-12, atol=0)
             big = q > 1e-4
             assert np.allclose(f[big], stats.f.isf(q[big], k, nu), rtol=1e-12, atol=0)
+
+
+def test_the_diagnosis_tails_are_scipy_stats_to_the_last_bit():
+    """The diagnosis's p-values decide its search: chi2.sf, chi2.logsf (its sort key), norm.sf
+    and f.sf equal scipy.stats bit for bit, on and off the support (x < 0, nan, inf) and for
+    scalars (NumPy scalars, as scipy.stats returns them)."""
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.exponential(5.0, 4000), rng.uniform(0.0, 3000.0, 4000),
+                        rng.uniform(-1.0, 0.0, 50), [0.0, 1e-300, 1e5, np.inf, np.nan, -1e-18]])
+
+    def same(a, b):
+        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True)
+
+    for k in (1, 2, 3, 5, 8, 12, 24, 48):
+        assert same(chi2_sf(x, k), stats.chi2.sf(x, k)), k
+        assert same(chi2_logsf(x, k), stats.chi2.logsf(x, k)), k
+        for v in (3.2, -0.5, 0.0):
+            for mine, ref in ((chi2_sf, stats.chi2.sf), (chi2_logsf, stats.chi2.logsf)):
+                a, b = mine(v, k), ref(v, k)
+                assert a == b and type(a) is type(b), (mine.__name__, v, k, a, b)
+    z = np.concatenate([rng.normal(0.0, 4.0, 4000), [-40.0, 40.0, np.inf, -np.inf]])
+    assert same(normal_sf(z), stats.norm.sf(z))
+    q = np.concatenate([rng.exponential(3.0, 4000), [-1.0, 0.0, np.nan]])
+    for dfn, dfd in ((2, 4), (2, 10), (2, 60), (3, 7)):
+        assert same(f_sf(q, dfn, dfd), stats.f.sf(q, dfn, dfd)), (dfn, dfd)
+    assert np.isnan(chi2_sf(2.0, 0)) and np.isnan(stats.chi2.sf(2.0, 0))

@@ -30,7 +30,9 @@ from cdprid.base._status import Status as Status
 from cdprid.base._sweep import load_log as load_log
 from cdprid.base._sweep import run_sweep as run_sweep
 from cdprid.base._tails import chi2_isf as chi2_isf
+from cdprid.base._tails import chi2_logsf as chi2_logsf
 from cdprid.base._tails import chi2_sf as chi2_sf
 from cdprid.base._tails import f_isf as f_isf
+from cdprid.base._tails import f_sf as f_sf
 from cdprid.base._tails import normal_isf as normal_isf
 from cdprid.base._tails import normal_sf as normal_sf

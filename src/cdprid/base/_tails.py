@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["chi2_isf", "chi2_sf", "f_isf", "normal_isf", "normal_sf"]
+__all__ = ["chi2_isf", "chi2_logsf", "chi2_sf", "f_isf", "f_sf", "normal_isf", "normal_sf"]
 
 
 def normal_sf(z):
@@ -67,7 +67,65 @@ def chi2_sf(x, k):
     """
     from scipy import special
 
-    return special.chdtrc(np.asarray(k, float), np.asarray(x, float))
+    x, k = np.asarray(x, float), np.asarray(k, float)
+    # scipy.stats' support and argument checks: x < 0 has the whole mass above it, k <= 0
+    # is no law
+    p = np.where(x < 0, 1.0, special.chdtrc(k, np.maximum(x, 0.0)))
+    return _scalar(np.where(k > 0, p, np.nan))
+
+
+def chi2_logsf(x, k):
+    """Log of the chi-square upper tail (``scipy.stats.chi2.logsf``, computed as it does:
+    ``log(sf)`` above the median, ``log1p(-cdf)`` at or below it).
+
+    Parameters
+    ----------
+    x : float or array_like
+        Statistic value(s).
+    k : float or array_like
+        Degrees of freedom (> 0).
+
+    Returns
+    -------
+    float or numpy.ndarray
+        ``log P(X > x)``, broadcast shape of ``x`` and ``k``.
+    """
+    from scipy import special
+
+    x, k = np.asarray(x, float), np.asarray(k, float)
+    xp = np.maximum(x, 0.0)
+    with np.errstate(divide="ignore"):
+        lp = np.where(xp > special.chdtri(k, 0.5), np.log(special.chdtrc(k, xp)),
+                      np.log1p(-special.chdtr(k, xp)))
+    return _scalar(np.where(k > 0, np.where(x < 0, 0.0, lp), np.nan))
+
+
+def f_sf(x, dfn, dfd):
+    """Upper tail of the F law (``scipy.stats.f.sf``).
+
+    Parameters
+    ----------
+    x : float or array_like
+        Statistic value(s).
+    dfn, dfd : float or array_like
+        Numerator and denominator degrees of freedom (> 0).
+
+    Returns
+    -------
+    float or numpy.ndarray
+        ``P(F > x)``, broadcast shape of the arguments.
+    """
+    from scipy import special
+
+    x, dfn, dfd = (np.asarray(v, float) for v in (x, dfn, dfd))
+    p = np.where(x < 0, 1.0, special.fdtrc(dfn, dfd, np.maximum(x, 0.0)))
+    return _scalar(np.where((dfn > 0) & (dfd > 0), p, np.nan))
+
+
+def _scalar(a):
+    """A 0-d result as a NumPy scalar (as scipy.stats returns it)."""
+    a = np.asarray(a)
+    return a[()] if a.ndim == 0 else a
 
 
 def chi2_isf(q, k):

@@ -24,8 +24,8 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy import stats
 
+from cdprid.base import chi2_sf
 from cdprid.diagnosis._candidates import Candidate, implausible, vocab_interval, vocab_params
 from cdprid.diagnosis._problem import Problem, heldout_rms
 from cdprid.diagnosis._profile import (
@@ -149,7 +149,7 @@ def clock_check(prob: Problem, s: Selection, candidates, thr: float, gain: float
     rms_after = heldout_rms(prob, Z, y)
     var = float(t.th_cov[idx[0], idx[0]])
     stat = float(t.theta[idx[0]] ** 2 / var) if var > 0 else 0.0
-    p = float(stats.chi2.sf(stat, 1))
+    p = float(chi2_sf(stat, 1))
     vocab = vocab_params(c, t.theta, prob.layout, extra, t.th_cov)
     why = implausible(c.effect, vocab) or model_implausible(prob, t, extra)
     if why or not p < thr or rms_after > rms_before * (1 - gain):
@@ -242,5 +242,5 @@ def clock_size(prob: Problem, s: Selection, c, extra: dict) -> dict:
     stat = float(t.theta[idx[0]] ** 2 / var) if var > 0 else 0.0
     key = DIAGNOSIS[c.effect].keys[0]
     return {"parameters": vocab_params(c, t.theta, prob.layout, extra), "interval": {key: [lo, hi]},
-            "p_value": float(stats.chi2.sf(stat, 1)), "statistic": stat,
+            "p_value": float(chi2_sf(stat, 1)), "statistic": stat,
             "interval_reaches_grid_edge": open_ends}

@@ -25,9 +25,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import stats
 
-from cdprid.base import Status
+from cdprid.base import Status, normal_sf
 from cdprid.diagnosis._candidates import alias_label, vocab_params
 from cdprid.diagnosis._problem import Problem, force_heldout_rms, heldout_residuals, heldout_rms
 from cdprid.diagnosis._selection import extends_base, linear_model, refit, refit_rejected
@@ -77,7 +76,7 @@ def dm_p_worse(loss_alt, loss_best, lags: int) -> float:
     var = float(hac_cov(np.ones((n, 1, 1)), (d - d.mean())[:, None], lags)[0, 0])
     if not var > 0:
         return 0.5 if d.mean() == 0 else (0.0 if d.mean() > 0 else 1.0)
-    return float(stats.norm.sf(d.mean() / math.sqrt(var)))
+    return float(normal_sf(d.mean() / math.sqrt(var)))
 
 
 def clock_twins(c, candidates) -> list:

@@ -18,8 +18,8 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy import stats
 
+from cdprid.base import normal_sf
 from cdprid.core import hac_covariance
 from cdprid.diagnosis._problem import Problem
 from cdprid.diagnosis._result import Finding
@@ -151,7 +151,7 @@ def elasticity_stage(prob: Problem, stream: LengthsStream, alpha: float) -> tupl
         V = hac_covariance(J[:, None, :], e[:, None], bandwidth=prob.lags + 1)[0]
         sd = float(np.sqrt(max(V[1, 1], 1e-300)))
         z = k / sd
-        p = float(min(1.0, m * stats.norm.sf(z)))
+        p = float(min(1.0, m * normal_sf(z)))
         X0 = np.ones((len(e), 1))
         X1 = np.column_stack([X0[:, 0], -tau[:, i] * L_geo[:, i]])
         rms0 = _cv_rms(l_meas - L_geo[:, i], X0, n_folds, prob.lags)

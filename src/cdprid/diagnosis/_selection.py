@@ -11,9 +11,8 @@ import dataclasses
 import functools
 
 import numpy as np
-from scipy import stats
 
-from cdprid.base import Status
+from cdprid.base import Status, chi2_logsf, chi2_sf
 from cdprid.diagnosis._base import BaseFit
 from cdprid.diagnosis._candidates import (
     Candidate,
@@ -63,7 +62,7 @@ def wald_given_others(Z, y, cols: list, lags: int) -> tuple[float, float]:
     yt = y.reshape(-1, 1)
     yt = (yt - Q @ (Q.T @ yt)).reshape(n, 6)
     stat, _, _ = partial_wald(Ct, yt, lags)
-    return float(stat), float(stats.chi2.sf(stat, len(cols)))
+    return float(stat), float(chi2_sf(stat, len(cols)))
 
 
 def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int,
@@ -258,10 +257,10 @@ def score_step(prob: Problem, Zbase, y_target, cand_cols: dict, null_gen, alpha:
     scored = []
     for c, Ct in pcols.items():
         stat, beta, _ = partial_wald(Ct, yt, prob.lags)
-        scored.append((float(stats.chi2.sf(stat, Ct.shape[2])), c, stat, Ct.shape[2], beta))
+        scored.append((float(chi2_sf(stat, Ct.shape[2])), c, stat, Ct.shape[2], beta))
     # rank by the log p-value (no underflow: at p = 0 a raw statistic would favour the
     # candidates with more degrees of freedom)
-    scored.sort(key=lambda r: (float(stats.chi2.logsf(r[2], r[3])), -r[2]))
+    scored.sort(key=lambda r: (float(chi2_logsf(r[2], r[3])), -r[2]))
     Yn = [partial((e * prob.wrow)[train])[:, :, 0] for e in null_gen]
     thr_p = alpha / n_tests
     if Yn:
@@ -269,7 +268,7 @@ def score_step(prob: Problem, Zbase, y_target, cand_cols: dict, null_gen, alpha:
         null_p = np.ones(Yn.shape[-1])
         for Ct in pcols.values():
             st = partial_wald_many(Ct, Yn, prob.lags)
-            null_p = np.minimum(null_p, stats.chi2.sf(st, Ct.shape[2]))
+            null_p = np.minimum(null_p, chi2_sf(st, Ct.shape[2]))
         thr_p = min(thr_p, float(np.quantile(null_p, alpha)))
     return scored, pcols, yt, thr_p
 

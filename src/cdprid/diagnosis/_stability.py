@@ -25,8 +25,8 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy import stats
 
+from cdprid.base import chi2_sf
 from cdprid.core import CATMULL_ROM, tension_rate_at
 from cdprid.diagnosis._candidates import (
     Candidate,
@@ -89,7 +89,7 @@ def _disagree(b1, V1, b2, V2):
     d = np.atleast_1d(b1 - b2)
     V = np.atleast_2d(V1 + V2)
     stat = float(d @ np.linalg.lstsq(V, d, rcond=None)[0])
-    return stat, float(stats.chi2.sf(stat, len(d)))
+    return stat, float(chi2_sf(stat, len(d)))
 
 
 def block_test(prob: Problem, Z, y, cols: list) -> dict:
@@ -165,7 +165,7 @@ def group_test(prob: Problem, Z, y, cols: list, per_cable) -> dict:
     return {"kind": f"cables 1-{m // 2} against {m // 2 + 1}-{m}", "first": beta[i1],
             "second": beta[i2], "std_first": np.sqrt(np.diag(V)[i1]),
             "std_second": np.sqrt(np.diag(V)[i2]), "statistic": stat,
-            "p": float(stats.chi2.sf(stat, q)), "per_cable": each, "per_cable_std": each_std}
+            "p": float(chi2_sf(stat, q)), "per_cable": each, "per_cable_std": each_std}
 
 
 def material(res: dict, tol: float = MATERIAL) -> bool:
@@ -363,7 +363,7 @@ def restated(prob: Problem, t: Selection, alt: tuple, f: Finding, n_tests: int,
         th = t.theta[idx]
         V = t.th_cov[np.ix_(idx, idx)]
         stat = float(th @ np.linalg.lstsq(V, th, rcond=None)[0]) if idx else 0.0
-        p = float(stats.chi2.sf(stat, max(len(idx), 1)))
+        p = float(chi2_sf(stat, max(len(idx), 1)))
         cols = finding_columns(a, prob.layout, list(t.active_idx), n_model)
         rest = [j for j in range(Z.shape[2]) if j not in cols]
         out.append(dataclasses.replace(

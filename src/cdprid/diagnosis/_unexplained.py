@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import stats
 
+from cdprid.base import chi2_sf, f_sf
 from cdprid.diagnosis._testing import partial_wald
 
 #: generic signals the residual of the extended model is tested against (unexplained stage)
@@ -143,7 +143,7 @@ def _structure_step(feats, Z, y, wrow, lags, alpha, n_signals):
         if Ft.shape[2] == 0:
             continue
         stat, beta, V = partial_wald(Ft, yt, lags)
-        pv = float(min(1.0, stats.chi2.sf(stat, Ft.shape[2]) * n_signals))
+        pv = float(min(1.0, chi2_sf(stat, Ft.shape[2]) * n_signals))
         fit = np.einsum("niq,q->ni", Ft, beta) / wrow[None, :]
         out.append({
             "where": _where(name, beta, V),
@@ -345,7 +345,7 @@ def whiteness_test(r, mask, step: int, dt: float) -> dict:
             return {}
         h = int(np.clip(n_eff // 10, 5, 20))
         Q, r2 = portmanteau(x, rid, h)
-        p = float(stats.chi2.sf(Q, h))
+        p = float(chi2_sf(Q, h))
         size = float(np.sqrt(r2) * np.std(x))
         if best is None or p < best[0]:
             best = (p, axis, size, Q)
@@ -422,7 +422,7 @@ def spectral_peak_test(r, mask, dt: float, f_lo: float, f_hi: float,
         q = I[band] / np.maximum(I[band[:, None] + offs[None, :]].mean(axis=1), 1e-300)
         j = int(np.argmax(q))
         K = len(band)
-        p = float(min(1.0, 3 * K * stats.f.sf(q[j], 2, 2 * len(offs))))
+        p = float(min(1.0, 3 * K * f_sf(q[j], 2, 2 * len(offs))))
         if best is None or p < best[0]:
             best = (p, axis, float(f[band[j]]), float(q[j]), K, i)
     p, axis, fpk, q, K, i = best
