@@ -17,7 +17,10 @@ friction, the clock offset, and their pairs on the cable): several sensor errors
 read as 9-12 cm exit-point errors. The sensor-side alternative replaces the geometry error only
 when it predicts the held-out data significantly better (:func:`geometry_verdict`); when
 neither is significantly better, neither is named and both readings go under ``unexplained``
-("cannot tell").
+("cannot tell"). A frame tilt is a geometry error too and is weighed the same way, always (no
+survey tolerance), after the displacements, against every per-cable sensor form on any cable
+and the common ones (:func:`tilt_alternatives`): floor8's clean twin of seed 2 named a 1.6
+mrad tilt that carried what the withdrawn 3 cm exit-point error left.
 """
 
 from __future__ import annotations
@@ -303,7 +306,18 @@ def sensor_alternatives(c: Candidate, candidates: list, accepted) -> list:
 
 def frame_geometry(c: Candidate) -> bool:
     """Whether ``c`` is a geometry error of the frame that is not a displacement of one point
-    (the frame tilt: a form on gravity)."""
+    (the frame tilt: a form on gravity).
+
+    Parameters
+    ----------
+    c : Candidate
+        A candidate of the search.
+
+    Returns
+    -------
+    bool
+        True for a form that acts on gravity.
+    """
     return getattr(DIAGNOSIS[c.effect], "gravity", None) is not None
 
 
@@ -313,7 +327,20 @@ def tilt_alternatives(candidates: list, accepted) -> list:
     the readings (the clock offset, friction on every pulley); candidates already in the
     model are left out. A tilt acts on every cable at once, so no cable is singled out; a
     tilt that only carries what one cell's error (or a withdrawn geometry error) leaves is
-    matched by one of them (floor8's clean twin of seed 2: a 1.6 mrad tilt not there)."""
+    matched by one of them (floor8's clean twin of seed 2: a 1.6 mrad tilt not there).
+
+    Parameters
+    ----------
+    candidates : list of Candidate
+        The search's candidates.
+    accepted : sequence of Candidate
+        The model's findings (left out).
+
+    Returns
+    -------
+    list of tuple
+        One-candidate alternatives.
+    """
     return [(a,) for a in candidates if a not in accepted and DIAGNOSIS[a.effect].blocks
             and not DIAGNOSIS[a.effect].displacement and not frame_geometry(a) and (
                 a.cable is not None or DIAGNOSIS[a.effect].clock
@@ -461,7 +488,8 @@ def _cannot_tell(prob, s, c, alt, t, what, extra, survey="a survey of the point"
 
 def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: float,
                    extra: dict, say) -> tuple[Selection, list]:
-    """Geometry findings beyond the survey tolerance must beat every sensor-side alternative
+    """Geometry findings beyond the survey tolerance, and a frame tilt of any size (weighed
+    last, given the displacements that stay), must beat every sensor-side alternative
     on held-out prediction (:func:`geometry_verdict`): by ``min_gain``, or significantly
     (one-sided Diebold-Mariano at :data:`GEOMETRY_DM_LEVEL`); the best alternative replaces it
     only when it predicts significantly better (at :data:`ALTERNATIVE_DM_LEVEL`; its findings
@@ -519,5 +547,5 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
     return s, out
 
 
-__all__ = ["geometry_stage", "geometry_verdict", "plausibility_stage", "restated",
-           "stability_stage", "survey_tolerance_m"]
+__all__ = ["frame_geometry", "geometry_stage", "geometry_verdict", "plausibility_stage",
+           "restated", "stability_stage", "survey_tolerance_m", "tilt_alternatives"]
