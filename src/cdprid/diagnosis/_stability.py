@@ -77,6 +77,11 @@ GEOMETRY_DM_LEVEL = 0.01
 #: Diebold-Mariano test finds it predicting the held-out data better at this level (the
 #: competing-model stage's level, :data:`cdprid.diagnosis._competing.DM_LEVEL`)
 ALTERNATIVE_DM_LEVEL = DM_LEVEL
+#: a frame tilt (weighed at any size: no survey tolerance states how well a frame is levelled)
+#: is named when its best sensor-side alternative predicts significantly worse at this
+#: one-sided level, the competing-model stage's (a true 1.7 mrad tilt on the CRAFT-like
+#: robot: p = 0.017 against a gain; a false 1.6 mrad one on floor8: p = 0.31)
+TILT_DM_LEVEL = DM_LEVEL
 
 
 def _fit(Z, y, lags):
@@ -430,7 +435,7 @@ def restated(prob: Problem, t: Selection, alt: tuple, f: Finding, n_tests: int,
 
 
 def geometry_verdict(rms_geo: float, rms_alt: float | None, p_alt_worse: float,
-                     min_gain: float) -> str:
+                     min_gain: float, level: float = GEOMETRY_DM_LEVEL) -> str:
     """What the geometry stage names: a geometry error beyond the survey tolerance or its best
     sensor-side alternative.
 
@@ -460,13 +465,16 @@ def geometry_verdict(rms_geo: float, rms_alt: float | None, p_alt_worse: float,
         (:func:`cdprid.diagnosis._competing.dm_p_worse`).
     min_gain : float
         The search's held-out gate (relative).
+    level : float, optional
+        The one-sided level at which the alternative predicting worse names the geometry
+        error (:data:`GEOMETRY_DM_LEVEL`; a frame tilt: :data:`TILT_DM_LEVEL`).
 
     Returns
     -------
     str
         ``"geometry"``, ``"alternative"`` or ``"cannot tell"``.
     """
-    if rms_alt is None or rms_geo < rms_alt * (1 - min_gain) or p_alt_worse < GEOMETRY_DM_LEVEL:
+    if rms_alt is None or rms_geo < rms_alt * (1 - min_gain) or p_alt_worse < level:
         return "geometry"
     if p_alt_worse > 1.0 - ALTERNATIVE_DM_LEVEL:
         return "alternative"
@@ -513,7 +521,8 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
         rms_geo = heldout_rms(prob, Z, y)
         best = _best_alternative(prob, s, k, candidates, extra)
         p_worse = 0.0 if best is None else dm_p_worse(best[3], _losses(prob, Z, y), prob.lags)
-        verdict = geometry_verdict(rms_geo, None if best is None else best[0], p_worse, min_gain)
+        verdict = geometry_verdict(rms_geo, None if best is None else best[0], p_worse, min_gain,
+                                   TILT_DM_LEVEL if tilt else GEOMETRY_DM_LEVEL)
         if verdict == "geometry":
             continue  # the geometry error beats every sensor-side alternative: named
         r, alt, t, _ = best
