@@ -17,7 +17,10 @@ friction, the clock offset, and their pairs on the cable): several sensor errors
 read as 9-12 cm exit-point errors. The sensor-side alternative replaces the geometry error only
 when it predicts the held-out data significantly better (:func:`geometry_verdict`); when
 neither is significantly better, neither is named and both readings go under ``unexplained``
-("cannot tell").
+("cannot tell"). A frame tilt is a geometry error too and is weighed the same way, always (no
+survey tolerance), after the displacements, against every per-cable sensor form on any cable
+and the common ones (:func:`tilt_alternatives`): floor8's clean twin of seed 2 named a 1.6
+mrad tilt that carried what the withdrawn 3 cm exit-point error left.
 """
 
 from __future__ import annotations
@@ -74,6 +77,11 @@ GEOMETRY_DM_LEVEL = 0.01
 #: Diebold-Mariano test finds it predicting the held-out data better at this level (the
 #: competing-model stage's level, :data:`cdprid.diagnosis._competing.DM_LEVEL`)
 ALTERNATIVE_DM_LEVEL = DM_LEVEL
+#: a frame tilt (weighed at any size: no survey tolerance states how well a frame is levelled)
+#: is named when its best sensor-side alternative predicts significantly worse at this
+#: one-sided level, the competing-model stage's (a true 1.7 mrad tilt on the CRAFT-like
+#: robot: p = 0.017 against a gain; a false 1.6 mrad one on floor8: p = 0.31)
+TILT_DM_LEVEL = DM_LEVEL
 
 
 def _fit(Z, y, lags):
@@ -281,6 +289,12 @@ def _displacement_m(c: Candidate, s: Selection, prob: Problem) -> float:
     return float(np.linalg.norm(well_determined(s.theta[idx], s.th_cov[np.ix_(idx, idx)])))
 
 
+def _tilt_mrad(c: Candidate, s: Selection, prob: Problem) -> float:
+    """The size of a frame tilt finding, mrad."""
+    idx = prob.layout.candidate_indices(c.effect, c.cable)
+    return float(1e3 * np.linalg.norm(s.theta[idx]))
+
+
 def sensor_alternatives(c: Candidate, candidates: list, accepted) -> list:
     """Sensor-side alternatives to a geometry finding on cable ``c.cable``: every per-cable
     form on the same cable that is not a displacement, the pair offset + gain-like forms
@@ -293,6 +307,49 @@ def sensor_alternatives(c: Candidate, candidates: list, accepted) -> list:
     cable = [a for a in one if a.cable is not None]
     pairs = [(a, b) for i, a in enumerate(cable) for b in cable[i + 1:]]
     return [(a,) for a in one] + pairs
+
+
+def frame_geometry(c: Candidate) -> bool:
+    """Whether ``c`` is a geometry error of the frame that is not a displacement of one point
+    (the frame tilt: a form on gravity).
+
+    Parameters
+    ----------
+    c : Candidate
+        A candidate of the search.
+
+    Returns
+    -------
+    bool
+        True for a form that acts on gravity.
+    """
+    return getattr(DIAGNOSIS[c.effect], "gravity", None) is not None
+
+
+def tilt_alternatives(candidates: list, accepted) -> list:
+    """Sensor-side alternatives to a frame tilt: every per-cable sensor form (offset, drift,
+    gain, friction, hysteresis) on any cable, one at a time, and the common forms acting on
+    the readings (the clock offset, friction on every pulley); candidates already in the
+    model are left out. A tilt acts on every cable at once, so no cable is singled out; a
+    tilt that only carries what one cell's error (or a withdrawn geometry error) leaves is
+    matched by one of them (floor8's clean twin of seed 2: a 1.6 mrad tilt not there).
+
+    Parameters
+    ----------
+    candidates : list of Candidate
+        The search's candidates.
+    accepted : sequence of Candidate
+        The model's findings (left out).
+
+    Returns
+    -------
+    list of tuple
+        One-candidate alternatives.
+    """
+    return [(a,) for a in candidates if a not in accepted and DIAGNOSIS[a.effect].blocks
+            and not DIAGNOSIS[a.effect].displacement and not frame_geometry(a) and (
+                a.cable is not None or DIAGNOSIS[a.effect].clock
+                or DIAGNOSIS[a.effect].tension is not None)]
 
 
 def _replace(prob: Problem, s: Selection, k: int, alt: tuple) -> Selection:
@@ -334,7 +391,10 @@ def _best_alternative(prob: Problem, s: Selection, k: int, candidates: list, ext
     alternative whose refit is singular (its columns dependent on the model's) or implausible
     is no account of the data."""
     best = None
-    for alt in _screen(prob, s, k, sensor_alternatives(s.accepted[k], candidates, s.accepted)):
+    c = s.accepted[k]
+    alts = (tilt_alternatives(candidates, s.accepted) if frame_geometry(c)
+            else sensor_alternatives(c, candidates, s.accepted))
+    for alt in _screen(prob, s, k, alts):
         try:
             t = _replace(prob, s, k, alt)
         except np.linalg.LinAlgError:
@@ -375,7 +435,7 @@ def restated(prob: Problem, t: Selection, alt: tuple, f: Finding, n_tests: int,
 
 
 def geometry_verdict(rms_geo: float, rms_alt: float | None, p_alt_worse: float,
-                     min_gain: float) -> str:
+                     min_gain: float, level: float = GEOMETRY_DM_LEVEL) -> str:
     """What the geometry stage names: a geometry error beyond the survey tolerance or its best
     sensor-side alternative.
 
@@ -405,20 +465,23 @@ def geometry_verdict(rms_geo: float, rms_alt: float | None, p_alt_worse: float,
         (:func:`cdprid.diagnosis._competing.dm_p_worse`).
     min_gain : float
         The search's held-out gate (relative).
+    level : float, optional
+        The one-sided level at which the alternative predicting worse names the geometry
+        error (:data:`GEOMETRY_DM_LEVEL`; a frame tilt: :data:`TILT_DM_LEVEL`).
 
     Returns
     -------
     str
         ``"geometry"``, ``"alternative"`` or ``"cannot tell"``.
     """
-    if rms_alt is None or rms_geo < rms_alt * (1 - min_gain) or p_alt_worse < GEOMETRY_DM_LEVEL:
+    if rms_alt is None or rms_geo < rms_alt * (1 - min_gain) or p_alt_worse < level:
         return "geometry"
     if p_alt_worse > 1.0 - ALTERNATIVE_DM_LEVEL:
         return "alternative"
     return "cannot tell"
 
 
-def _cannot_tell(prob, s, c, alt, t, what, extra) -> dict:
+def _cannot_tell(prob, s, c, alt, t, what, extra, survey="a survey of the point") -> dict:
     """The ``unexplained`` entry of a geometry error the data cannot tell from its best
     sensor-side alternative (both readings, with what would tell)."""
     readings = "; ".join(f"{a.label} {vocab_params(a, t.theta, prob.layout, extra, t.th_cov)}"
@@ -427,13 +490,14 @@ def _cannot_tell(prob, s, c, alt, t, what, extra) -> dict:
             "test": "geometry against sensor-side alternatives (held-out)",
             "withdrawn_finding": alias_label(c),
             "correlates_with": f"{what}; the other reading: {readings}. The data cannot tell "
-                               "them apart: neither is named; a survey of the point or a "
+                               f"them apart: neither is named; {survey} or a "
                                "calibration of the cell would tell"}
 
 
 def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: float,
                    extra: dict, say) -> tuple[Selection, list]:
-    """Geometry findings beyond the survey tolerance must beat every sensor-side alternative
+    """Geometry findings beyond the survey tolerance, and a frame tilt of any size (weighed
+    last, given the displacements that stay), must beat every sensor-side alternative
     on held-out prediction (:func:`geometry_verdict`): by ``min_gain``, or significantly
     (one-sided Diebold-Mariano at :data:`GEOMETRY_DM_LEVEL`); the best alternative replaces it
     only when it predicts significantly better (at :data:`ALTERNATIVE_DM_LEVEL`; its findings
@@ -441,30 +505,39 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
     under ``unexplained`` with both readings. Returns the model and the entries."""
     tol = survey_tolerance_m(prob.d.robot)
     out = []
-    k = 0
-    while k < len(s.accepted):
-        c = s.accepted[k]
-        if not DIAGNOSIS[c.effect].displacement or _displacement_m(c, s, prob) <= tol:
-            k += 1
+    # displacements first, then the frame tilt (always weighed, no survey tolerance), given
+    # the geometry that stays: a tilt may carry what a withdrawn displacement left
+    todo = [c for c in s.accepted if not frame_geometry(c)] + [
+        c for c in s.accepted if frame_geometry(c)]
+    for c in todo:
+        if c not in s.accepted:
+            continue
+        k = s.accepted.index(c)
+        tilt = frame_geometry(c)
+        if not tilt and (not DIAGNOSIS[c.effect].displacement
+                         or _displacement_m(c, s, prob) <= tol):
             continue
         Z, y, _, _ = linear_model(prob, s)
         rms_geo = heldout_rms(prob, Z, y)
         best = _best_alternative(prob, s, k, candidates, extra)
         p_worse = 0.0 if best is None else dm_p_worse(best[3], _losses(prob, Z, y), prob.lags)
-        verdict = geometry_verdict(rms_geo, None if best is None else best[0], p_worse, min_gain)
+        verdict = geometry_verdict(rms_geo, None if best is None else best[0], p_worse, min_gain,
+                                   TILT_DM_LEVEL if tilt else GEOMETRY_DM_LEVEL)
         if verdict == "geometry":
-            k += 1  # the geometry error beats every sensor-side alternative: named
-            continue
+            continue  # the geometry error beats every sensor-side alternative: named
         r, alt, t, _ = best
-        size, f = _displacement_m(c, s, prob), s.findings[k]
+        f = s.findings[k]
+        size = _tilt_mrad(c, s, prob) if tilt else _displacement_m(c, s, prob)
+        amount = (f"{size:.3g} mrad" if tilt else
+                  f"{100 * size:.3g} cm, beyond the survey tolerance {100 * tol:.3g} cm")
         label = " + ".join(a.label for a in alt)
-        what = (f"acts like {c.vocabulary_effect} {f.parameters} ({100 * size:.3g} cm, beyond "
-                f"the survey tolerance {100 * tol:.3g} cm), but {label} predicts the held-out "
+        what = (f"acts like {c.vocabulary_effect} {f.parameters} ({amount}), but {label} "
+                "predicts the held-out "
                 f"data {'as well' if r > rms_geo else 'better'} ({rms_geo:.4g} against "
                 f"{r:.4g}, weighted units; p = {p_worse:.2g} that it predicts worse)")
         if verdict == "alternative":  # the sensor-side explanation predicts significantly
             # better: named in its place
-            say(f"geometry: {c.label} ({100 * size:.3g} cm) does not beat {label} on "
+            say(f"geometry: {c.label} ({amount}) does not beat {label} on "
                 f"held-out prediction ({rms_geo:.4f} against {r:.4f}, p = {1 - p_worse:.2g} "
                 "that it is not better); replaced by it")
             fs = restated(prob, t, alt, dataclasses.replace(
@@ -472,15 +545,16 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
             s = with_vocabulary(prob, dataclasses.replace(
                 t, accepted=s.accepted[:k] + tuple(alt) + s.accepted[k + 1:],
                 findings=s.findings[:k] + fs + s.findings[k + 1:]), extra)
-            k += len(alt)  # (the finding keeps the geometry error among its aliases)
+            # (the finding keeps the geometry error among its aliases)
         else:  # neither predicts significantly better: neither is named ("cannot tell")
-            say(f"geometry: {c.label} ({100 * size:.3g} cm) and {label} predict the held-out "
+            say(f"geometry: {c.label} ({amount}) and {label} predict the held-out "
                 f"data alike ({rms_geo:.4f} against {r:.4f}, p = {p_worse:.2g} that {label} "
                 "is worse): the data cannot tell them apart; neither is named")
-            out.append(_cannot_tell(prob, s, c, alt, t, what, extra))
+            out.append(_cannot_tell(prob, s, c, alt, t, what, extra,
+                                    "a level of the frame" if tilt else "a survey of the point"))
             s = withdraw(prob, s, k, extra)
     return s, out
 
 
-__all__ = ["geometry_stage", "geometry_verdict", "plausibility_stage", "restated",
-           "stability_stage", "survey_tolerance_m"]
+__all__ = ["frame_geometry", "geometry_stage", "geometry_verdict", "plausibility_stage",
+           "restated", "stability_stage", "survey_tolerance_m", "tilt_alternatives"]
