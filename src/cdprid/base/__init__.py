@@ -12,6 +12,9 @@ from cdprid.base._errors import InputError as InputError
 from cdprid.base._errors import OutputError as OutputError
 from cdprid.base._errors import OutputExistsError as OutputExistsError
 from cdprid.base._errors import UserError as UserError
+from cdprid.base._executables import cached_executable as cached_executable
+from cdprid.base._executables import enable_executables as enable_executables
+from cdprid.base._executables import executables_folder as executables_folder
 from cdprid.base._interrupts import Terminated as Terminated
 from cdprid.base._interrupts import check_pending as check_pending
 from cdprid.base._interrupts import clear_pending as clear_pending

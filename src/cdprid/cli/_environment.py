@@ -2,7 +2,9 @@
 
 * ``CDPRID_DEBUG`` -- any non-empty value: tracebacks of internal errors.
 * ``CDPRID_CACHE_DIR`` -- folder of the persistent JAX compilation cache (default
-  ``$XDG_CACHE_HOME/cdprid/jax`` or ``~/.cache/cdprid/jax``); ``off`` disables it.
+  ``$XDG_CACHE_HOME/cdprid/jax`` or ``~/.cache/cdprid/jax``) and, in its ``executables/``
+  folder, of the compiled programs a command's start needs, tracing included
+  (:func:`cdprid.base.cached_executable`); ``off`` disables both.
 * ``CDPRID_SCAN_UNROLL`` -- integer >= 1, unroll factor of the SIHD scans.
 
 Nothing here imports JAX until :func:`enable_x64` runs (after the command line is parsed).
@@ -81,3 +83,8 @@ def enable_x64() -> None:
     # every compiled kernel is kept: loading one costs ~10 ms, compiling the small ones ~40 ms
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+    from cdprid.base import enable_executables
+
+    # the few large programs of a command's start kept whole, tracing included
+    # (cdprid.base._executables; the folder beside the XLA entries)
+    enable_executables(cache / "executables")

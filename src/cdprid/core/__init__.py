@@ -102,6 +102,7 @@ from cdprid.core._regression import measured_wrench as measured_wrench
 from cdprid.core._regression import regressor_blocks as regressor_blocks
 from cdprid.core._regression import regressors as regressors
 from cdprid.core._regression import wrench_matrices as wrench_matrices
+from cdprid.core._regression import wrench_matrix_series as wrench_matrix_series
 from cdprid.core._sliding import SLIDE_NOISE_M_S as SLIDE_NOISE_M_S
 from cdprid.core._sliding import gauss_derivative as gauss_derivative
 from cdprid.core._sliding import sliding_sign as sliding_sign

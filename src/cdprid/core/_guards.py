@@ -344,18 +344,15 @@ def swapped_columns_warning(robot, motion, A, idx, tension, wf, linear: bool) ->
         One sentence naming the two columns and the residual ratio; None when no exchange
         helps or the check does not apply (too many samples, one cable, < 10 kept samples).
     """
-    from cdprid.core._regression import cable_wrench
+    from cdprid.core._regression import wrench_matrix_series
 
     n, m = len(motion.t), np.asarray(tension).shape[1]
     if n > SWAP_CHECK_MAX_SAMPLES or m < 2 or len(idx) < 10:
         return None
     A = np.asarray(A).reshape(-1, np.asarray(A).shape[-1])
     tau = np.asarray(tension, float)
-    # W evaluated once: exchanging tau_i and tau_j adds (W_i - W_j)(tau_j - tau_i); its
-    # columns by the identification's own compiled W tau with unit tensions (no new trace)
-    eye = np.eye(m)
-    W = np.stack([cable_wrench(robot, motion.position, motion.B_R_P,
-                               np.broadcast_to(eye[i], (n, m))) for i in range(m)], axis=2)
+    # W evaluated once: exchanging tau_i and tau_j adds (W_i - W_j)(tau_j - tau_i)
+    W = wrench_matrix_series(robot, np.asarray(motion.position), np.asarray(motion.B_R_P))
     y0 = np.einsum("nkm,nm->nk", W, tau)
     Q = np.linalg.qr(A)[0]  # one projection for every candidate: residual = y - Q Q^T y
     pairs = [(i, j) for i in range(m) for j in range(i + 1, m)]

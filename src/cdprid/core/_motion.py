@@ -21,6 +21,7 @@ import jax
 import numpy as np
 from jaxtyping import Float
 
+from cdprid.base import cached_executable
 from cdprid.io import AlignedSignals
 from cdprid.model import angular_rates_from_quat, quat_to_matrix
 from cdprid.signal import differentiate
@@ -34,7 +35,8 @@ BLOCK = 16384
 (the same size as ``cdprid.core.CHUNK``): one block shape, so each function compiles once,
 and only (BLOCK, ...) temporaries are alive at a time."""
 
-_quat_to_matrix_jit = jax.jit(jax.vmap(quat_to_matrix))
+_quat_to_matrix_jit = cached_executable(jax.jit(jax.vmap(quat_to_matrix)),
+                                       name="core.quat_to_matrix_vmapped")
 _angular_rates_jit = jax.jit(jax.vmap(angular_rates_from_quat))
 
 

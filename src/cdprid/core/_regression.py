@@ -20,13 +20,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
-from cdprid.base import InputError
+from cdprid.base import InputError, cached_executable
 from cdprid.core._motion import BLOCK, Motion, blockwise
 from cdprid.model import CableRobot, regressor, wrench_matrix
 
 __all__ = [
     "CHUNK", "Regression", "StreamedRegression", "build_regression", "cable_wrench",
     "measured_wrench", "regressor_blocks", "regressors", "wrench_matrices",
+    "wrench_matrix_series",
 ]
 
 CHUNK = BLOCK  # 16384, the same blocks as cdprid.core._motion
@@ -168,8 +169,10 @@ def regressors(model: str, B_R_P, B_a, B_omega, B_alpha, gravity):
         B_R_P, B_a, B_omega, B_alpha)
 
 
-_measured_wrench_jit = jax.jit(measured_wrench)
-_regressors_jit = jax.jit(regressors, static_argnums=0)
+_measured_wrench_jit = cached_executable(jax.jit(measured_wrench), name="core.measured_wrench")
+_regressors_jit = cached_executable(jax.jit(regressors, static_argnums=0),
+                                   name="core.regressors", static_argnums=(0,))
+_wrench_matrices_jit = cached_executable(jax.jit(wrench_matrices), name="core.wrench_matrices")
 
 
 def _blockwise(fn, arrays, out, i0: int, i1: int, chunk: int) -> None:
@@ -207,6 +210,35 @@ def cable_wrench(robot: CableRobot, B_p: Float[np.ndarray, "n 3"],
     out = np.empty((n, 6))
     _blockwise(lambda p, R, t: _measured_wrench_jit(robot, p, R, t), (B_p, B_R_P, tau), out,
                0, n, min(int(chunk), n))
+    return out
+
+
+def wrench_matrix_series(robot: CableRobot, B_p: Float[np.ndarray, "n 3"],
+                         B_R_P: Float[np.ndarray, "n 3 3"],
+                         chunk: int = CHUNK) -> Float[np.ndarray, "n 6 m"]:
+    """Wrench matrices ``W(pose)`` per sample, as numpy (jit-compiled, ``chunk`` samples at a
+    time).
+
+    Parameters
+    ----------
+    robot : CableRobot
+    B_p : ndarray (n, 3)
+        Platform positions, base frame, m.
+    B_R_P : ndarray (n, 3, 3)
+        Platform orientations (platform to base).
+    chunk : int
+        Samples per block.
+
+    Returns
+    -------
+    ndarray (n, 6, m)
+        Unit cable directions (force rows) and their moments about the platform reference
+        point (moment rows, m), base frame.
+    """
+    n = len(B_p)
+    out = np.empty((n, 6, robot.n_cables))
+    _blockwise(lambda p, R: _wrench_matrices_jit(robot, p, R), (B_p, B_R_P), out, 0, n,
+               min(int(chunk), n))
     return out
 
 

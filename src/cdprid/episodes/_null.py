@@ -56,7 +56,8 @@ from scipy import special
 from cdprid.effects import play_operator
 
 __all__ = ["REVERSAL_P", "ZERO_DRIFT_S", "Cells", "cells", "with_noise", "reversal_half_width",
-           "motion", "drift_basis", "n_columns", "columns", "cell_error", "band_positions",
+           "motion", "drift_basis", "n_columns", "columns", "fixed_columns", "cell_error",
+           "band_positions",
            "persistent_null"]
 
 
@@ -312,7 +313,7 @@ def n_columns(c: Cells) -> int:
     return 3 * m + 1 + (m - 1) + m * c.drift.shape[1]
 
 
-def columns(c: Cells, band=None) -> np.ndarray:
+def columns(c: Cells, band=None, fixed=None) -> np.ndarray:
     """The columns (n, 6, :func:`n_columns`), through the matched filter: ``W_j`` (per N of
     offset), ``W_j sign(dl_j/dt)`` (per N of friction), ``W_j h_j`` (per N of half-width),
     ``sum_j W_j dtau_j/dt`` (per s of clock offset), the relative gains
@@ -320,14 +321,29 @@ def columns(c: Cells, band=None) -> np.ndarray:
     gain is the rigid body's scale) and the zeros' drift ``W_j P_k(t)`` (per N; cable by
     cable, :func:`drift_basis`). ``h_j`` is ``band`` (n, m) when given
     (:func:`band_positions`), else the direction of the reading's motion (:func:`motion`),
-    interpolated across the stretches where the reading stands still."""
+    interpolated across the stretches where the reading stands still. ``fixed``: the
+    columns that do not depend on ``h`` (:func:`fixed_columns` of the same cells), filtered
+    once for several calls (the filter acts on each column alone: the same numbers)."""
     if band is None:
         band = _per_segment(across_still, c, c.direction, c.moving)
+    m = c.W.shape[2]
+    if fixed is None:
+        fixed = fixed_columns(c)
+    hyst = np.asarray(c.filt(c.W * np.asarray(band)[:, None, :]), float)
+    return np.concatenate([fixed[:, :, :2 * m], hyst, fixed[:, :, 2 * m:]], axis=2)
+
+
+def fixed_columns(c: Cells) -> np.ndarray:
+    """The columns of :func:`columns` that do not depend on the band positions, through the
+    matched filter (n, 6, :func:`n_columns` - m): ``W_j``, ``W_j sign(dl_j/dt)``, the clock,
+    the relative gains and the drift, in that order. They depend on the cells' wrench
+    matrices, sliding signs, rates, readings and drift basis only (not on ``moving`` or
+    ``direction``: :func:`with_noise` keeps them)."""
     W = c.W
     n, k, m = W.shape
     Wt = W * c.tension[:, None, :]
     drift = (W[:, :, :, None] * c.drift[:, None, None, :]).reshape(n, k, -1)
-    cols = np.concatenate([W, W * c.sliding[:, None, :], W * np.asarray(band)[:, None, :],
+    cols = np.concatenate([W, W * c.sliding[:, None, :],
                            np.einsum("nim,nm->ni", W, c.rate)[:, :, None],
                            Wt[:, :, :-1] - Wt[:, :, -1:], drift], axis=2)
     return np.asarray(c.filt(cols), float)
@@ -348,7 +364,7 @@ def cell_error(c: Cells, coef, band=None) -> np.ndarray:
     return np.asarray(c.filt(raw), float)
 
 
-def band_positions(c: Cells, coef, residual, rows, quiet=None) -> np.ndarray:
+def band_positions(c: Cells, coef, residual, rows, quiet=None, Wf=None) -> np.ndarray:
     """Where each cell's force sits in its hysteresis band, +1 (rising) to -1 (falling), from a
     fit's coefficients of the columns (``coef``, :func:`columns`' order; per cable an offset,
     ``friction`` = minus the Coulomb force and ``half`` = minus the half-width, N, ...;
@@ -370,12 +386,13 @@ def band_positions(c: Cells, coef, residual, rows, quiet=None) -> np.ndarray:
     glitch's transient): there the balance would move every cell's tension by the push's
     share (its force is real, the cells read it right) and put false reversals into the
     play operator, whose state then stays wrong until the next full reversal; the
-    correction is left out there (the reading less its error)."""
+    correction is left out there (the reading less its error). ``Wf``: the wrench matrices
+    through the matched filter, when already at hand (n, 6, m)."""
     m = c.W.shape[2]
     coef = np.asarray(coef, float)
     friction, half = coef[m:2 * m], coef[2 * m:3 * m]
     rough = _per_segment(across_still, c, c.direction, c.moving)
-    Wf = np.asarray(c.filt(c.W), float)[:, rows]
+    Wf = (np.asarray(c.filt(c.W), float) if Wf is None else np.asarray(Wf))[:, rows]
     residual = np.asarray(residual, float)
     if quiet is not None:
         residual = np.where(np.asarray(quiet, bool)[:, None], 0.0, residual)
@@ -400,8 +417,9 @@ def persistent_null(A, c: Cells, rows, fit, quiet=None) -> np.ndarray:
     the force residual and from it the filtered readings' noise (:func:`residual_noise`);
     the motion told from that, a second fit gives the widths for :func:`band_positions`."""
     m, p = c.W.shape[2], A.shape[2]
-    r, _ = fit(np.concatenate([A, columns(c)[:, rows]], axis=2))
+    fixed = fixed_columns(c)  # with_noise below keeps what these are made of
+    r, _ = fit(np.concatenate([A, columns(c, fixed=fixed)[:, rows]], axis=2))
     c = with_noise(c, residual_noise(r[:, :int(np.sum(np.asarray(rows)[:3]))], m))
-    r, beta = fit(np.concatenate([A, columns(c)[:, rows]], axis=2))
-    band = band_positions(c, beta[p:], r, rows, quiet)
-    return np.concatenate([A, columns(c, band)[:, rows]], axis=2)
+    r, beta = fit(np.concatenate([A, columns(c, fixed=fixed)[:, rows]], axis=2))
+    band = band_positions(c, beta[p:], r, rows, quiet, Wf=fixed[:, :, :m])
+    return np.concatenate([A, columns(c, band, fixed)[:, rows]], axis=2)

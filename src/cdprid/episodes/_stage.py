@@ -36,7 +36,14 @@ import math
 import jax
 import numpy as np
 
-from cdprid.base import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S, InputError, chi2_sf
+from cdprid.base import (
+    CUTOFF_HZ,
+    TAUT_THRESHOLD_N,
+    TRIM_S,
+    InputError,
+    cached_executable,
+    chi2_sf,
+)
 from cdprid.core import (
     ROTATION_WARN_DEG,
     estimate_motion,
@@ -277,8 +284,9 @@ def _filtered(x, sig, cutoff_hz):
     return out
 
 
-_wrench_jit = jax.jit(wrench_matrices)
-_regressors_jit = jax.jit(regressors, static_argnums=0)
+_wrench_jit = cached_executable(jax.jit(wrench_matrices), name="episodes.wrench_matrices")
+_regressors_jit = cached_executable(jax.jit(regressors, static_argnums=0),
+                                   name="episodes.regressors", static_argnums=(0,))
 
 
 def _data(robot, sig, cutoff_hz):
@@ -303,7 +311,8 @@ def _robust_fit(y, Z, rows, whiten, steps: int = 3, prior=None):
     (the rows' MAD) in any row left out, refitted ``steps`` times: a push must not pull the
     fit (it would leave an offset everywhere else). A step that would fit the same samples
     again is not run (its fit, and every later one, would be the same)."""
-    r, beta = _fit(y, Z, rows, whiten, prior)
+    Zw = np.matmul(whiten, Z)  # whitened once for every refit
+    r, beta = _fit(y, Z, rows, whiten, prior, Zw)
     used = rows
     for _ in range(steps):
         x = r[rows]
@@ -315,7 +324,7 @@ def _robust_fit(y, Z, rows, whiten, steps: int = 3, prior=None):
         if np.array_equal(rows & ok, used):
             break
         used = rows & ok
-        r, beta = _fit(y, Z, used, whiten, prior)
+        r, beta = _fit(y, Z, used, whiten, prior, Zw)
     return r, beta
 
 
@@ -337,25 +346,29 @@ def _noise_fit(y, Z, rows, whiten, rounds: int = 2, prior=None):
     return r, beta, whiten
 
 
-def _fit(y, Z, rows, whiten, prior=None):
+def _fit(y, Z, rows, whiten, prior=None, Zw=None):
     """Least squares of ``y ~ Z beta`` on ``rows``, whitened (6 x 6); the residual (n, 6).
     ``prior = (beta0 (q,), lam)``: a ridge ``lam |s (beta - beta0)|^2`` on the last q
-    coefficients, ``s`` their columns' whitened norms on ``rows`` (:data:`PERSISTENT_RIDGE`)."""
-    Zw = np.einsum("ij,njp->nip", whiten, Z[rows]).reshape(-1, Z.shape[2])
+    coefficients, ``s`` their columns' whitened norms on ``rows`` (:data:`PERSISTENT_RIDGE`).
+    ``Zw``: ``whiten @ Z`` when already at hand (several fits with one whitening)."""
+    p = Z.shape[2]
+    Zw = (np.matmul(whiten, Z) if Zw is None else Zw)[rows].reshape(-1, p)
     yw = (y[rows] @ whiten.T).reshape(-1)
-    scale = np.linalg.norm(Zw, axis=0)
-    scale[scale == 0] = 1.0
-    Zs = Zw / scale
     # normal equations of the scaled columns (p x p, ~10x faster than an SVD of the
-    # (6 n, p) matrix); rcond 1e-15 on the Gram matrix is 3e-8 on the singular values
-    G, g = Zs.T @ Zs, Zs.T @ yw
+    # (6 n, p) matrix); rcond 1e-15 on the Gram matrix is 3e-8 on the singular values. The
+    # columns' whitened norms are the root of the Gram's diagonal.
+    G, g = Zw.T @ Zw, Zw.T @ yw
+    scale = np.sqrt(np.diag(G)).copy()
+    scale[scale == 0] = 1.0
+    G = G / np.outer(scale, scale)
+    g = g / scale
     if prior is not None:
         b0, lam = prior
         q = len(b0)
         G[-q:, -q:] += lam * np.eye(q)  # in the scaled columns' units: lam on the diagonal
         g[-q:] += lam * np.asarray(b0, float) * scale[-q:]
     beta = np.linalg.lstsq(G, g, rcond=1e-15)[0] / scale
-    return y - np.einsum("nip,p->ni", Z, beta), beta
+    return y - Z @ beta, beta
 
 
 TAUT_SHARE_MIN = 0.2

@@ -21,6 +21,7 @@ import dataclasses
 from pathlib import Path
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 import tomllib
@@ -297,12 +298,14 @@ def robot_from_dict(data: dict, source: str = "robot.toml") -> CableRobot:
     platform = _platform(source, plat, _platform_inertia(source, plat))
     name = data.get("name", "robot")
     return CableRobot(
-        B_A=jnp.asarray(np.array(B_A)),
-        P_b=jnp.asarray(np.array(P_b)),
-        pulley_radius=jnp.asarray(np.array(radius)),
-        pulley_axis=jnp.asarray(np.array(axis)),
-        pulley_reference=jnp.asarray(np.array(ref)),
-        gravity=jnp.asarray(gravity),
+        # device_put: jnp.asarray of a NumPy array compiles a conversion per shape (3 of
+        # them, ~40 ms of a command's start)
+        B_A=jax.device_put(np.array(B_A)),
+        P_b=jax.device_put(np.array(P_b)),
+        pulley_radius=jax.device_put(np.array(radius)),
+        pulley_axis=jax.device_put(np.array(axis)),
+        pulley_reference=jax.device_put(np.array(ref)),
+        gravity=jax.device_put(np.array(gravity)),
         name=str(name),
         limits=limits,
         platform=platform,
