@@ -120,7 +120,7 @@ def cached_executable(fn=None, *, name: str, static_argnums=()):
     if fn is None:
         return functools.partial(cached_executable, name=name, static_argnums=static_argnums)
     if name in _NAMES:
-        raise ValueError(f"cached_executable: the name {name!r} is already in use")
+        raise RuntimeError(f"cached_executable: the name {name!r} is already in use")
     _NAMES.add(name)
     static = tuple(static_argnums)
 
