@@ -49,3 +49,26 @@ def test_the_diagnosis_tails_are_scipy_stats_to_the_last_bit():
     for dfn, dfd in ((2, 4), (2, 10), (2, 60), (3, 7)):
         assert same(f_sf(q, dfn, dfd), stats.f.sf(q, dfn, dfd)), (dfn, dfd)
     assert np.isnan(chi2_sf(2.0, 0)) and np.isnan(stats.chi2.sf(2.0, 0))
+
+
+def test_the_thresholds_quantiles_need_no_scipy_and_match_it():
+    """normal_isf and chi2_isf at integer dof (q <= 0.5: every episode threshold) are the
+    standard library's and a closed-form Newton solve: within 4e-15 of scipy.stats over
+    q in [1e-250, 0.5], k = 1..64, and computed in a process that never imports SciPy."""
+    import subprocess
+    import sys
+
+    q = np.concatenate([np.logspace(-250, np.log10(0.5), 120), [0.5, 0.4999]])
+    for k in range(1, 65):
+        got = chi2_isf(q, k)
+        assert np.allclose(got, stats.chi2.isf(q, k), rtol=4e-15, atol=0), k
+    qq = np.logspace(-300, -1e-4, 400)
+    assert np.allclose(normal_isf(qq), stats.norm.isf(qq), rtol=4e-15, atol=0)
+    code = ("import sys; from cdprid.base import chi2_isf, normal_isf; "
+            "x = [float(chi2_isf(q, k)) for q in (1e-9, 0.001, 0.1, 0.5) for k in (1, 2, 3, 6)]; "
+            "z = float(normal_isf(1e-7)); "
+            "import cdprid.episodes, cdprid.identify; "
+            "print(sorted(m for m in sys.modules if m.startswith('scipy')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "[]", out
