@@ -138,3 +138,31 @@ def test_a_new_process_runs_what_another_stored(tmp_path):
     for got in (first, second, third):
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
     np.testing.assert_array_equal(second, third)
+
+
+class _Opaque:
+    """A static argument whose repr is its address: never a key (another object could take
+    the same address in another process)."""
+
+    def __init__(self, k):
+        self.k = k
+
+    def __hash__(self):
+        return hash(self.k)
+
+    def __eq__(self, other):
+        return isinstance(other, _Opaque) and other.k == self.k
+
+
+@functools.partial(jax.jit, static_argnums=(1,))
+def _scaled(x, o):
+    return x * o.k
+
+
+_scaled_cached = cached_executable(_scaled, name="tests.base.scaled", static_argnums=(1,))
+
+
+def test_static_argument_without_a_faithful_repr_is_not_stored(folder):
+    x = np.arange(4.0)
+    np.testing.assert_array_equal(np.asarray(_scaled_cached(x, _Opaque(3.0))), 3.0 * x)
+    assert _files(folder) == []

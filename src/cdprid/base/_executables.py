@@ -159,11 +159,11 @@ def _executable(fn, name, static, args):
     leaves, tree = jax.tree_util.tree_flatten(dyn)
     if any(isinstance(x, jax.core.Tracer) for x in leaves):
         return None
-    tree_s = str(tree)
-    if "..." in tree_s or "object at 0x" in tree_s:
-        return None  # a static field whose repr does not say all it holds
+    tree_s, stat_s = str(tree), repr(stat)
+    if any("..." in x or " at 0x" in x for x in (tree_s, stat_s)):
+        return None  # a static value whose repr does not say all it holds
     avals = [jax.typeof(x) for x in leaves]
-    spec = repr((name, stat, tree_s,
+    spec = repr((name, stat_s, tree_s,
                  [(a.shape, str(a.dtype), a.weak_type) for a in avals]))
     key = hashlib.sha256((spec + _stamp()).encode()).hexdigest()[:40]
     exe = _MEMO.get(key)
