@@ -56,9 +56,9 @@ def test_stored_loaded_and_bit_identical(folder):
     np.testing.assert_array_equal(np.asarray(_poly_cached(x, 3, 2.0)), want)
     assert len(_files(folder)) == 1
     ex._MEMO.clear()  # as a new process: loaded from the file
-    mtime = os.path.getmtime(folder / _files(folder)[0])
+    inode = os.stat(folder / _files(folder)[0]).st_ino  # a rebuilt file replaces it
     np.testing.assert_array_equal(np.asarray(_poly_cached(x, 3, 2.0)), want)
-    assert os.path.getmtime(folder / _files(folder)[0]) == mtime
+    assert os.stat(folder / _files(folder)[0]).st_ino == inode
     # another static argument, another shape, another dtype: other executables
     _poly_cached(x, 2, 2.0)
     _poly_cached(x[:10], 3, 2.0)
@@ -132,9 +132,9 @@ def test_a_new_process_runs_what_another_stored(tmp_path):
         f.unlink()
     second = _child(tmp_path, tmp_path / "r2.npy")
     (stored,) = (tmp_path / "exe").glob("*.exe")
-    mtime = os.path.getmtime(stored)
+    inode = os.stat(stored).st_ino
     third = _child(tmp_path, tmp_path / "r3.npy")
-    assert os.path.getmtime(stored) == mtime  # loaded, not rebuilt
+    assert os.stat(stored).st_ino == inode  # loaded, not rebuilt (that replaces the file)
     for got in (first, second, third):
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
     np.testing.assert_array_equal(second, third)
@@ -166,3 +166,18 @@ def test_static_argument_without_a_faithful_repr_is_not_stored(folder):
     x = np.arange(4.0)
     np.testing.assert_array_equal(np.asarray(_scaled_cached(x, _Opaque(3.0))), 3.0 * x)
     assert _files(folder) == []
+
+
+def test_folder_bounded_least_recently_used_first(folder, monkeypatch):
+    x = np.ones((3, 2))
+    _poly_cached(x, 2, 1.0)
+    (first,) = folder.glob("*.exe")
+    size = first.stat().st_size
+    os.utime(first, (1.0, 1.0))  # long unused
+    monkeypatch.setattr(ex, "MAX_BYTES", int(2.5 * size))
+    _poly_cached(x, 3, 1.0)
+    ex._MEMO.clear()
+    _poly_cached(x, 3, 1.0)  # loaded: used now
+    _poly_cached(x, 4, 1.0)  # a third one: over the limit, the unused first goes
+    names = _files(folder)
+    assert len(names) == 2 and first.name not in names

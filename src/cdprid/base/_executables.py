@@ -27,6 +27,11 @@ import pickle
 
 __all__ = ["cached_executable", "enable_executables", "executables_folder"]
 
+#: Bytes the folder may hold: after a write the least recently used executables are deleted
+#: beyond it (one per function and shape, ~0.1-0.5 MB each: a few hundred recordings of
+#: different lengths)
+MAX_BYTES = 256 * 2**20
+
 _FOLDER = None
 _MEMO: dict = {}
 _STAMP = None
@@ -195,9 +200,14 @@ def _load(key):
         return None
     try:
         with open(path, "rb") as fh:
-            return serialize_executable.deserialize_and_load(*pickle.load(fh))
+            exe = serialize_executable.deserialize_and_load(*pickle.load(fh))
     except Exception:  # noqa: BLE001  unreadable (an older format, a torn write): rebuilt
         return None
+    try:
+        os.utime(path)  # used now: the last to go (_evict)
+    except OSError:
+        pass
+    return exe
 
 
 def _build(fn, static, args, tree, leaves, key):
@@ -224,7 +234,26 @@ def _build(fn, static, args, tree, leaves, key):
         with open(tmp, "wb") as fh:
             fh.write(blob)
         os.replace(tmp, os.path.join(_FOLDER, key + ".exe"))
+        _evict(MAX_BYTES)
     except Exception:  # noqa: BLE001  an output tree pickle cannot hold, a read-only folder
         if os.path.exists(tmp):
             os.remove(tmp)
     return exe
+
+
+def _evict(limit: int) -> None:
+    """Delete the least recently used executables until the folder holds ``limit`` bytes."""
+    files = []
+    for e in os.scandir(_FOLDER):
+        if e.name.endswith(".exe"):
+            st = e.stat()
+            files.append((st.st_mtime, st.st_size, e.path))
+    total = sum(f[1] for f in files)
+    for _, size, path in sorted(files):
+        if total <= limit:
+            break
+        try:
+            os.remove(path)
+            total -= size
+        except OSError:
+            pass

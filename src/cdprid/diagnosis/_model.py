@@ -17,6 +17,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.base import cached_executable
 from cdprid.core import CATMULL_ROM, TensionStream, tension_at, tension_rate_at
 from cdprid.effects import DIAGNOSIS, tilt_gravity
 from cdprid.model import (
@@ -54,6 +55,11 @@ class ThetaLayout:
         self.nonneg = frozenset(
             j for form in DIAGNOSIS.values() for name in form.nonneg_blocks
             if self.block_shapes[name][1] == 1 for j in range(sl[name].start, sl[name].stop))
+
+    def __repr__(self):
+        # what the layout is made of (the effect registry is code: cached executables key it
+        # by cdprid's sources), not its address
+        return f"ThetaLayout(m={self.m}, blocks={tuple(self.slices)})"
 
     def unpack(self, theta):
         """Theta as named blocks: per-cable blocks ``(m,)`` or ``(m, size)``, global scalars
@@ -399,6 +405,10 @@ def geometry_jac(d, theta, layout):
     return val, jac
 
 
+geometry_jac = cached_executable(geometry_jac, name="diagnosis.geometry_jac",
+                                 static_argnums=(2,))
+
+
 @functools.partial(jax.jit, static_argnums=(2,))
 def tension_jac(d, theta, layout):
     """Every cable's tension behind its reading (n, m) and its Jacobian (n, m, len) with
@@ -417,6 +427,10 @@ def tension_jac(d, theta, layout):
         return jax.vmap(per_cable)(loc, rob.pulley_axis, rob.pulley_reference, tc, tdc, ld, sl)
 
     return jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot, d.clock, slide_of(d))
+
+
+tension_jac = cached_executable(tension_jac, name="diagnosis.tension_jac",
+                                static_argnums=(2,))
 
 
 @functools.partial(jax.jit, static_argnums=(0,))
@@ -454,6 +468,10 @@ def assemble_jac(layout, geometry, tension):
     return w, jnp.concatenate(cols, axis=2)
 
 
+assemble_jac = cached_executable(assemble_jac, name="diagnosis.assemble_jac",
+                                 static_argnums=(0,))
+
+
 @functools.partial(jax.jit, static_argnums=(2,))
 def meas_and_jac(d, theta, layout):
     """Unfiltered measured side (n, 6) and its Jacobian (n, 6, ntheta) at theta.
@@ -471,6 +489,10 @@ def meas_and_jac(d, theta, layout):
 def model_jit(d, theta, x, layout, rotational):
     """Jitted :func:`model_side` at theta (unpacked by the layout)."""
     return model_side(d, layout.unpack(theta), x, rotational)
+
+
+model_jit = cached_executable(model_jit, name="diagnosis.model_jit",
+                              static_argnums=(3, 4))
 
 
 _MODEL_INDICES: dict = {}
@@ -508,10 +530,18 @@ def _model_jac(d, theta, x, layout, rotational, idx):
     return jnp.zeros(J.shape[:-1] + (layout.size,)).at[..., ix].set(J)
 
 
+_model_jac = cached_executable(_model_jac, name="diagnosis._model_jac",
+                               static_argnums=(3, 4, 5))
+
+
 @functools.partial(jax.jit, static_argnums=(2, 3))
 def regs_jit(d, theta, layout, rotational):
     """Jitted regressors (translation or full model) with theta's tilted gravity."""
     return regressors(d, model_gravity(d.robot.gravity, layout.unpack(theta)), rotational)
+
+
+regs_jit = cached_executable(regs_jit, name="diagnosis.regs_jit",
+                             static_argnums=(2, 3))
 
 
 def rotvec_from_quat(q):
