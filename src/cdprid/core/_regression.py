@@ -216,18 +216,16 @@ def cable_wrench(robot: CableRobot, B_p: Float[np.ndarray, "n 3"],
 def wrench_matrix_series(robot: CableRobot, B_p: Float[np.ndarray, "n 3"],
                          B_R_P: Float[np.ndarray, "n 3 3"],
                          chunk: int = CHUNK) -> Float[np.ndarray, "n 6 m"]:
-    """Wrench matrices ``W(pose)`` per sample, as numpy (jit-compiled, ``chunk`` samples at a
-    time).
+    """Wrench matrices ``W(pose)`` per sample, as numpy: :func:`wrench_matrices` jit-compiled
+    and evaluated in blocks of ``chunk`` samples (one block shape, one compilation).
 
     Parameters
     ----------
     robot : CableRobot
-    B_p : ndarray (n, 3)
-        Platform positions, base frame, m.
-    B_R_P : ndarray (n, 3, 3)
-        Platform orientations (platform to base).
+    B_p, B_R_P : ndarray (n, 3) and (n, 3, 3)
+        The platform's poses: positions (m) and orientations (platform to base), base frame.
     chunk : int
-        Samples per block.
+        Block length, samples.
 
     Returns
     -------
