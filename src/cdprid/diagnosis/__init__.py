@@ -18,6 +18,8 @@ from cdprid.diagnosis._base import null_residuals as null_residuals
 from cdprid.diagnosis._budget import subset as subset
 from cdprid.diagnosis._candidates import CANDIDATE_EFFECTS as CANDIDATE_EFFECTS
 from cdprid.diagnosis._candidates import Candidate as Candidate
+from cdprid.diagnosis._info import DiagnosisInfo as DiagnosisInfo
+from cdprid.diagnosis._info import EpisodeRecord as EpisodeRecord
 from cdprid.diagnosis._candidates import candidate_list as candidate_list
 from cdprid.diagnosis._context import DiagnosisContext as DiagnosisContext
 from cdprid.diagnosis._model import ThetaLayout as ThetaLayout

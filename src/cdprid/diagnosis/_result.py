@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from cdprid.diagnosis._info import DiagnosisInfo, EpisodeRecord
 from cdprid.diagnosis._parts import (
     CompetingModel,
     JsonView,
@@ -95,8 +96,9 @@ class DiagnosisResult:
     """Everything :func:`diagnose` found; ``as_json()`` is the CLI's JSON contract.
 
     The parts are typed (:class:`ParameterEstimates`, :class:`Finding`,
-    :class:`RankedCandidate`, :class:`Unexplained`, :class:`CompetingModel`, and
-    :attr:`not_named`) and read also as the dicts of earlier releases
+    :class:`RankedCandidate`, :class:`Unexplained`, :class:`CompetingModel`,
+    :class:`DiagnosisInfo`, :class:`EpisodeRecord` and :attr:`not_named`) and read also as the
+    dicts of earlier releases
     (``res.base_parameters["m"]["value"]`` is ``res.base_parameters["m"].value``); given as
     dicts (JSON objects) they are converted on construction.
     """
@@ -108,7 +110,7 @@ class DiagnosisResult:
     extended_parameters: ParameterEstimates
     extended_heldout_rms: float
     ranking: list[RankedCandidate]
-    info: dict
+    info: DiagnosisInfo
     arrays: dict = dataclasses.field(default_factory=dict, repr=False)
     #: residual structure the extended model leaves, and hints (vocabulary effects removed
     #: by backward elimination): ``where``, ``size`` (N), ``correlates_with``, ``p_value``
@@ -118,9 +120,9 @@ class DiagnosisResult:
     #: complete alternative models within the noise of the final one
     #: (:func:`cdprid.diagnosis._competing.competing_models`), best first
     competing: list[CompetingModel] = dataclasses.field(default_factory=list)
-    #: the located episodes (:meth:`cdprid.episodes.Episode.as_json`), left out of the fits
-    #: unless ``keep_episodes``
-    episodes: list = dataclasses.field(default_factory=list)
+    #: the located episodes (:class:`EpisodeRecord`, as :meth:`cdprid.episodes.Episode.as_json`
+    #: writes them), left out of the fits unless ``keep_episodes``
+    episodes: list[EpisodeRecord] = dataclasses.field(default_factory=list)
     #: the extended model's held-out force rms (N) with the episodes' samples kept
     extended_heldout_rms_with_episodes: float | None = None
 
@@ -130,7 +132,9 @@ class DiagnosisResult:
                               ("findings", lambda v: parts(Finding, v)),
                               ("ranking", lambda v: parts(RankedCandidate, v)),
                               ("unexplained", lambda v: parts(Unexplained, v)),
-                              ("competing", lambda v: parts(CompetingModel, v))):
+                              ("competing", lambda v: parts(CompetingModel, v)),
+                              ("info", DiagnosisInfo.of),
+                              ("episodes", lambda v: [EpisodeRecord.of(_json(e)) for e in v])):
             object.__setattr__(self, name, convert(getattr(self, name)))
 
     @property
@@ -173,7 +177,12 @@ class DiagnosisResult:
             "not_named": list(self.info.get("not_named", [])),
             "competing_models": [c.as_json() for c in self.competing],
             "notes": list(self.notes),
-            "episodes": list(self.episodes),
+            "episodes": [e.as_json() if hasattr(e, "as_json") else e for e in self.episodes],
             "info": {k: v for k, v in self.info.items()
                      if k not in ("information_criterion", "not_named")},
         }
+
+
+def _json(e):
+    """An episode as its JSON object (an :class:`cdprid.episodes.Episode` or a mapping)."""
+    return e if isinstance(e, EpisodeRecord) or not hasattr(e, "as_json") else e.as_json()
