@@ -120,8 +120,14 @@ def run(args) -> int:
         check_output(args.json, args.force, "--json", inputs=[args.robot])
     if args.starts < 1:
         raise UserError(f"--starts must be at least 1, got {args.starts}.")
+    drives = None
+    if args.source == "currents":
+        from cdprid.io import read_drives
+
+        drives = read_drives(args.robot)
     prob = ex.make_problem(robot, args.family, args.objective, model=args.model,
-                           duration=args.duration, prior=args.prior, home=args.home)
+                           duration=args.duration, prior=args.prior, home=args.home,
+                           source=args.source, drives=drives)
     init = _initial_params(args.initial, prob)
     _print_limits(prob)
     if args.gentle:
@@ -144,7 +150,10 @@ def run(args) -> int:
                           "platform -> base quaternion, scalar first; wx..wz, alx..alz: angular "
                           "velocity and acceleration in the base frame")
     i, o = res.initial, res.optimised
-    print(f"family {prob.family.name}, model {prob.model}, objective {prob.objective}")
+    print(f"family {prob.family.name}, model {prob.model}, objective {prob.objective}"
+          + (f", source currents (joint platform and drive regressor, column-scaled; drive "
+             f"{prob.reference + 1}'s constant the scale reference)"
+             if prob.source == "currents" else ""))
     print(f"{'':12s}{'cond':>10s}{'cond_scaled':>13s}{'margin N':>10s}  certified")
     for name, r in (("initial", i), ("optimised", o)):
         print(f"{name:12s}{r.cond:10.3f}{r.cond_scaled:13.3f}{r.min_tension_margin_N:10.2f}  "
@@ -189,6 +198,11 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--objective", choices=["cond", "cond_scaled", "dopt", "sigma"], default="cond",
                    help="cond: raw condition number of W_ID; dopt: -log det of the information "
                    "matrix; sigma: worst predicted relative sigma")
+    p.add_argument("--source", choices=["tensions", "currents"], default="tensions",
+                   help="what the identification will measure: tensions (load cells, default) "
+                        "or currents (motor currents and encoders: the design conditions the "
+                        "joint regressor of the platform and every drive; robot.toml's "
+                        "[[cable]] drive fields are needed)")
     p.add_argument("--model", choices=["translation", "full"], default=None,
                    help="parameter model (default translation; full for --family fourier)")
     p.add_argument("--prior", default=None,

@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.excitation._check import SafetyCertificate, certify_trajectory
+from cdprid.excitation._currents import currents_regressor
 from cdprid.excitation._objective import d_optimality, predicted_sigma, stacked_regressor
 from cdprid.excitation._problem import CERTIFICATE_SCOPE, ExcitationProblem, _objective_value
 from cdprid.model import PARAMETER_NAMES
@@ -18,8 +19,10 @@ from cdprid.model import PARAMETER_NAMES
 class DesignReport:
     """Metrics of one design (with its moves from and back to home) on the 100 Hz grid.
 
-    ``cond``/``cond_scaled`` by numpy SVD of W_ID (:func:`cdprid.core.condition_number`),
-    ``sigma`` the predicted standard deviations at ``sigma_rho`` (N per row) and ``rel_sigma``
+    ``cond``/``cond_scaled`` by numpy SVD of W_ID (:func:`cdprid.core.condition_number`; with
+    ``--source currents`` of the joint platform and drive regressor,
+    :func:`cdprid.excitation._problem.design_matrix`), ``sigma`` the predicted standard
+    deviations (of the platform's parameters) at ``sigma_rho`` (N per row) and ``rel_sigma``
     relative to the nominal parameters (None where the nominal value is 0: not meaningful);
     ``certificate`` the exact check of every limit (:mod:`cdprid.excitation._check`).
     """
@@ -82,6 +85,22 @@ def _homed_W_ID(traj, t, gravity, model: str):
     return states, stacked_regressor(states, gravity, model)
 
 
+@eqx.filter_jit
+def _homed_joint(traj, t, robot, model: str, theta, k, reference: int, tmin: float,
+                 tmax: float):
+    states = traj.states(t)
+    return states, currents_regressor(robot, states, model, theta, k, reference, tmin, tmax)
+
+
+def _homed_design(prob, traj, t):
+    """The states and the design matrix (:func:`design_matrix`) on the homed trajectory."""
+    if prob.source == "currents":
+        return _homed_joint(traj, t, prob.robot, prob.model, prob.nominal.vector(prob.model),
+                            jnp.asarray(prob.drive_k), prob.reference, prob.limits.tension_min,
+                            prob.limits.tension_max)
+    return _homed_W_ID(traj, t, prob.robot.gravity, prob.model)
+
+
 def _meaningful_rel(sig, x):
     """Relative sigmas, None where the nominal value is 0 (a percentage of 0 means nothing)."""
     scale = max(abs(float(x[0])), 1e-12)
@@ -114,13 +133,13 @@ def evaluate_design(prob: ExcitationProblem, z, rate_hz: float = 100.0,
     z = jnp.asarray(z, float)
     traj = prob.homed(z)
     t = np.arange(int(np.floor(traj.t_end * rate_hz + 1e-9)) + 1) / rate_hz
-    states, W_ID = _homed_W_ID(traj, jnp.asarray(t), prob.robot.gravity, prob.model)
+    states, W_ID = _homed_design(prob, traj, jnp.asarray(t))
     W_ID = np.asarray(W_ID)
     obj = float(_objective_value(prob, jnp.asarray(W_ID)))
     td = np.arange(int(np.floor(traj.t_end * dense_hz + 1e-9)) + 1) / dense_hz
     dense = traj.evaluate(td)
     cert = certify_trajectory(prob.robot, states, dense, prob.limits, prob.box)
-    sig = np.asarray(predicted_sigma(jnp.asarray(W_ID), prob.sigma_rho))
+    sig = np.asarray(predicted_sigma(jnp.asarray(W_ID), prob.sigma_rho))[:len(prob.names)]
     x = np.asarray(prob.nominal.vector(prob.model))
     params = {k: np.asarray(v) for k, v in prob.family.to_params(z).items()}
     return DesignReport(
@@ -169,6 +188,11 @@ class ExcitationResult:
             "family": prob.family.name,
             "model": prob.model,
             "objective": prob.objective,
+            "source": prob.source,
+            **({"regressor": "joint: platform and every drive (k without the reference's, J, "
+                             "fv, fc, c), column-scaled",
+                "reference_drive": prob.reference + 1,
+                "drive_k_nominal": list(prob.drive_k)} if prob.source == "currents" else {}),
             "limits": prob.limits.as_json(),
             "defaults_used": list(prob.limits.defaults_used) + list(
                 prob.box.description.get("defaults_used", [])),

@@ -70,12 +70,16 @@ class _ProbModule(eqx.Module):
     pairs: tuple = eqx.field(static=True)
     pulleys: bool = eqx.field(static=True)
     tension_target: float = eqx.field(static=True)
+    source: str = eqx.field(static=True)
+    drive_k: tuple = eqx.field(static=True)
+    reference: int = eqx.field(static=True)
 
 
 def _as_module(prob: ExcitationProblem) -> _ProbModule:
     return _ProbModule(prob.robot, prob.family, prob.nominal, prob.model, prob.objective,
                        prob.limits, _HashableBox(prob.box), prob.sigma_rho, prob.fractions,
-                       prob.penalty, prob.pairs, prob.pulleys, prob.tension_target)
+                       prob.penalty, prob.pairs, prob.pulleys, prob.tension_target,
+                       prob.source, prob.drive_k, prob.reference)
 
 
 class _HashableBox:

@@ -12,6 +12,7 @@ import numpy as np
 from cdprid.base import InputError, UserError
 from cdprid.core import regressors, wrench_matrices
 from cdprid.excitation._constraints import _constraint_margins, robust_tension_margin_smooth
+from cdprid.excitation._currents import currents_regressor
 from cdprid.excitation._families import (
     FAMILIES,
     HomedTrajectory,
@@ -86,6 +87,13 @@ class ExcitationProblem:
     sigma_rho: float = 1.0
     fractions: Fractions = Fractions()
     penalty: float = 30.0
+    #: what the identification will measure: ``tensions`` (load cells) or ``currents`` (the
+    #: joint platform and drive regressor, :mod:`cdprid.excitation._currents`)
+    source: str = "tensions"
+    #: ``currents``: the drives' nominal current-to-force constants (N/A)
+    drive_k: tuple = ()
+    #: ``currents``: the drive whose constant is the scale reference (0-based)
+    reference: int = 0
 
     @property
     def nominal(self) -> InertialParameters:
@@ -196,7 +204,8 @@ def parse_home(text: str | None, limits: SafetyLimits) -> np.ndarray:
 
 def make_problem(robot: CableRobot, family: str = "orbit", objective: str = "cond",
                  model: str | None = None, duration: float | None = None,
-                 prior: str | None = None, home: str | None = None, **kw) -> ExcitationProblem:
+                 prior: str | None = None, home: str | None = None, source: str = "tensions",
+                 drives=None, **kw) -> ExcitationProblem:
     """An :class:`ExcitationProblem` for a robot.
 
     Limits from robot.toml with stated defaults (:func:`cdprid.excitation.safety_limits`);
@@ -215,6 +224,13 @@ def make_problem(robot: CableRobot, family: str = "orbit", objective: str = "con
         A ``cdprid identify --json`` output giving the uncertainty box.
     home : str, optional
         ``"x,y,z"`` in m (default: the workspace centre).
+    source : {"tensions", "currents"}
+        What the identification will measure; ``currents`` designs for the joint regressor of
+        the platform and every drive (its column-scaled conditioning: ``cond`` and
+        ``cond_scaled`` are the same objective there; ``dopt`` and ``sigma`` are refused).
+    drives : cdprid.io.DriveData, optional
+        The drives' nominal data (robot.toml's ``[[cable]]`` drive fields), needed by
+        ``currents``; the reference is the drive marked ``drive_reference``, else drive 1.
     **kw
         Fields of :class:`ExcitationProblem` (``tension_target``, ``rate_opt_hz``, ...).
 
@@ -231,6 +247,18 @@ def make_problem(robot: CableRobot, family: str = "orbit", objective: str = "con
     """
     if objective not in OBJECTIVES:
         raise InputError(f"unknown objective {objective!r}; use one of {', '.join(OBJECTIVES)}.")
+    if source not in ("tensions", "currents"):
+        raise InputError(f"--source: unknown source {source!r}; use tensions or currents.")
+    if source == "currents":
+        if objective not in ("cond", "cond_scaled"):
+            raise InputError(f"--objective {objective}: with --source currents the objective is "
+                             "the joint regressor's column-scaled conditioning (cond).")
+        if drives is None or drives.n != robot.n_cables:
+            raise InputError("--source currents needs the drive fields drum_radius, gear_ratio "
+                             "and torque_constant on every [[cable]] of robot.toml.")
+        ref = int(np.flatnonzero(drives.reference)[0]) if drives.reference.any() else 0
+        kw.update(source="currents", reference=ref,
+                  drive_k=tuple(float(v) for v in drives.k_nominal))
     if family not in FAMILIES:
         raise InputError(f"unknown excitation family {family!r}; use one of {', '.join(FAMILIES)}.")
     model = model or ("full" if family == "fourier" else "translation")
@@ -264,8 +292,32 @@ def _tension_target(robot, limits, box, family, kw) -> float:
     return float(min(fr.tension_N, 0.1 * (limits.tension_max - limits.tension_min), 0.5 * rest))
 
 
+def design_matrix(prob, states):
+    """The regressor the objective conditions: the platform's stacked W_ID (eq. 11) for
+    tensions, the joint platform and drive regressor for currents
+    (:func:`cdprid.excitation._currents.currents_regressor`).
+
+    Parameters
+    ----------
+    prob : ExcitationProblem
+    states : TrajectoryState
+
+    Returns
+    -------
+    array (6 n, columns)
+    """
+    if prob.source == "currents":
+        return currents_regressor(prob.robot, states, prob.model,
+                                  prob.nominal.vector(prob.model), jnp.asarray(prob.drive_k),
+                                  prob.reference, prob.limits.tension_min,
+                                  prob.limits.tension_max)
+    return stacked_regressor(states, prob.robot.gravity, prob.model)
+
+
 def _objective_value(prob, W_ID):
     M = W_ID.T @ W_ID
+    if prob.source == "currents":  # columns in N/A, kg, N s/m and N: scaled
+        return soft_log_cond(_scale_columns(M))
     if prob.objective == "cond":
         return soft_log_cond(M)
     if prob.objective == "cond_scaled":
@@ -289,7 +341,7 @@ def _penalised(z, prob, t, t_fine=None):
         states = jax.tree_util.tree_map(lambda x: x[::k], fine)
     else:
         states = prob.family.states(z, t)
-    W_ID = stacked_regressor(states, prob.robot.gravity, prob.model)
+    W_ID = design_matrix(prob, states)
     f = _objective_value(prob, W_ID)
     pen = sum(jnp.sum(jax.nn.relu(-c) ** 2) for c in _constraint_margins(prob, states, fine))
     return f + prob.penalty * pen, (f, pen)

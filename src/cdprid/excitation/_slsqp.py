@@ -9,9 +9,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from cdprid.excitation._constraints import _constraint_margins, _softmin
-from cdprid.excitation._objective import stacked_regressor
 from cdprid.excitation._optimise import _as_module, initial_design
-from cdprid.excitation._problem import ExcitationProblem, _objective_value
+from cdprid.excitation._problem import ExcitationProblem, _objective_value, design_matrix
 
 
 def slsqp_baseline(prob: ExcitationProblem, z0=None, maxiter: int = 200,
@@ -49,7 +48,7 @@ def slsqp_baseline(prob: ExcitationProblem, z0=None, maxiter: int = 200,
     @jax.jit
     def both(z):
         states = probm.family.states(z, t)
-        W_ID = stacked_regressor(states, probm.robot.gravity, probm.model)
+        W_ID = design_matrix(probm, states)
         cons = jnp.array([_softmin(c.ravel(), softness)
                           for c in _constraint_margins(probm, states)])
         return _objective_value(probm, W_ID), cons

@@ -16,6 +16,7 @@ from cdprid.io._dataset import dataset_inputs as dataset_inputs
 from cdprid.io._dataset import read_csv_stream as read_csv_stream
 from cdprid.io._dataset import read_dataset as read_dataset
 from cdprid.io._drives import DriveData as DriveData
+from cdprid.io._drives import drive_table as drive_table
 from cdprid.io._drives import read_drives as read_drives
 from cdprid.io._drives import read_stream as read_stream
 from cdprid.io._mat import write_mat as write_mat
