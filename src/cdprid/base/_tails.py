@@ -210,14 +210,15 @@ def _chi2_isf_int(q: float, k: int) -> float:
     lo, hi = 0.0, math.inf
     lg = math.lgamma(0.5 * k)
     for _ in range(200):
-        f = _chi2_logsf_int(x, k) - target
+        logsf = _chi2_logsf_int(x, k)
+        f = logsf - target
         if f > 0:
             lo = x
         else:
             hi = x
         # d/dx log sf = -pdf / sf, pdf = x^(k/2-1) exp(-x/2) / (2^(k/2) Gamma(k/2))
         log_pdf = (0.5 * k - 1.0) * math.log(x) - 0.5 * x - 0.5 * k * math.log(2.0) - lg
-        rate = math.exp(log_pdf - _chi2_logsf_int(x, k))
+        rate = math.exp(log_pdf - logsf)
         new = x + f / rate if rate > 0 and math.isfinite(rate) else -1.0
         if not lo < new < hi:
             new = 0.5 * (lo + hi) if math.isfinite(hi) else 2.0 * x + 1.0

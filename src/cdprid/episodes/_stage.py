@@ -33,7 +33,6 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import jax
 import numpy as np
 
 from cdprid.base import (
@@ -41,16 +40,15 @@ from cdprid.base import (
     TAUT_THRESHOLD_N,
     TRIM_S,
     InputError,
-    cached_executable,
     chi2_sf,
 )
 from cdprid.core import (
     ROTATION_WARN_DEG,
     estimate_motion,
-    regressors,
+    regressor_blocks,
     rotation_angle_deg,
     segment_mask,
-    wrench_matrices,
+    wrench_matrix_series,
 )
 from cdprid.effects import EXTERNAL_WRENCH
 from cdprid.episodes._energy import (
@@ -284,21 +282,16 @@ def _filtered(x, sig, cutoff_hz):
     return out
 
 
-_wrench_jit = cached_executable(jax.jit(wrench_matrices), name="episodes.wrench_matrices")
-_regressors_jit = cached_executable(jax.jit(regressors, static_argnums=0),
-                                   name="episodes.regressors", static_argnums=(0,))
-
-
 def _data(robot, sig, cutoff_hz):
     """Filtered measured wrench (n, 6), regressor with offset columns (n, 6, p + m), model."""
     rot = sig.has_rotation and rotation_angle_deg(sig.quaternion) > ROTATION_WARN_DEG
     model = "full" if rot else "translation"
     mo = estimate_motion(sig, "euler-filtfilt", {"cutoff_hz": cutoff_hz}, angular=rot)
-    W = np.asarray(_wrench_jit(robot, mo.position, mo.B_R_P))
+    W = wrench_matrix_series(robot, np.asarray(mo.position), np.asarray(mo.B_R_P))
     Wf = _filtered(W, sig, cutoff_hz)
     y = _filtered(np.einsum("nim,nm->ni", W, sig.tension), sig, cutoff_hz)
-    A = np.asarray(_regressors_jit(
-        model, mo.B_R_P, mo.acceleration, mo.omega, mo.alpha, np.asarray(robot.gravity)))
+    A = regressor_blocks(model, *(np.asarray(x) for x in (
+        mo.B_R_P, mo.acceleration, mo.omega, mo.alpha)), np.asarray(robot.gravity))(0, len(W))
     twist = np.concatenate([np.asarray(mo.velocity), np.asarray(mo.omega)], axis=1)
     c = cells(W, twist, sig.tension, float(sig.dt), sig.segments,
               lambda x: _filtered(x, sig, cutoff_hz), np.asarray(sig.t, float),
