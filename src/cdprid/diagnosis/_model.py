@@ -136,6 +136,10 @@ class DiagData(eqx.Module):
     #: the tension stream through the core's zero-phase low-pass (:data:`cdprid.core.SMOOTH_HZ`)
     #: that the forward model interpolates; ``None``: the raw stream
     tau_smooth: jnp.ndarray | None = None
+    #: the ``load_cell_hysteresis`` form's regressor on the tension grid, (k, m)
+    #: (:func:`cdprid.effects.reversal_regressor` of ``tau_grid``, computed once with the
+    #: data); ``None``: computed by the form at each evaluation
+    hyst_h: jnp.ndarray | None = None
 
     @property
     def stream(self) -> TensionStream:

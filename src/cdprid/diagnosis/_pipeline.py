@@ -26,6 +26,7 @@ from cdprid.core import refuse_implausible, rest_mask
 from cdprid.diagnosis._base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from cdprid.diagnosis._budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis._candidates import alias_label, candidate_list
+from cdprid.diagnosis._hysteresis import refine_hysteresis
 from cdprid.diagnosis._clock import INTERVAL_CAVEAT, clock_check, clock_interval, clock_stage
 from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._context import DiagnosisContext
@@ -252,7 +253,7 @@ def diagnose(
         ds, train_until, cutoff_hz=cutoff_hz, trim=trim, n_folds=n_folds, taut_N=taut_N,
         max_samples=max_samples, say=say, keep_episodes=keep_episodes)
     prob, base, noise, ctx, candidates = _base_stage(prob, notes, say)
-    s, (other, second), clock, ranking, thr_first = _search(
+    prob, s, (other, second), clock, ranking, thr_first = _search(
         prob, base, noise, ctx, candidates, cfg, say)
     s, hints, withdrawn, clock, regeo = _checks(
         prob, base, s, candidates, feats := _structure(prob), cfg, thr_first=thr_first,
@@ -442,10 +443,13 @@ def _search(prob, base, noise, ctx: DiagnosisContext, candidates, cfg: Search, s
         if nxt is None:
             break
         s = clock_check(prob, nxt, candidates, thr_first, min_gain, ctx, say, f"step {step}")
+        prob, s = refine_hysteresis(prob, s, ctx, say, done=prob.hysteresis_refined)
     s = swap_stage(prob, s, candidates, min_gain, ctx, say)
     s, other, second = _second_start(prob, base, s0, s, candidates, cfg, thr=thr_first,
                                      ctx=ctx, say=say)
-    return s, (other, second), clock_info, ranking, thr_first
+    prob, s = refine_hysteresis(prob, s, ctx, say, done=prob.hysteresis_refined)
+    return prob, s, (other, second), clock_info, ranking, thr_first
+
 
 
 def _second_start(prob, base, s0, s, candidates, cfg: Search, *, thr, ctx: DiagnosisContext,

@@ -29,6 +29,7 @@ from cdprid.core import (
     tension_at,
     wrench_matrices,
 )
+from cdprid.effects import hysteresis_regressor
 from cdprid.diagnosis._model import (
     DiagData,
     ThetaLayout,
@@ -81,6 +82,10 @@ class Problem:
     #: the core's motion estimate (:func:`cdprid.core.estimate_motion`): its differentiator
     #: and settings serve every later derivative (the null replicates)
     motion: Motion | None = dataclasses.field(default=None, compare=False, repr=False)
+    #: cables whose ``load_cell_hysteresis`` regressor in ``d.hyst_h`` comes from the model's
+    #: force on the cell (:func:`cdprid.diagnosis._hysteresis.refine_hysteresis`), not the
+    #: reading alone
+    hysteresis_refined: tuple = ()
     #: linearisations already computed (see :func:`design`); not part of the problem's value
     cache: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
@@ -152,7 +157,8 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     d = DiagData(robot, jnp.asarray(sig.t), jnp.asarray(sig.position), jnp.asarray(R),
                  jnp.asarray(v), jnp.asarray(a), jnp.asarray(om), jnp.asarray(al),
                  stream.values, jnp.asarray(ldot), jnp.asarray(clk), stream.t0, tdt,
-                 jnp.asarray(slide), smoothed_stream(stream).values)
+                 jnp.asarray(slide), smoothed_stream(stream).values,
+                 hysteresis_regressor(stream.values, tdt))
     margin = max(trim, 0.1)
     use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
            & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))

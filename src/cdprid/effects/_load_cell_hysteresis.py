@@ -30,8 +30,8 @@ from cdprid.base import InputError
 from cdprid.effects._form import DiagnosisForm
 from cdprid.effects._spec import EffectSpec, Parameter, Place
 
-__all__ = ["SPEC", "read", "play_operator", "reversal_regressor", "SMOOTH_S",
-           "THRESHOLD_SIGMA"]
+__all__ = ["SPEC", "read", "play_operator", "reversal_regressor", "hysteresis_regressor",
+           "SMOOTH_S", "THRESHOLD_SIGMA"]
 
 _DOC = """``load_cell_hysteresis {cable, width_N}``
     The load cell of cable ``cable`` is hysteretic (friction in its flexure or its mount,
@@ -43,17 +43,23 @@ _DOC = """``load_cell_hysteresis {cable, width_N}``
     much, and after each reversal the reading stays flat until the tension has moved by w.
     The recurrence is exact when the tension is monotone between two samples. ``width_N``
     >= 0; 0 is no hysteresis. The diagnosis's form: the tension behind the reading is
-    ``y + w h``, h in [-1/2, 1/2] from the reading's own direction (``+1/2`` rising,
-    ``-1/2`` falling) and, across each flat stretch that separates a rise and a fall,
-    ``d (1/2 - tau^2)`` (tau the time across the stretch, d the direction before it: the
-    parabola of the tension at its reversal)."""
+    ``y + w h``, h in [-1/2, 1/2]. To find a hysteretic cell, h comes from the reading alone:
+    ``+1/2`` where it rises, ``-1/2`` where it falls (two plays of a few noise stds, along
+    time and against it, tell the direction of its last and next move whatever the rate)
+    and, across each flat stretch that separates a rise and a fall, ``d (1/2 - tau^2)`` (tau
+    the time across the stretch, d the direction before it: the parabola of the tension at
+    its reversal). Once the cell is in the model, h is the play of the current width on the
+    force the rest of the model says the cell felt (the reading plus the model's residual
+    projected on the cable), which holds the reversals inside the band that never move the
+    reading; three passes. The width's interval adds a 7 % form error to the fit's."""
 
-#: time scale of the smoothed tension rate of :func:`reversal_regressor`, s (half the span of
-#: its triangular derivative kernel)
-SMOOTH_S = 0.06
+#: half the span of the moving average that :func:`reversal_regressor` applies to the reading
+#: before it looks for the reading's moves, s
+SMOOTH_S = 0.05
 
-#: the reading moves when its smoothed rate exceeds this many noise standard deviations
-THRESHOLD_SIGMA = 6.0
+#: the width of :func:`reversal_regressor`'s direction plays, in noise standard deviations of
+#: the averaged reading (a move is a change larger than this)
+THRESHOLD_SIGMA = 4.0
 
 
 @jax.jit
@@ -111,59 +117,76 @@ def read(reading: np.ndarray, params: dict, ctx: dict) -> np.ndarray:
     return out
 
 
-def _smoothed_rate(z, dt: float, span: int):
-    """Rate of ``z`` (k, m): difference of the means over ``span`` samples after and before
-    each sample, divided by their distance (a triangular derivative kernel; edges extended)."""
+def _mad_std(d, count: int):
+    """Std of white noise from its ``count``-term differences ``d`` (variance ``count``
+    sigma^2 per difference for third differences: 20), by the mean absolute deviation (a
+    median sorts the whole stream: 30 times slower inside the diagnosis's model)."""
+    return (math.sqrt(math.pi / 2.0) * jnp.mean(jnp.abs(d - jnp.mean(d, 0)), 0)
+            / math.sqrt(count))
+
+
+def _moving_average(z, span: int):
+    """Centred mean of ``z`` (k, m) over ``2 span + 1`` samples (edges extended)."""
     zp = jnp.concatenate([jnp.repeat(z[:1], span, 0), z, jnp.repeat(z[-1:], span, 0)], 0)
     S = jnp.concatenate([jnp.zeros_like(z[:1]), jnp.cumsum(zp, axis=0)], axis=0)
     k = z.shape[0]
-    i = jnp.arange(k) + span  # index of sample j in zp
-    after = S[i + span + 1] - S[i + 1]
-    before = S[i + 1] - S[i + 1 - span]
-    return (after - before) / (span * span * dt)
+    return (S[2 * span + 1:2 * span + 1 + k] - S[:k]) / (2 * span + 1)
+
+
+def _play_direction(z, half, reverse: bool):
+    """Direction of the last move (+1 up, -1 down, 0 none yet) of the play of half-width
+    ``half`` (m,) driven by ``z`` (k, m), along time or (``reverse``) against it."""
+    def step(carry, zk):
+        y, d = carry
+        yn = jnp.minimum(jnp.maximum(y, zk - half), zk + half)
+        d = jnp.where(yn > y, 1.0, jnp.where(yn < y, -1.0, d))
+        return (yn, d), d
+
+    z0 = z[-1] if reverse else z[0]
+    _, ds = jax.lax.scan(step, (z0, jnp.zeros_like(z0)), z, reverse=reverse)
+    return ds
 
 
 def reversal_regressor(z, dt: float, smooth_s: float = SMOOTH_S,
-                       threshold_sigma: float = THRESHOLD_SIGMA, erode: bool = True):
+                       threshold_sigma: float = THRESHOLD_SIGMA):
     """The hysteresis regressor h of load-cell readings (JAX): the tension is ``z + w h``.
 
-    Each sample is *moving* (up or down) when the reading's smoothed rate exceeds
-    ``threshold_sigma`` times its noise std (from the readings' white-noise level: third
-    differences, by their mean absolute deviation), else *still*; with ``erode`` (the
-    default) only where the rates one kernel half-span before and after it agree in
-    direction too. Moving samples get
-    ``h = +-1/2``; a still run between a rise and a fall (a reversal, the flat stretch of the
-    play) gets ``d (1/2 - tau^2)``, tau in [0, 1] across the run and d the direction before
-    it; a still run between two moves the same way, or at an end of the recording, keeps
-    that direction's ``+-1/2``; no move at all gives 0.
+    The reading is averaged over ``2 smooth_s``; two play operators of width delta
+    (``threshold_sigma`` times the averaged reading's noise std) run over it, one along time
+    and one against it: the first gives at each sample the direction of the reading's last
+    move larger than delta, the second the direction of its next one. Where they agree the
+    reading moves (or pauses between two moves the same way) and ``h = +-1/2``; a run where
+    they differ holds a reversal, the flat stretch of the play, and gets ``d (1/2 - tau^2)``
+    (tau in [0, 1] across the run, d the direction before it: the parabola of the tension at
+    its reversal); before the first move and after the last h takes the one known direction.
 
-    Why the erosion and the 60 ms kernel (issue 37; the width's least-squares regression on
-    the readings of the independent test simulator, its play a plain loop: the ratio of the
-    estimated to the true width). The rate's kernel smears each move by up to its half-span
-    into the flat stretch that follows it, so the flat stretches came out short and ``h``
-    too large: on noise-free readings of floor8 (seeds 0, 2, 4) the 40 ms kernel alone read
-    0.93-0.96. The AR(1) part of the noise (pole 0.95-0.98 per sample, in the kernel's
-    band) is not in the white-noise threshold and breaks flat stretches into spurious moves:
-    the noisy readings read 0.90, 0.93, 0.94 (floor8 seeds 0, 2, 4), 0.74-0.83 at 1000 Hz.
-    Requiring the rates a half-span on either side to agree removes both the smear (the
-    kernel on one side lies wholly in the flat stretch) and most isolated spurious moves;
-    with a 60 ms half-span the same readings read 0.98, 1.00, 0.97 (closer to 1 on 19 of 21
-    floor8 recordings, within 2 % on the other two; worst 0.63 where it was 0.42). What
-    remains is the form's: it sees the reading only, so a reversal of the force inside the
-    band (a minor loop that never moves the reading) and a friction step on the same
-    pulley smaller than the width leave no trace in it, and the width reads low (0.74-0.86
-    on noise-free readings of a floor8 cell with a 4-5 N band and no friction; on the slow
-    4-cable test robot, whose tension rates are near the threshold, 0.2-0.7 before and
-    after). The cure is a form that runs the play on the model's force on the cell, not on
-    the reading.
+    Why direction plays, not the sign of a smoothed rate (issue 37, session 11). The reading
+    of a hysteretic cell is flat after each reversal until the tension has moved by the
+    width, so what the form needs is where the reading moves, up or down, and where it does
+    not. The previous detector thresholded a 60 ms derivative at six times its noise: on
+    robots whose tensions are sampled at 100 Hz with 0.7 N of noise and change by 4-10 N/s
+    (median; the 4-, 6- and CRAFT-like 8-cable robots of ``benchmarks/diagnosis.py``) no
+    sample passed and the form was zero (the least-squares width of noisy readings against
+    the true force on the cell: 0.0 of the truth on the 4- and 8-cable robots, 0.1 on the
+    6-cable one), and the diagnosis named cable mass, anchor errors or gains instead. A play
+    detects a change in level whatever its rate: the same readings read 0.5-0.9 (4-cable),
+    0.8-1.0 (6-cable), 0.5-0.9 (8-cable), the wider bands lowest, and 0.94-1.01 on the
+    floor-winch robot's 500-800 Hz readings with AR(1) noise (0.92-0.97 before). The noise
+    std of the averaged reading is the larger of the white level (third differences of the
+    raw reading over the averaging count) and the third differences of the averaged reading
+    taken a full span apart (which see the AR(1) part's low frequencies).
+
+    What remains is the form's: it sees the reading only, so a reversal of the force inside
+    the band (a minor loop that never moves the reading) leaves no trace in it and the width
+    reads low where the tension reverses often by less than the width (the wide bands of the
+    slow robots above). The widths the diagnosis reports carry this in their notes.
 
     Parameters
     ----------
     z : (k, m) readings on a uniform grid, N
     dt : float, the grid's step, s (static)
-    smooth_s : float, half the span of the rate's kernel, s
-    threshold_sigma : float
-    erode : bool, moving only where the rates a half-span on either side agree (static)
+    smooth_s : float, half the span of the moving average, s (static)
+    threshold_sigma : float, the direction plays' width in noise stds of the averaged reading
 
     Returns
     -------
@@ -171,38 +194,66 @@ def reversal_regressor(z, dt: float, smooth_s: float = SMOOTH_S,
     """
     k = z.shape[0]
     span = max(1, int(round(smooth_s / dt)))
-    rate = _smoothed_rate(z, dt, span)
-    d3 = jnp.diff(z, 3, axis=0)
-    # white-noise std from third differences (var 20 sigma^2), by the mean absolute deviation
-    # (a median sorts the whole stream: 30 times slower inside the diagnosis's model)
-    sigma = (math.sqrt(math.pi / 2.0) * jnp.mean(jnp.abs(d3 - jnp.mean(d3, 0)), 0)
-             / math.sqrt(20.0))
-    rate_std = sigma * math.sqrt(2.0 / span) / (span * dt)
-    thr = threshold_sigma * jnp.maximum(rate_std, 1e-12)
-    move = jnp.where(jnp.abs(rate) > thr, jnp.sign(rate), 0.0)
-    if erode:  # moving only where the rates a span before and a span after agree
-        before = move[jnp.clip(jnp.arange(k) - span, 0, k - 1)]
-        after = move[jnp.clip(jnp.arange(k) + span, 0, k - 1)]
-        move = jnp.where(before == after, before, 0.0)
+    n_avg = 2 * span + 1
+    za = _moving_average(z, span)
+    white = _mad_std(jnp.diff(z, 3, axis=0), 20.0) / math.sqrt(n_avg)
+    if k >= 4 * n_avg:
+        coarse = _mad_std(jnp.diff(za[::n_avg], 3, axis=0), 20.0)
+        sigma = jnp.maximum(white, coarse)
+    else:
+        sigma = white
+    half = 0.5 * threshold_sigma * jnp.maximum(sigma, 1e-12)
+    d_prev = _play_direction(za, half, reverse=False)
+    # against time, a move up is a fall of the reading ahead: the next move's direction
+    d_next = -_play_direction(za, half, reverse=True)
     idx = jnp.broadcast_to(jnp.arange(k)[:, None], z.shape)
-    # running max / min by associative scans (O(k log k); lax.cummax lowers to a window of k)
-    last = jax.lax.associative_scan(jnp.maximum, jnp.where(move != 0, idx, -1), axis=0)
-    nxt = jax.lax.associative_scan(jnp.minimum, jnp.where(move != 0, idx, k), axis=0,
-                                   reverse=True)
-    d_prev = jnp.where(last >= 0, jnp.take_along_axis(move, jnp.clip(last, 0, k - 1), 0), 0.0)
-    d_next = jnp.where(nxt < k, jnp.take_along_axis(move, jnp.clip(nxt, 0, k - 1), 0), 0.0)
-    tau = (idx - last) / jnp.maximum(nxt - last, 1)
-    flat = d_prev * (0.5 - tau * tau)
-    still = jnp.where((d_prev != 0) & (d_next != 0) & (d_prev != d_next), flat,
-                      0.5 * jnp.where(d_prev != 0, d_prev, d_next))
-    return jnp.where(move != 0, 0.5 * move, still)
+    turn = (d_prev != 0) & (d_next != 0) & (d_prev != d_next)
+    # the run of turning samples around each one (running max / min by associative scans)
+    last = jax.lax.associative_scan(jnp.maximum, jnp.where(turn, -1, idx), axis=0)
+    nxt = jax.lax.associative_scan(jnp.minimum, jnp.where(turn, k, idx), axis=0, reverse=True)
+    tau = (idx - last - 0.5) / jnp.maximum(nxt - last - 1, 1)
+    agree = 0.5 * jnp.where(d_prev != 0, d_prev, d_next)
+    return jnp.where(turn, d_prev * (0.5 - tau * tau), agree)
+
+
+#: the form's own relative error of the width (one standard deviation), added in quadrature to
+#: the fit's in the reported interval: the flat stretches and minor loops of the regressor are
+#: estimated from noisy data (the model's force on the cell,
+#: :mod:`cdprid.diagnosis._hysteresis`). Measured over the 4-, 6- and 8-cable robots of
+#: ``benchmarks/diagnosis.py`` (widths 0.5-4 N, session 11): named widths 0.84-1.05 of the
+#: truth, mean 0.96, spread 0.05, while the fit's own 95 % intervals held the truth in 9 of 15
+FORM_REL_STD = 0.07
+
+
+def _interval(lo, hi, extra) -> dict:
+    """The width's 95 % interval: the fit's widened by :data:`FORM_REL_STD` of the width."""
+    c, hw = 0.5 * (float(lo[0]) + float(hi[0])), 0.5 * (float(hi[0]) - float(lo[0]))
+    hw = math.hypot(hw, 1.959963984540054 * FORM_REL_STD * abs(c))
+    return {"width_N": [c - hw, c + hw]}
+
+
+_REGRESSOR_JIT = jax.jit(reversal_regressor, static_argnums=(1, 2))
+
+
+def hysteresis_regressor(z, dt: float):
+    """:func:`reversal_regressor` of a whole tension stream ``z`` (k, m) on its uniform grid of
+    step ``dt`` (s), compiled (once per stream shape and step) and evaluated once: what the
+    diagnosis keeps with its data so that its models do not run the two plays' scans at every
+    evaluation.
+
+    Returns
+    -------
+    jax.Array (k, m) in [-1/2, 1/2]
+    """
+    return _REGRESSOR_JIT(jnp.asarray(z), float(dt))
 
 
 def _hysteresis_model(y, d, q):
     """Model side (diagnosis): ``W y_reading = Y x - sum_i W_i w_i h_i`` (x = y + w h)."""
     from cdprid.model import wrench_matrix
 
-    H = reversal_regressor(d.tau_grid, d.tau_dt)  # (k, m) on the tension grid
+    # (k, m) on the tension grid: computed once with the data (a scan over the stream)
+    H = reversal_regressor(d.tau_grid, d.tau_dt) if d.hyst_h is None else d.hyst_h
     k = H.shape[0]
     u = jnp.clip((d.t + q.get("delay", 0.0) - d.tau_t0) / d.tau_dt, 0.0, k - 1.0)
     i = jnp.clip(jnp.floor(u).astype(int), 0, k - 2)
@@ -219,6 +270,7 @@ SPEC = EffectSpec(
     diagnosis=DiagnosisForm(
         blocks=(("hysteresis", 1),), per_cable=True, group=1, keys=("width_N",),
         model=_hysteresis_model, bounds={"width_N": 100.0}, nonneg=("width_N",),
+        interval=_interval,
         separated_by={
             "time_delay": "a trajectory with reversals at several tension rates (a clock "
                           "offset grows with the rate, the play's step does not; only this "
