@@ -30,6 +30,7 @@ import numpy as np
 
 from cdprid.diagnosis._model import model_jit
 from cdprid.diagnosis._problem import Problem, measured
+from cdprid.diagnosis._profile import clock_index
 from cdprid.diagnosis._selection import Selection, refit, with_vocabulary
 from cdprid.effects import SMOOTH_S, play_operator
 
@@ -87,8 +88,10 @@ def refine_hysteresis(prob: Problem, s: Selection, extra, say=None, passes: int 
     """The model's hysteretic cells with their regressor from the model's force on the cell.
 
     For every ``load_cell_hysteresis`` finding of ``s``, :data:`PASSES` times: the regressor
-    of that cable from :func:`model_regressor`, then the selection refitted. The other
-    cables keep the reading-only form (the candidates the later stages try).
+    of that cable from :func:`model_regressor`, then the selection refitted (the clock offset,
+    when in the model, held but in the last pass, where it is profiled jointly as in every
+    refit). The other cables keep the reading-only form (the candidates the later stages
+    try).
 
     Parameters
     ----------
@@ -112,7 +115,8 @@ def refine_hysteresis(prob: Problem, s: Selection, extra, say=None, passes: int 
     cables = [c.cable for c in s.accepted if c.effect == EFFECT]
     if not cables or set(cables) <= set(done):
         return prob, s
-    for _ in range(passes):
+    di = clock_index(prob)
+    for k in range(passes):
         H = np.array(prob.d.hyst_h)
         changed = False
         for cable in cables:
@@ -124,7 +128,13 @@ def refine_hysteresis(prob: Problem, s: Selection, extra, say=None, passes: int 
             break
         d = eqx.tree_at(lambda dd: dd.hyst_h, prob.d, jnp.asarray(H))
         prob = dataclasses.replace(prob, d=d, cache={}, hysteresis_refined=tuple(cables))
-        s = with_vocabulary(prob, refit(prob, s), extra)
+        if k < passes - 1 and di is not None and di in s.active_idx:
+            # the clock offset held between passes (its joint profile is most of a refit's
+            # time), profiled again with everything else in the last pass
+            held = refit(prob, s, active_idx=tuple(i for i in s.active_idx if i != di))
+            s = dataclasses.replace(held, active_idx=s.active_idx)
+        else:
+            s = with_vocabulary(prob, refit(prob, s), extra)
     if say is not None:
         say("hysteresis: the regressor of cable(s) " + ", ".join(str(c) for c in cables)
             + " from the model's force on the cell")
