@@ -65,3 +65,25 @@ def test_model_force_regressor_reads_the_width(slow_four):
     # no width, no regressor
     theta[j] = 0.0
     assert model_regressor(prob, s, 1) is None
+
+
+def test_tension_rate_feature_is_the_sign_of_each_cells_rate(slow_four):
+    """The ``unexplained`` stage's signal: ``W_i sign(dtau_i/dt)``, its sign where the force
+    on the cell clearly moves agreeing with central differences of the noise-free force (but
+    on the hysteretic cable 1, whose reading stays flat after each reversal)."""
+    from cdprid.diagnosis._hysteresis import tension_rate_feature
+
+    rec, prob = slow_four
+    lay = prob.layout
+    s = Selection(np.zeros(lay.size), np.zeros(10), False, (), (), (),
+                  np.zeros((lay.size, lay.size)))
+    F = tension_rate_feature(prob, s)
+    assert F.shape == prob.W_all.shape
+    sgn = F[:, :3, :] / np.where(prob.W_all[:, :3, :] == 0, 1, prob.W_all[:, :3, :])
+    assert np.all(np.isin(np.round(sgn, 12), (-1.0, 0.0, 1.0)))
+    x = rec.cell_force[:, 1:]  # noise-free, the cables without a play
+    rate = np.gradient(x, rec.tension_t, axis=0)
+    k = np.clip(np.searchsorted(rec.tension_t, prob.t), 0, len(rec.tension_t) - 1)
+    clear = np.abs(rate[k]) > 3.0  # N/s
+    agree = np.sign(rate[k])[clear] == np.sign(sgn[:, 2, 1:])[clear]
+    assert clear.sum() > 1000 and agree.mean() > 0.95

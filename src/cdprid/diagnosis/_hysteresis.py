@@ -32,13 +32,16 @@ from cdprid.diagnosis._model import model_jit
 from cdprid.diagnosis._problem import Problem, measured
 from cdprid.diagnosis._profile import clock_index
 from cdprid.diagnosis._selection import Selection, refit, with_vocabulary
-from cdprid.effects import SMOOTH_S, play_operator
+from cdprid.effects import SMOOTH_S, hysteresis_regressor, play_operator
 
 #: the effect whose regressor this module refines
 EFFECT = "load_cell_hysteresis"
 
 #: passes of (regressor from the model's force on the cell, refit)
 PASSES = 3
+
+#: the ``unexplained`` stage's structure signal of a direction-dependent load cell
+TENSION_RATE_SIGNAL = "sign of tension rate"
 
 
 def _moving_average(z: np.ndarray, span: int) -> np.ndarray:
@@ -139,3 +142,18 @@ def refine_hysteresis(prob: Problem, s: Selection, extra, say=None, passes: int 
         say("hysteresis: the regressor of cable(s) " + ", ".join(str(c) for c in cables)
             + " from the model's force on the cell")
     return prob, s
+
+
+def tension_rate_feature(prob: Problem, s: Selection) -> np.ndarray:
+    """``W_i sign(dtau_i/dt)`` per cable ``(n, 6, m)``: a force along each cable that flips
+    with the direction of its tension (the reading a hysteretic cell or any cell that lags
+    its force would leave). The direction is that of the reading's last or next move found by
+    :func:`cdprid.effects.reversal_regressor` (the reading-only form; the sign of a
+    differentiated stream is noise where the tension changes by a few N/s), at the pose times
+    shifted by the model's clock offset. The ``unexplained`` stage tests it like its other
+    structure signals (:data:`TENSION_RATE_SIGNAL`)."""
+    delay = float(np.asarray(prob.layout.unpack(jnp.asarray(s.theta))["delay"]))
+    H = np.asarray(hysteresis_regressor(prob.d.tau_grid, prob.tdt))
+    tg = prob.d.tau_t0 + prob.tdt * np.arange(H.shape[0])
+    h = np.stack([np.interp(prob.t + delay, tg, H[:, i]) for i in range(H.shape[1])], axis=1)
+    return prob.W_all * np.sign(h)[:, None, :]

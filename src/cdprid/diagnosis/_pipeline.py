@@ -26,10 +26,14 @@ from cdprid.core import refuse_implausible, rest_mask
 from cdprid.diagnosis._base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from cdprid.diagnosis._budget import MAX_SAMPLES, joined_time, subset
 from cdprid.diagnosis._candidates import alias_label, candidate_list
-from cdprid.diagnosis._hysteresis import refine_hysteresis
 from cdprid.diagnosis._clock import INTERVAL_CAVEAT, clock_check, clock_interval, clock_stage
 from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._context import DiagnosisContext
+from cdprid.diagnosis._hysteresis import (
+    TENSION_RATE_SIGNAL,
+    refine_hysteresis,
+    tension_rate_feature,
+)
 from cdprid.diagnosis._lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis._problem import Problem, force_heldout_rms, measured, prepare
 from cdprid.diagnosis._regeometry import geometry_reselection
@@ -364,6 +368,9 @@ def _unexplained(prob, s, feats, hints, withdrawn, noise, *, alpha, say):
     named = {c.label for c in s.accepted}
     hints = [h for h in hints if h["where"] not in named]
     Z, y, _, _ = linear_model(prob, s)
+    # and each cell's tension-rate sign (issue 37): tested here, not in backward elimination
+    feats = {**feats, TENSION_RATE_SIGNAL: prob.filt(tension_rate_feature(prob, s))
+             * prob.wrow[None, :, None]}
     unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
     unexplained += withdrawn
     _say_unexplained(unexplained, say)

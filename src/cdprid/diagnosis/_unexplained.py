@@ -71,7 +71,7 @@ def structure_features(W_all, v, om, tension, position, t, use, slide=None) -> d
 def _where(name: str, beta, V) -> str:
     """Which cables / force axes a structure sits on (coefficients with |t| > 3)."""
     tstat = np.abs(beta) / np.sqrt(np.clip(np.diag(V), 1e-300, None))
-    if name in ("sign of cable velocity", "tension level"):
+    if name in ("sign of cable velocity", "tension level", "sign of tension rate"):
         idx = [i + 1 for i in np.nonzero(tstat > 3)[0]]
         return ("load cells of cables " + ", ".join(map(str, idx))) if idx else "all cables"
     axes = sorted({"xyz"[i // 3] for i in np.nonzero(tstat > 3)[0]})
@@ -467,6 +467,9 @@ SEPARATED_BY = {
     "pose": ("a geometric calibration (exit points, attachments) or the same poses at two "
              "pretension levels (a geometry error follows the pose, a sensor error the "
              "tension)"),
+    "sign of tension rate": ("reversals of the tension at several rates and depths (a cell "
+                             "that lags by a fixed band is load_cell_hysteresis; one that lags "
+                             "in time with the rate is a clock offset)"),
     "time (slow drift)": ("a zero reading at rest at the start and the end of the recording "
                           "(a drift grows with the clock; per load cell it is tension_drift)"),
 }
