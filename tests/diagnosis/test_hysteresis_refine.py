@@ -56,7 +56,7 @@ def test_model_force_regressor_reads_the_width(slow_four):
     x[0] = rec.robot.mass  # the point mass: m s_G = 0
     s = Selection(theta, x, False, (j,), (), (), np.zeros((lay.size, lay.size)))
     reading_only = _width_ls(np.asarray(prob.d.hyst_h)[:, 0], rec, prob)
-    h = model_regressor(prob, s, 1)
+    h = model_regressor(prob, s, "load_cell_hysteresis", 1)
     assert h is not None and np.all(np.abs(h) <= 0.5 + 1e-12)
     refined = _width_ls(h, rec, prob)
     # the reversals inside the band: the reading-only form reads low, the model's force not
@@ -64,20 +64,20 @@ def test_model_force_regressor_reads_the_width(slow_four):
     assert abs(refined - 3.0) < 0.5 * abs(reading_only - 3.0)
     # no width, no regressor
     theta[j] = 0.0
-    assert model_regressor(prob, s, 1) is None
+    assert model_regressor(prob, s, "load_cell_hysteresis", 1) is None
 
 
-def test_tension_rate_feature_is_the_sign_of_each_cells_rate(slow_four):
+def test_direction_feature_is_the_sign_of_each_cells_rate(slow_four):
     """The ``unexplained`` stage's signal: ``W_i sign(dtau_i/dt)``, its sign where the force
     on the cell clearly moves agreeing with central differences of the noise-free force (but
     on the hysteretic cable 1, whose reading stays flat after each reversal)."""
-    from cdprid.diagnosis._hysteresis import tension_rate_feature
+    from cdprid.diagnosis._hysteresis import direction_feature
 
     rec, prob = slow_four
     lay = prob.layout
     s = Selection(np.zeros(lay.size), np.zeros(10), False, (), (), (),
                   np.zeros((lay.size, lay.size)))
-    F = tension_rate_feature(prob, s)
+    F = direction_feature(prob, s)
     assert F.shape == prob.W_all.shape
     sgn = F[:, :3, :] / np.where(prob.W_all[:, :3, :] == 0, 1, prob.W_all[:, :3, :])
     assert np.all(np.isin(np.round(sgn, 12), (-1.0, 0.0, 1.0)))

@@ -28,14 +28,15 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from cdprid.core import TensionStream, tension_at
 from cdprid.diagnosis._model import model_jit
 from cdprid.diagnosis._problem import Problem, measured
 from cdprid.diagnosis._profile import clock_index
 from cdprid.diagnosis._selection import Selection, refit, with_vocabulary
-from cdprid.effects import SMOOTH_S, hysteresis_regressor, play_operator
+from cdprid.effects import DIAGNOSIS, SMOOTH_S, hysteresis_regressor, play_operator
 
-#: the effect whose regressor this module refines
-EFFECT = "load_cell_hysteresis"
+#: the effects whose regressor this module refines (a play on one load cell's reading)
+PLAYS = tuple(name for name, form in DIAGNOSIS.items() if form.cell_play)
 
 #: passes of (regressor from the model's force on the cell, refit)
 PASSES = 3
@@ -52,14 +53,15 @@ def _moving_average(z: np.ndarray, span: int) -> np.ndarray:
     return (c[2 * span + 1:2 * span + 1 + k] - c[:k]) / (2 * span + 1)
 
 
-def force_on_cell(prob: Problem, s: Selection, cable: int) -> np.ndarray:
+def force_on_cell(prob: Problem, s: Selection, effect: str, cable: int) -> np.ndarray:
     """The force on the load cell of ``cable`` (1-based) on the tension grid, in the
     reading's units: the raw reading plus the projection on the cable's column of the
-    residual of the model ``s`` without that cell's play (matched-filtered), N, ``(k,)``."""
+    residual of the model ``s`` without that cell's play ``effect`` (matched-filtered), N,
+    ``(k,)``."""
     lay = prob.layout
     i = cable - 1
     th = np.asarray(s.theta, float)
-    (j,) = lay.candidate_indices(EFFECT, cable)
+    (j,) = lay.candidate_indices(effect, cable)
     th0 = th.copy()
     th0[j] = 0.0
     xin = np.asarray(s.x if s.rotational else s.x[:4], float)
@@ -67,22 +69,31 @@ def force_on_cell(prob: Problem, s: Selection, cable: int) -> np.ndarray:
     r = prob.filt(measured(prob, th) - mod0)  # (n, 6) = W_i (P_w[x] - x) + noise
     Wi = prob.W_all[:, :, i]
     c = -np.einsum("nk,nk->n", r, Wi) / np.einsum("nk,nk->n", Wi, Wi)
-    delay = float(np.asarray(lay.unpack(jnp.asarray(th))["delay"]))
-    k = prob.tau_grid.shape[0]
-    tg = prob.d.tau_t0 + prob.tdt * np.arange(k)
-    # a pose sample at t reads the tension grid at t + delay (the forward model's interpolant)
-    return prob.tau_grid[:, i] + np.interp(tg - delay, prob.t, c)
+    # a pose sample at t reads the tension grid at t + delay (the forward model's interpolant):
+    # c onto the grid by the core's linear interpolant (pose times: uniform but at the joins
+    # of a budgeted subset, which linear interpolation reads as they are)
+    at_pose = TensionStream(jnp.asarray(prob.t), jnp.asarray(c[:, None]), float(prob.t[0]),
+                            float(prob.dt))
+    grid = np.asarray(prob.d.stream.t)
+    on_grid = np.asarray(tension_at(at_pose, jnp.asarray(grid - _delay(prob, th)), "linear"))
+    return prob.tau_grid[:, i] + on_grid[:, 0]
 
 
-def model_regressor(prob: Problem, s: Selection, cable: int) -> np.ndarray | None:
+def _delay(prob: Problem, theta) -> float:
+    """The model's clock offset at ``theta``, s."""
+    return float(np.asarray(prob.layout.unpack(jnp.asarray(theta))["delay"]))
+
+
+def model_regressor(prob: Problem, s: Selection, effect: str, cable: int
+                    ) -> np.ndarray | None:
     """``h = (x~ - P_w[x~]) / w`` on the tension grid from :func:`force_on_cell` (averaged
     over ``2 SMOOTH_S``), w the model's current width of that cell; None when it is 0."""
-    (j,) = prob.layout.candidate_indices(EFFECT, cable)
+    (j,) = prob.layout.candidate_indices(effect, cable)
     w = float(s.theta[j])
     if not w > 0.0:
         return None
     span = max(1, int(round(SMOOTH_S / prob.tdt)))
-    xs = _moving_average(force_on_cell(prob, s, cable), span)
+    xs = _moving_average(force_on_cell(prob, s, effect, cable), span)
     return (xs - play_operator(xs, w)) / w
 
 
@@ -115,15 +126,16 @@ def refine_hysteresis(prob: Problem, s: Selection, extra, say=None, passes: int 
         not shared with ``prob``), and the refitted selection; ``(prob, s)`` unchanged without
         a hysteretic finding.
     """
-    cables = [c.cable for c in s.accepted if c.effect == EFFECT]
+    plays = [(c.effect, c.cable) for c in s.accepted if c.effect in PLAYS]
+    cables = [cable for _, cable in plays]
     if not cables or set(cables) <= set(done):
         return prob, s
     di = clock_index(prob)
     for k in range(passes):
         H = np.array(prob.d.hyst_h)
         changed = False
-        for cable in cables:
-            h = model_regressor(prob, s, cable)
+        for effect, cable in plays:
+            h = model_regressor(prob, s, effect, cable)
             if h is not None:
                 H[:, cable - 1] = h
                 changed = True
@@ -144,16 +156,16 @@ def refine_hysteresis(prob: Problem, s: Selection, extra, say=None, passes: int 
     return prob, s
 
 
-def tension_rate_feature(prob: Problem, s: Selection) -> np.ndarray:
+def direction_feature(prob: Problem, s: Selection) -> np.ndarray:
     """``W_i sign(dtau_i/dt)`` per cable ``(n, 6, m)``: a force along each cable that flips
     with the direction of its tension (the reading a hysteretic cell or any cell that lags
     its force would leave). The direction is that of the reading's last or next move found by
     :func:`cdprid.effects.reversal_regressor` (the reading-only form; the sign of a
     differentiated stream is noise where the tension changes by a few N/s), at the pose times
-    shifted by the model's clock offset. The ``unexplained`` stage tests it like its other
-    structure signals (:data:`TENSION_RATE_SIGNAL`)."""
-    delay = float(np.asarray(prob.layout.unpack(jnp.asarray(s.theta))["delay"]))
-    H = np.asarray(hysteresis_regressor(prob.d.tau_grid, prob.tdt))
-    tg = prob.d.tau_t0 + prob.tdt * np.arange(H.shape[0])
-    h = np.stack([np.interp(prob.t + delay, tg, H[:, i]) for i in range(H.shape[1])], axis=1)
-    return prob.W_all * np.sign(h)[:, None, :]
+    shifted by the model's clock offset (the core's linear interpolant). The ``unexplained``
+    stage tests it like its other structure signals (:data:`TENSION_RATE_SIGNAL`)."""
+    stream = prob.d.stream
+    H = hysteresis_regressor(prob.d.tau_grid, prob.tdt)
+    h = tension_at(TensionStream(stream.t, H, stream.t0, stream.dt),
+                   jnp.asarray(prob.t + _delay(prob, s.theta)), "linear")
+    return prob.W_all * np.sign(np.asarray(h))[:, None, :]

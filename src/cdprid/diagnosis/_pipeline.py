@@ -31,8 +31,8 @@ from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._context import DiagnosisContext
 from cdprid.diagnosis._hysteresis import (
     TENSION_RATE_SIGNAL,
+    direction_feature,
     refine_hysteresis,
-    tension_rate_feature,
 )
 from cdprid.diagnosis._lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis._problem import Problem, force_heldout_rms, measured, prepare
@@ -369,7 +369,7 @@ def _unexplained(prob, s, feats, hints, withdrawn, noise, *, alpha, say):
     hints = [h for h in hints if h["where"] not in named]
     Z, y, _, _ = linear_model(prob, s)
     # and each cell's tension-rate sign (issue 37): tested here, not in backward elimination
-    feats = {**feats, TENSION_RATE_SIGNAL: prob.filt(tension_rate_feature(prob, s))
+    feats = {**feats, TENSION_RATE_SIGNAL: prob.filt(direction_feature(prob, s))
              * prob.wrow[None, :, None]}
     unexplained, rule = unexplained_stage(prob, Z, y, feats, hints, noise.tension_N, alpha)
     unexplained += withdrawn

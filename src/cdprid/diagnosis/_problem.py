@@ -146,8 +146,7 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
                        motion.alpha)
     stream = TensionStream.on_uniform_grid(ds.tension_t, ds.tension)
     grid_t, tau_grid, tdt = np.asarray(stream.t), np.asarray(stream.values), stream.dt
-    W_all = np.asarray(jax.jit(wrench_matrices)(robot, jnp.asarray(sig.position),
-                                                 jnp.asarray(R)))
+    W_all = np.asarray(jax.jit(wrench_matrices)(robot, jnp.asarray(sig.position), R))
     ldot = -np.einsum("nim,ni->nm", W_all, np.concatenate([v, om], axis=1))
     lengths = np.asarray(jax.jit(jax.vmap(cable_lengths, in_axes=(None, 0, 0)))(
         robot, jnp.asarray(sig.position), jnp.asarray(R)))
@@ -157,8 +156,8 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     d = DiagData(robot, jnp.asarray(sig.t), jnp.asarray(sig.position), jnp.asarray(R),
                  jnp.asarray(v), jnp.asarray(a), jnp.asarray(om), jnp.asarray(al),
                  stream.values, jnp.asarray(ldot), jnp.asarray(clk), stream.t0, tdt,
-                 jnp.asarray(slide), smoothed_stream(stream).values,
-                 hysteresis_regressor(stream.values, tdt))
+                 jnp.asarray(slide), smoothed_stream(stream).values, hysteresis_regressor(
+                     stream.values, tdt))
     margin = max(trim, 0.1)
     use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
            & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))

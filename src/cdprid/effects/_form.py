@@ -71,6 +71,10 @@ class DiagnosisForm:
     clock : bool
         The effect is the tension stream's clock offset (profiled first, see
         :mod:`cdprid.diagnosis._clock`).
+    cell_play : bool
+        The effect is a play on one load cell's reading whose ``model`` hook reads the
+        regressor the data carry (``DiagData.hyst_h``); once named, the diagnosis builds that
+        regressor from the model's force on the cell (:mod:`cdprid.diagnosis._hysteresis`).
     tension, geometry, leave, gravity, load, model : callable, optional
         The effect's physics in the diagnosis's forward model, JAX, applied in the order of
         :data:`DIAGNOSIS` at each stage of :func:`cdprid.diagnosis._model.cable_contribution`
@@ -107,6 +111,9 @@ class DiagnosisForm:
     #: when not named, its size is still reported (``not_named`` in the JSON): effects a real
     #: recording always holds to some degree (friction on every pulley, a clock offset)
     report_size: bool = False
+    #: a play on one load cell's reading, its regressor refined from the model's force on the
+    #: cell once named (:mod:`cdprid.diagnosis._hysteresis`)
+    cell_play: bool = False
     tension: object = None
     geometry: object = None
     leave: object = None

@@ -241,6 +241,13 @@ def hysteresis_regressor(z, dt: float):
     diagnosis keeps with its data so that its models do not run the two plays' scans at every
     evaluation.
 
+    Parameters
+    ----------
+    z : array_like (k, m)
+        Load-cell readings on a uniform grid, N.
+    dt : float
+        The grid's step, s.
+
     Returns
     -------
     jax.Array (k, m) in [-1/2, 1/2]
@@ -270,7 +277,7 @@ SPEC = EffectSpec(
     diagnosis=DiagnosisForm(
         blocks=(("hysteresis", 1),), per_cable=True, group=1, keys=("width_N",),
         model=_hysteresis_model, bounds={"width_N": 100.0}, nonneg=("width_N",),
-        interval=_interval,
+        interval=_interval, cell_play=True,
         separated_by={
             "time_delay": "a trajectory with reversals at several tension rates (a clock "
                           "offset grows with the rate, the play's step does not; only this "
