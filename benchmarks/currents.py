@@ -396,7 +396,7 @@ def designed(args) -> int:
             cells = line.split("|")
             rows[f"{name}|sum of sines"] = "|".join(
                 cells[:2] + [" 30 s sums of sines (results/currents.md) "] + cells[2:])
-    label = f" {csv} ({path.duration:.2f} s) "
+    label = f" designed: {Path(args.trajectory).name} ({path.duration:.1f} s) "
 
     def write(line):
         cells = line.split("|")
