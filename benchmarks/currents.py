@@ -108,20 +108,23 @@ def one(robot, tau_ref, seed, duration, tmp, path=None):
 _wrench_x = winch_sim.wrench_of_parameters
 
 
-def bound(name, seed, sigma=0.03, tol=0.1, duration=30.0, amp=0.25, rot_amp=0.08, prior=True):
+def bound(name, seed, sigma=0.03, tol=0.1, duration=30.0, amp=0.25, rot_amp=0.08, prior=True,
+          path=None):
     """Cramer-Rao bound (%) of the mass and of m s_G (norm of the three std over |m s_G|) from
     the currents alone, on the simulator's recording of ``seed``: poses and lengths exact,
     white current noise ``sigma`` A at 500 Hz (250 Hz here, two samples averaged), drive 1's
     k known, the others' datasheet tolerance ``tol`` as priors (std tol k / sqrt(3)), the
     internal forces of a redundant robot a free nuisance per sample. A lower bound of any
     unbiased estimator's std on the noisy recording (which also has pose and encoder
-    noise)."""
+    noise). ``path``: the platform's motion instead of the seed's sum of sines (the same
+    drive draws)."""
     robot, tau_ref = ROBOTS[name]
     rng = np.random.default_rng(seed)
     A = np.array([c["exit"] for c in robot["cable"]], float)
     b = np.array([c["anchor"] for c in robot["cable"]], float)
     mc = len(A)
-    path = winch_sim.Path(rng, robot.get("home"), [amp, amp, 0.6 * amp], rot_amp)
+    own = winch_sim.Path(rng, robot.get("home"), [amp, amp, 0.6 * amp], rot_amp)
+    path = own if path is None else path
     td = np.arange(0.0, duration, 1 / 500.0)[::2]  # every other sample: 250 Hz, sigma scaled
     p, v, a, R, om, al = winch_sim.rates(path, td)
     W = winch_sim.wrench_matrix(A, b, p, R)
@@ -384,6 +387,14 @@ def designed(args) -> int:
     name = args.robot[0]
     csv = trajectory_csv(args.trajectory)
     path = winch_sim.path_from_csv(csv)
+    if args.bound:
+        b = np.array([bound(name, seed, duration=path.duration, path=path)
+                      for seed in range(args.seeds)])
+        print(f"| {name} | designed: {Path(args.trajectory).name} ({path.duration:.1f} s) | "
+              f"{args.seeds} | {np.median(b[:, 0]):.2f} | {b[:, 0].min():.2f}-"
+              f"{b[:, 0].max():.2f} | {np.median(b[:, 1]):.1f} | {b[:, 1].min():.1f}-"
+              f"{b[:, 1].max():.1f} |", flush=True)
+        return 0
     out = Path(args.out or ROOT / "results" / "currents-designed.md")
     old = out.read_text() if out.exists() else ""
     rows = {line.split("|")[1].strip() + "|" + line.split("|")[2].strip(): line
