@@ -8,7 +8,10 @@ at 100 Hz (0.2 mm, 0.3 mrad), no load cells; drive 1's torque constant exact
 ``tests/identify/winch_sim.py`` (numpy, its own Newton-Euler, geometry and winch torque
 balance). Writes ``results/currents.md``.
 
-Run: ``nice -n 10 .venv/bin/python -m benchmarks.currents [--seeds 20] [--duration 30]``.
+Run: ``nice -n 10 .venv/bin/python -m benchmarks.currents [--seeds 20] [--duration 30]``;
+``--robot-toml DIR`` then ``cdprid excite DIR/ROBOT.toml --source currents --json x.json`` and
+``--trajectory x.json --robot ROBOT``: the same Monte Carlo on the designed trajectory
+(results/currents-designed.md).
 """
 
 from __future__ import annotations
