@@ -310,6 +310,9 @@ def main(argv=None) -> int:
                          "the JSON of `cdprid excite --json` (its trajectory.csv) or a "
                          "trajectory.csv; with one --robot, for its whole duration (--duration "
                          "ignored); writes results/currents-designed.md (default)")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="with --trajectory: play it this many times back to back (it starts "
+                         "and ends at rest at home)")
     ap.add_argument("--robot-toml", default=None, metavar="DIR",
                     help="write DIR/ROBOT.toml for each robot (nominal drive data, drive 1 the "
                          "reference, the true platform) for `cdprid excite --source currents`")
@@ -389,7 +392,7 @@ def designed(args) -> int:
         raise SystemExit("--trajectory: give the one --robot it was designed for.")
     name = args.robot[0]
     csv = trajectory_csv(args.trajectory)
-    path = winch_sim.path_from_csv(csv)
+    path = winch_sim.path_from_csv(csv, repeat=args.repeat)
     if args.bound:
         b = np.array([bound(name, seed, duration=path.duration, path=path)
                       for seed in range(args.seeds)])
@@ -411,7 +414,8 @@ def designed(args) -> int:
         if len(cells) > 2 and cells[1].strip() in ROBOTS and "'cannot tell'" in cells[2]:
             rows[f"{cells[1].strip()}|{label.strip()}"] = "|".join(cells[:2] + [label]
                                                                   + cells[2:])
-    label = f" designed: {Path(args.trajectory).name} ({path.duration:.1f} s) "
+    label = (f" designed: {Path(args.trajectory).name}"
+             + (f" x {args.repeat}" if args.repeat > 1 else "") + f" ({path.duration:.1f} s) ")
 
     def write(line):
         cells = line.split("|")

@@ -82,3 +82,23 @@ def test_csv_path_matches_cdprids_interpolation(tmp_path):
     Rq = winch_sim._qmat(np.asarray(ref.q))
     np.testing.assert_allclose(sp.R(tt), Rq, rtol=0, atol=1e-12)
     assert sp.duration == 2.0
+
+
+def test_repeated_csv_path_plays_the_trajectory_again(tmp_path):
+    t = np.arange(0.0, 2.0 + 1e-9, 0.01)
+    s = np.sin(np.pi * t / 2.0) ** 4  # at rest at both ends (to the 3rd derivative)
+    sd = 2 * np.pi * np.sin(np.pi * t / 2) ** 3 * np.cos(np.pi * t / 2)
+    sdd = np.pi**2 * (3 * np.sin(np.pi * t / 2) ** 2 * np.cos(np.pi * t / 2) ** 2
+                      - np.sin(np.pi * t / 2) ** 4)
+    cols = np.column_stack([t, 0.1 * s, 0 * s, 1.0 + 0 * s, 0.1 * sd, 0 * s, 0 * s,
+                            0.1 * sdd, 0 * s, 0 * s])
+    f = tmp_path / "trajectory.csv"
+    np.savetxt(f, cols, delimiter=",", header="t,x,y,z,vx,vy,vz,ax,ay,az", comments="",
+               fmt="%.17g")
+    one, three = winch_sim.path_from_csv(f), winch_sim.path_from_csv(f, repeat=3)
+    assert three.duration == 6.0
+    tt = np.linspace(0.0, 2.0, 41)[1:-1] + 0.003
+    for k in range(3):
+        np.testing.assert_allclose(three.p(tt + 2.0 * k), one.p(tt), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(three.pdd(tt + 2.0 * k), one.pdd(tt), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(three.pdd(t), 0.1 * sdd[:, None] * [1, 0, 0], atol=1e-9)

@@ -137,12 +137,18 @@ class SampledPath:
         return _qmat(q / np.linalg.norm(q, axis=1, keepdims=True))
 
 
-def path_from_csv(path):
+def path_from_csv(path, repeat=1):
     """:class:`SampledPath` of a trajectory CSV (``cdprid excite``'s ``trajectory.csv``:
-    ``t,x,y,z,vx,vy,vz,ax,ay,az`` and optionally ``qw,qx,qy,qz,wx,wy,wz,alx,aly,alz``)."""
+    ``t,x,y,z,vx,vy,vz,ax,ay,az`` and optionally ``qw,qx,qy,qz,wx,wy,wz,alx,aly,alz``);
+    ``repeat`` times back to back (for a trajectory that ends where and as it starts, at rest
+    at home: its last sample is the next repetition's first)."""
     with open(path, encoding="utf-8") as fh:
         cols = fh.readline().strip().split(",")
     v = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    if repeat > 1:
+        T = v[-1, 0] - v[0, 0]
+        v = np.vstack([v[:1]] + [v[1:] + np.r_[k * T, np.zeros(v.shape[1] - 1)]
+                                 for k in range(repeat)])
 
     def c(*names):
         return v[:, [cols.index(n) for n in names]]
