@@ -8,7 +8,10 @@ at 100 Hz (0.2 mm, 0.3 mrad), no load cells; drive 1's torque constant exact
 ``tests/identify/winch_sim.py`` (numpy, its own Newton-Euler, geometry and winch torque
 balance). Writes ``results/currents.md``.
 
-Run: ``nice -n 10 .venv/bin/python -m benchmarks.currents [--seeds 20] [--duration 30]``.
+Run: ``nice -n 10 .venv/bin/python -m benchmarks.currents [--seeds 20] [--duration 30]``;
+``--robot-toml DIR`` then ``cdprid excite DIR/ROBOT.toml --source currents --json x.json`` and
+``--trajectory x.json --robot ROBOT``: the same Monte Carlo on the designed trajectory
+(results/currents-designed.md).
 """
 
 from __future__ import annotations
@@ -44,6 +47,43 @@ ESTIMATOR = "cls"
 least squares' table; ``--compare`` runs both."""
 
 
+SIX_TWIN_DZ = 0.02
+"""m: how much higher the six-suspended robot's design twin attaches cables 2, 4 and 6
+(:func:`robot_toml`)."""
+NOMINAL_DRIVE = {"drum_radius": 0.045, "gear_ratio": 12.5, "torque_constant": 0.099}
+"""The middle of the simulator's draws (r 3-6 cm, N 5-20, k = N K_t / r 15-40 N/A: 27.5 N/A):
+the nominal drive data of the robot.toml ``cdprid excite --source currents`` designs on."""
+
+
+def robot_toml(name: str, path) -> Path:
+    """Write the benchmark robot ``name`` as a robot.toml for ``cdprid excite``: the nominal
+    drive data (:data:`NOMINAL_DRIVE`, drive 1 the scale reference, as ``--reference
+    drive:1``) and the true platform (mass, centre of mass, inertia about G) with the default
+    uncertainties; for six-suspended its design twin (the comment below)."""
+    import tomli_w
+
+    robot, _ = ROBOTS[name]
+    d = {k: v for k, v in robot.items() if k != "home"}
+    d["cable"] = [dict(c, **NOMINAL_DRIVE, drive_reference=j == 0)
+                  for j, c in enumerate(robot["cable"])]
+    if name == "six-suspended":
+        # its crossed cable pairs (1-2, 3-4, 5-6) are the diagonals of a trapezoid whenever the
+        # platform does not rotate: they meet at home and on every sum of sines (clearance
+        # 0 m, which excite refuses; the simulator has no cable contact). The design's twin:
+        # cables 2, 4 and 6 attached 2 cm higher (13.6 mm apart at home), clearance 1 mm
+        for j in (1, 3, 5):
+            d["cable"][j] = dict(d["cable"][j], anchor=[*d["cable"][j]["anchor"][:2],
+                                                        d["cable"][j]["anchor"][2] + SIX_TWIN_DZ])
+        d["limits"] = dict(d["limits"], cable_clearance=0.001)
+        d["name"] = "six-suspended-design-twin"
+    m, s, IG = PLATFORM
+    d["platform"] = {"mass": m, "com": s.tolist(), "inertia": IG.tolist()}
+    path = Path(path)
+    with open(path, "wb") as fh:
+        tomli_w.dump(d, fh)
+    return path
+
+
 def truth_vector(p):
     m, s, IG = PLATFORM
     IP = IG + m * (s @ s * np.eye(3) - np.outer(s, s))
@@ -51,9 +91,11 @@ def truth_vector(p):
                      IP[2, 2]])[:p]
 
 
-def one(robot, tau_ref, seed, duration, tmp):
-    """(platform z, mass rel. error, m s_G rel. error, drive z (5, m), notes) of one seed."""
-    sim = winch_sim.simulate(robot, PLATFORM, seed=seed, duration=duration, tau_ref=tau_ref)
+def one(robot, tau_ref, seed, duration, tmp, path=None):
+    """(platform z, mass rel. error, m s_G rel. error, drive z (5, m), notes) of one seed
+    (``path``: the platform's motion instead of the seed's sum of sines)."""
+    sim = winch_sim.simulate(robot, PLATFORM, seed=seed, duration=duration, tau_ref=tau_ref,
+                             path=path)
     ds = read_dataset(winch_sim.write(tmp / f"s{seed}", robot, sim), require_tensions=False)
     rep = identify_currents(ds, reference="drive:1", bound=False, estimator=ESTIMATOR)
     m = len(robot["cable"])
@@ -69,20 +111,23 @@ def one(robot, tau_ref, seed, duration, tmp):
 _wrench_x = winch_sim.wrench_of_parameters
 
 
-def bound(name, seed, sigma=0.03, tol=0.1, duration=30.0, amp=0.25, rot_amp=0.08, prior=True):
+def bound(name, seed, sigma=0.03, tol=0.1, duration=30.0, amp=0.25, rot_amp=0.08, prior=True,
+          path=None):
     """Cramer-Rao bound (%) of the mass and of m s_G (norm of the three std over |m s_G|) from
     the currents alone, on the simulator's recording of ``seed``: poses and lengths exact,
     white current noise ``sigma`` A at 500 Hz (250 Hz here, two samples averaged), drive 1's
     k known, the others' datasheet tolerance ``tol`` as priors (std tol k / sqrt(3)), the
     internal forces of a redundant robot a free nuisance per sample. A lower bound of any
     unbiased estimator's std on the noisy recording (which also has pose and encoder
-    noise)."""
+    noise). ``path``: the platform's motion instead of the seed's sum of sines (the same
+    drive draws)."""
     robot, tau_ref = ROBOTS[name]
     rng = np.random.default_rng(seed)
     A = np.array([c["exit"] for c in robot["cable"]], float)
     b = np.array([c["anchor"] for c in robot["cable"]], float)
     mc = len(A)
-    path = winch_sim.Path(rng, robot.get("home"), [amp, amp, 0.6 * amp], rot_amp)
+    own = winch_sim.Path(rng, robot.get("home"), [amp, amp, 0.6 * amp], rot_amp)
+    path = own if path is None else path
     td = np.arange(0.0, duration, 1 / 500.0)[::2]  # every other sample: 250 Hz, sigma scaled
     p, v, a, R, om, al = winch_sim.rates(path, td)
     W = winch_sim.wrench_matrix(A, b, p, R)
@@ -145,7 +190,7 @@ def row(name, Z, M, S, D, names, seconds, failed, untold=0) -> str:
             f" mean {100 * cover.mean():.0f} % | {seconds:.0f} s |")
 
 
-def run(name: str, seeds: int, duration: float, write) -> str:
+def run(name: str, seeds: int, duration: float, write, path=None) -> str:
     """The table row of one robot; ``write(row)`` after every seed (partial results kept)."""
     robot, tau_ref = ROBOTS[name]
     t0 = time.perf_counter()
@@ -154,7 +199,7 @@ def run(name: str, seeds: int, duration: float, write) -> str:
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(seeds):
             try:
-                z, mr, ms, dz, rep = one(robot, tau_ref, seed, duration, Path(tmp))
+                z, mr, ms, dz, rep = one(robot, tau_ref, seed, duration, Path(tmp), path)
             except ValueError as e:  # the independent simulator's slack-cable check
                 failed += 1
                 print(f"{name} seed {seed}: {e}", flush=True)
@@ -260,7 +305,24 @@ def main(argv=None) -> int:
     ap.add_argument("--compare", action="store_true",
                     help="corrected least squares and output error side by side (one run per "
                          "seed), with each seed's mass bound")
+    ap.add_argument("--trajectory", default=None,
+                    help="the designed trajectory to record instead of each seed's sum of sines: "
+                         "the JSON of `cdprid excite --json` (its trajectory.csv) or a "
+                         "trajectory.csv; with one --robot, for its whole duration (--duration "
+                         "ignored); writes results/currents-designed.md (default)")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="with --trajectory: play it this many times back to back (it starts "
+                         "and ends at rest at home)")
+    ap.add_argument("--robot-toml", default=None, metavar="DIR",
+                    help="write DIR/ROBOT.toml for each robot (nominal drive data, drive 1 the "
+                         "reference, the true platform) for `cdprid excite --source currents`")
     args = ap.parse_args(argv)
+    if args.robot_toml:
+        for name in args.robot or list(ROBOTS):
+            print(f"wrote {robot_toml(name, Path(args.robot_toml) / f'{name}.toml')}")
+        return 0
+    if args.trajectory:
+        return designed(args)
     if args.compare:
         out = Path(args.out or ROOT / "results" / "currents-oe.md")
         rows = {}
@@ -301,6 +363,79 @@ def main(argv=None) -> int:
     for name in args.robot or list(ROBOTS):
         run(name, args.seeds, args.duration, lambda line, name=name: write(name, line))
     print(_text(args, list(rows.values())))
+    return 0
+
+
+def trajectory_csv(file) -> Path:
+    """The trajectory.csv of ``cdprid excite``'s JSON (``outputs.trajectory_csv``, relative to
+    the current folder or to the JSON's), or ``file`` itself when it is not JSON."""
+    import json
+
+    file = Path(file)
+    if file.suffix.lower() != ".json":
+        return file
+    csv = Path(json.loads(file.read_text())["outputs"]["trajectory_csv"])
+    return csv if csv.is_absolute() or csv.exists() else file.parent / csv
+
+
+DESIGNED_HEAD = [
+    "| robot | trajectory | seeds | worst mass error % | median mass error % | worst m s_G "
+    "error % | median m s_G error % | worst HAC RMS z | RMS z per parameter | worst drive "
+    "coverage | time |", "|---|---|---:|---:|---:|---:|---:|---:|---|---:|---:|"]
+
+
+def designed(args) -> int:
+    """``--trajectory``: the Monte Carlo on the designed trajectory; upserts the robot's row
+    of results/currents-designed.md next to its sum-of-sines row of results/currents.md, and
+    keeps the file's text from ``## Reading`` on."""
+    if not args.robot or len(args.robot) != 1:
+        raise SystemExit("--trajectory: give the one --robot it was designed for.")
+    name = args.robot[0]
+    csv = trajectory_csv(args.trajectory)
+    path = winch_sim.path_from_csv(csv, repeat=args.repeat)
+    if args.bound:
+        b = np.array([bound(name, seed, duration=path.duration, path=path)
+                      for seed in range(args.seeds)])
+        print(f"| {name} | designed: {Path(args.trajectory).name} ({path.duration:.1f} s) | "
+              f"{args.seeds} | {np.median(b[:, 0]):.2f} | {b[:, 0].min():.2f}-"
+              f"{b[:, 0].max():.2f} | {np.median(b[:, 1]):.1f} | {b[:, 1].min():.1f}-"
+              f"{b[:, 1].max():.1f} |", flush=True)
+        return 0
+    out = Path(args.out or ROOT / "results" / "currents-designed.md")
+    old = out.read_text() if out.exists() else ""
+    cut = old.index("## Reading") if "## Reading" in old else len(old)
+    old, tail = old[:cut], old[cut:]
+    rows = {line.split("|")[1].strip() + "|" + line.split("|")[2].strip(): line
+            for line in old.splitlines() if line.startswith("| ") and "---" not in line
+            and not line.startswith("| robot ")}
+    base = ROOT / "results" / "currents.md"
+    label = " 30 s sums of sines (results/currents.md) "
+    for line in base.read_text().splitlines() if base.exists() else []:
+        cells = line.split("|")  # the Monte Carlo table's rows (not the bound's)
+        if len(cells) > 2 and cells[1].strip() in ROBOTS and "'cannot tell'" in cells[2]:
+            rows[f"{cells[1].strip()}|{label.strip()}"] = "|".join(cells[:2] + [label]
+                                                                  + cells[2:])
+    label = (f" designed: {Path(args.trajectory).name}"
+             + (f" x {args.repeat}" if args.repeat > 1 else "") + f" ({path.duration:.1f} s) ")
+
+    def write(line):
+        cells = line.split("|")
+        rows[f"{name}|{label.strip()}"] = "|".join(cells[:2] + [label] + cells[2:])
+        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                                capture_output=True, text=True).stdout.strip()
+        out.write_text("\n".join([
+            "# Identification from motor currents on a designed trajectory (issue 41)", "",
+            "Generated by `benchmarks/currents.py --trajectory ... [--repeat N] --robot ... "
+            f"--seeds {args.seeds}` at {commit}, one robot per run (each run updates its "
+            "rows). The "
+            "recordings and the fit are those of results/currents.md (same simulator, noises, "
+            "per-seed drive constants, drive 1 the reference, the benchmark's estimator), the "
+            "platform's motion the designed trajectory (`cdprid excite --source currents`) "
+            "instead of each seed's sum of sines.", "", *DESIGNED_HEAD,
+            *[rows[k] for k in sorted(rows)], "", tail]))
+
+    run(name, args.seeds, path.duration, write, path=path)
+    print(out.read_text())
     return 0
 
 

@@ -1,6 +1,7 @@
 """An independent simulator of a cable robot with winch drives (numpy only, no cdprid model).
 
-Platform: analytic sum-of-sines translation and small rotation, Newton-Euler about P written
+Platform: analytic sum-of-sines translation and small rotation (or a given path, e.g. the
+trajectory ``cdprid excite`` writes: :class:`SampledPath`), Newton-Euler about P written
 out here; tensions from the wrench (inverse for 6 cables, least norm around a pretension for
 more); cables without pulleys, paid-out lengths ``|A - p - R b|`` and their derivatives by
 5-point differences of the analytic path; each winch a motor + gear + drum with physical
@@ -51,6 +52,113 @@ class Path:
         t = np.atleast_1d(t)[:, None, None]
         th = np.sum(self.b * np.sin(self.w * t + self.phr), axis=2)
         return np.array([_expm(v) for v in th])
+
+
+def _hermite5(s, h, y0, d0, dd0, y1, d1, dd1, order=0):
+    """Quintic Hermite through values, first and second derivatives at both ends; ``order``
+    0 the value, 2 its second derivative in time (``s`` in [0, 1], ``h`` the interval)."""
+    s = s[:, None]
+    h = h[:, None]
+    if order == 0:
+        H = (1 - 10 * s**3 + 15 * s**4 - 6 * s**5, s - 6 * s**3 + 8 * s**4 - 3 * s**5,
+             0.5 * (s**2 - 3 * s**3 + 3 * s**4 - s**5), 10 * s**3 - 15 * s**4 + 6 * s**5,
+             -4 * s**3 + 7 * s**4 - 3 * s**5, 0.5 * (s**3 - 2 * s**4 + s**5))
+        sc = 1.0
+    else:  # d2/ds2 of the basis above, over h^2
+        H = (-60 * s + 180 * s**2 - 120 * s**3, -36 * s + 96 * s**2 - 60 * s**3,
+             0.5 * (2 - 18 * s + 36 * s**2 - 20 * s**3), 60 * s - 180 * s**2 + 120 * s**3,
+             -24 * s + 84 * s**2 - 60 * s**3, 0.5 * (6 * s - 24 * s**2 + 20 * s**3))
+        sc = 1.0 / h**2
+    return sc * (H[0] * y0 + H[1] * h * d0 + H[2] * h * h * dd0 + H[3] * y1 + H[4] * h * d1
+                 + H[5] * h * h * dd1)
+
+
+def _qmul(a, b):
+    """Quaternion products, scalar first, row by row."""
+    w1, v1, w2, v2 = a[:, :1], a[:, 1:], b[:, :1], b[:, 1:]
+    return np.hstack([w1 * w2 - np.sum(v1 * v2, axis=1, keepdims=True),
+                      w1 * v2 + w2 * v1 + np.cross(v1, v2)])
+
+
+def _qmat(q):
+    """Rotation matrices of unit quaternions (scalar first), (n, 3, 3)."""
+    w, x, y, z = q.T
+    rows = ((1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)),
+            (2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)),
+            (2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)))
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=1)
+
+
+class SampledPath:
+    """A path given by samples: position, velocity, acceleration (base frame) and, optionally,
+    the quaternion (platform -> base, scalar first) with the angular velocity and acceleration
+    in the base frame, at increasing times ``t``; quintic Hermite between samples (the
+    position's value, rate and acceleration match every sample; the quaternion's through
+    q' = (0, omega) q / 2 and q'' = ((0, alpha) q + (0, omega) q') / 2, renormalised), the
+    first and last pieces continued beyond the ends (the differences at the ends).
+    ``t`` is shifted to start at 0."""
+
+    def __init__(self, t, p, v, a, q=None, omega=None, alpha=None):
+        self.t = np.asarray(t, float) - float(t[0])
+        self.P = tuple(np.asarray(x, float) for x in (p, v, a))
+        self.Q = None
+        if q is not None:
+            q = np.asarray(q, float)
+            q = q / np.linalg.norm(q, axis=1, keepdims=True)
+            q = q * np.where(np.cumprod(np.r_[1.0, np.sign(np.sum(q[1:] * q[:-1], axis=1))])
+                             < 0, -1.0, 1.0)[:, None]  # one hemisphere along the path
+            wq = np.hstack([np.zeros((len(q), 1)), np.asarray(omega, float)])
+            aq = np.hstack([np.zeros((len(q), 1)), np.asarray(alpha, float)])
+            qd = 0.5 * _qmul(wq, q)
+            self.Q = (q, qd, 0.5 * (_qmul(aq, q) + _qmul(wq, qd)))
+        self.duration = float(self.t[-1])
+
+    def _seg(self, t):
+        tc = np.atleast_1d(np.asarray(t, float))
+        k = np.clip(np.searchsorted(self.t, tc, side="right") - 1, 0, len(self.t) - 2)
+        h = self.t[k + 1] - self.t[k]
+        return k, h, (tc - self.t[k]) / h
+
+    def _interp(self, Y, t, order=0):
+        k, h, s = self._seg(t)
+        y, d, dd = Y
+        return _hermite5(s, h, y[k], d[k], dd[k], y[k + 1], d[k + 1], dd[k + 1], order)
+
+    def p(self, t):
+        return self._interp(self.P, t)
+
+    def pdd(self, t):
+        return self._interp(self.P, t, order=2)
+
+    def R(self, t):
+        if self.Q is None:
+            return np.broadcast_to(np.eye(3), (len(np.atleast_1d(t)), 3, 3)).copy()
+        q = self._interp(self.Q, t)
+        return _qmat(q / np.linalg.norm(q, axis=1, keepdims=True))
+
+
+def path_from_csv(path, repeat=1):
+    """:class:`SampledPath` of a trajectory CSV (``cdprid excite``'s ``trajectory.csv``:
+    ``t,x,y,z,vx,vy,vz,ax,ay,az`` and optionally ``qw,qx,qy,qz,wx,wy,wz,alx,aly,alz``);
+    ``repeat`` times back to back (for a trajectory that ends where and as it starts, at rest
+    at home: its last sample is the next repetition's first)."""
+    with open(path, encoding="utf-8") as fh:
+        cols = fh.readline().strip().split(",")
+    v = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    if repeat > 1:
+        T = v[-1, 0] - v[0, 0]
+        v = np.vstack([v[:1]] + [v[1:] + np.r_[k * T, np.zeros(v.shape[1] - 1)]
+                                 for k in range(repeat)])
+
+    def c(*names):
+        return v[:, [cols.index(n) for n in names]]
+
+    rot = {}
+    if "qw" in cols:
+        rot = dict(q=c("qw", "qx", "qy", "qz"), omega=c("wx", "wy", "wz"),
+                   alpha=c("alx", "aly", "alz"))
+    return SampledPath(v[:, 0], c("x", "y", "z"), c("vx", "vy", "vz"), c("ax", "ay", "az"),
+                       **rot)
 
 
 def _d(f, t, h):
@@ -155,16 +263,20 @@ def reflected(d):
 
 def simulate(robot_dict, params, seed, duration=30.0, rate_pose=100.0, rate_drive=500.0,
              noise_pos=2e-4, noise_rot=3e-4, noise_A=0.03, noise_len=5e-5, amp=0.25,
-             rot_amp=0.08, tau_ref=40.0, datasheet_error=0.1):
+             rot_amp=0.08, tau_ref=40.0, datasheet_error=0.1, path=None):
     """Streams of one recording: dict with pose (t, p, q), drives (t, i, l), the truth and
     the robot.toml drive fields (drive 1 exact, the others' torque constants off by up to
-    ``datasheet_error``)."""
+    ``datasheet_error``). ``path``: the platform's motion instead of the seed's sum of sines
+    (an object with ``p(t)``, ``pdd(t)``, ``R(t)`` over arrays of times, as :class:`Path`
+    and :class:`SampledPath`); the seed's sum of sines is still drawn, so that the drive
+    constants and the noise of a seed are the same draws with and without it."""
     rng = np.random.default_rng(seed)
     A = np.array([c["exit"] for c in robot_dict["cable"]], float)
     b = np.array([c["anchor"] for c in robot_dict["cable"]], float)
     m = len(A)
     m_, sG, IG = params
-    path = Path(rng, robot_dict.get("home", [0.0, 0.0, 1.0]), [amp, amp, 0.6 * amp], rot_amp)
+    own = Path(rng, robot_dict.get("home", [0.0, 0.0, 1.0]), [amp, amp, 0.6 * amp], rot_amp)
+    path = own if path is None else path
     td = np.arange(0.0, duration, 1.0 / rate_drive)
     p, v, a, R, om, al = rates(path, td)
     W = wrench_matrix(A, b, p, R)
