@@ -53,4 +53,7 @@ def test_floor8_seed_2_names_no_anchor_error(tmp_path):
     named = {f.effect for f in res.findings}
     truth = {name for name, _ in rec.effects}
     assert named <= truth, named - truth
-    assert res.info["geometry_reselection"]["kept"] == "geometry selected again"
+    # before session 11 the greedy path took the anchor errors and the reselection replaced
+    # them; since the hysteresis form finds the cell on cable 1 first, no geometry is taken
+    rs = res.info["geometry_reselection"]
+    assert not rs["tried"] or rs["kept"] == "geometry selected again"

@@ -222,9 +222,12 @@ def test_context_reads_as_the_dict_it_replaces():
 
 @pytest.mark.slow  # a full diagnosis, ~100 s on 2 cores
 def test_a_new_diagnosis_writes_the_recorded_document():
-    """The shared delayed-clock dataset diagnosed now gives the document the untyped code
-    wrote (commit 891ad5f), key for key and in order; numbers to 1e-9 relative (another
-    BLAS may differ in the last bits), the wall time left out."""
+    """The shared delayed-clock dataset diagnosed now gives the recorded document, key for
+    key and in order; numbers to 1e-9 relative (another BLAS may differ in the last bits), the
+    wall time left out. Recorded by the untyped code (commit 891ad5f); recorded again in
+    session 11, when the hysteresis form's new regressor moved its candidates in the first
+    step's ranking and the ``unexplained`` stage gained its seventh test (each cell's
+    tension-rate sign): the findings and everything else identical to 1e-9."""
     from conftest import shared_dataset
 
     from cdprid.diagnosis import diagnose

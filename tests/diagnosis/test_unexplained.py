@@ -169,7 +169,8 @@ def _check_json(res):
     for u in js["unexplained"]:
         assert {"where", "size", "correlates_with", "p_value"} <= set(u)
         assert u["size"] >= rule["floor_N"]
-    assert len(rule["tests"]) == 6
+    # the structure signals, each cell's tension-rate sign, the spectral peak, the whiteness
+    assert len(rule["tests"]) == len(U.STRUCTURE_SIGNALS) + 3
     return js, rule
 
 

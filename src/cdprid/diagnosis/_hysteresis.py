@@ -122,8 +122,8 @@ def refine_hysteresis(prob: Problem, s: Selection, extra, say=None, passes: int 
     Returns
     -------
     (Problem, Selection)
-        The problem whose data carry the refined regressor (a new one, its linearisations
-        not shared with ``prob``), and the refitted selection; ``(prob, s)`` unchanged without
+        The problem whose data carry the refined regressor (a new one: its linearisations
+        computed again, its cable side kept), and the refitted selection; ``(prob, s)`` unchanged without
         a hysteretic finding.
     """
     plays = [(c.effect, c.cable) for c in s.accepted if c.effect in PLAYS]
@@ -142,7 +142,10 @@ def refine_hysteresis(prob: Problem, s: Selection, extra, say=None, passes: int 
         if not changed:
             break
         d = eqx.tree_at(lambda dd: dd.hyst_h, prob.d, jnp.asarray(H))
-        prob = dataclasses.replace(prob, d=d, cache={}, hysteresis_refined=tuple(cables))
+        # the cable side (measured side, its Jacobian, the geometry) does not read the
+        # regressor, the model side does: only the linearisations are stale
+        kept = {kind: dict(v) for kind, v in prob.cache.items() if kind != "design"}
+        prob = dataclasses.replace(prob, d=d, cache=kept, hysteresis_refined=tuple(cables))
         if k < passes - 1 and di is not None and di in s.active_idx:
             # the clock offset held between passes (its joint profile is most of a refit's
             # time), profiled again with everything else in the last pass
