@@ -33,7 +33,7 @@ from cdprid.diagnosis._model import model_jit
 from cdprid.diagnosis._problem import Problem, measured
 from cdprid.diagnosis._profile import clock_index
 from cdprid.diagnosis._selection import Selection, refit, with_vocabulary
-from cdprid.effects import DIAGNOSIS, SMOOTH_S, hysteresis_regressor, play_operator
+from cdprid.effects import DIAGNOSIS, hysteresis_regressor, play_regressor
 
 #: the effects whose regressor this module refines (a play on one load cell's reading)
 PLAYS = tuple(name for name, form in DIAGNOSIS.items() if form.cell_play)
@@ -43,14 +43,6 @@ PASSES = 3
 
 #: the ``unexplained`` stage's structure signal of a direction-dependent load cell
 TENSION_RATE_SIGNAL = "sign of tension rate"
-
-
-def _moving_average(z: np.ndarray, span: int) -> np.ndarray:
-    """Centred mean of ``z`` (k,) over ``2 span + 1`` samples (edges extended)."""
-    zp = np.concatenate([np.repeat(z[:1], span), z, np.repeat(z[-1:], span)])
-    c = np.concatenate([[0.0], np.cumsum(zp)])
-    k = len(z)
-    return (c[2 * span + 1:2 * span + 1 + k] - c[:k]) / (2 * span + 1)
 
 
 def force_on_cell(prob: Problem, s: Selection, effect: str, cable: int) -> np.ndarray:
@@ -86,15 +78,13 @@ def _delay(prob: Problem, theta) -> float:
 
 def model_regressor(prob: Problem, s: Selection, effect: str, cable: int
                     ) -> np.ndarray | None:
-    """``h = (x~ - P_w[x~]) / w`` on the tension grid from :func:`force_on_cell` (averaged
-    over ``2 SMOOTH_S``), w the model's current width of that cell; None when it is 0."""
+    """``h = (x~ - P_w[x~]) / w`` on the tension grid (:func:`cdprid.effects.play_regressor`
+    of :func:`force_on_cell`), w the model's current width of that cell; None when it is 0."""
     (j,) = prob.layout.candidate_indices(effect, cable)
     w = float(s.theta[j])
     if not w > 0.0:
         return None
-    span = max(1, int(round(SMOOTH_S / prob.tdt)))
-    xs = _moving_average(force_on_cell(prob, s, effect, cable), span)
-    return (xs - play_operator(xs, w)) / w
+    return play_regressor(force_on_cell(prob, s, effect, cable), w, prob.tdt)
 
 
 def refine_hysteresis(prob: Problem, s: Selection, extra, say=None, passes: int = PASSES,
@@ -123,8 +113,8 @@ def refine_hysteresis(prob: Problem, s: Selection, extra, say=None, passes: int 
     -------
     (Problem, Selection)
         The problem whose data carry the refined regressor (a new one: its linearisations
-        computed again, its cable side kept), and the refitted selection; ``(prob, s)`` unchanged without
-        a hysteretic finding.
+        computed again, its cable side kept), and the refitted selection; ``(prob, s)``
+        unchanged without a hysteretic finding.
     """
     plays = [(c.effect, c.cable) for c in s.accepted if c.effect in PLAYS]
     cables = [cable for _, cable in plays]

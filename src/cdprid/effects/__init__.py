@@ -22,9 +22,9 @@ from cdprid.effects._form import DiagnosisForm as DiagnosisForm
 from cdprid.effects._form import SpecError as SpecError
 from cdprid.effects._frame_tilt import tilt_gravity as tilt_gravity
 from cdprid.effects._frame_tilt import tilt_matrix as tilt_matrix
-from cdprid.effects._load_cell_hysteresis import SMOOTH_S as SMOOTH_S
 from cdprid.effects._load_cell_hysteresis import hysteresis_regressor as hysteresis_regressor
 from cdprid.effects._load_cell_hysteresis import play_operator as play_operator
+from cdprid.effects._load_cell_hysteresis import play_regressor as play_regressor
 from cdprid.effects._load_cell_hysteresis import reversal_regressor as reversal_regressor
 from cdprid.effects._plant import PlantTerms as PlantTerms
 from cdprid.effects._plant import plant_terms as plant_terms

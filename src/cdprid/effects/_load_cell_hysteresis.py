@@ -31,7 +31,7 @@ from cdprid.effects._form import DiagnosisForm
 from cdprid.effects._spec import EffectSpec, Parameter, Place
 
 __all__ = ["SPEC", "read", "play_operator", "reversal_regressor", "hysteresis_regressor",
-           "SMOOTH_S", "THRESHOLD_SIGMA"]
+           "play_regressor", "SMOOTH_S", "THRESHOLD_SIGMA"]
 
 _DOC = """``load_cell_hysteresis {cable, width_N}``
     The load cell of cable ``cable`` is hysteretic (friction in its flexure or its mount,
@@ -179,7 +179,9 @@ def reversal_regressor(z, dt: float, smooth_s: float = SMOOTH_S,
     What remains is the form's: it sees the reading only, so a reversal of the force inside
     the band (a minor loop that never moves the reading) leaves no trace in it and the width
     reads low where the tension reverses often by less than the width (the wide bands of the
-    slow robots above). The widths the diagnosis reports carry this in their notes.
+    slow robots above). Once a cell is named, the diagnosis replaces this regressor by
+    :func:`play_regressor` of the force the model says the cell felt
+    (:mod:`cdprid.diagnosis._hysteresis`).
 
     Parameters
     ----------
@@ -230,6 +232,31 @@ def _interval(lo, hi, extra) -> dict:
     c, hw = 0.5 * (float(lo[0]) + float(hi[0])), 0.5 * (float(hi[0]) - float(lo[0]))
     hw = math.hypot(hw, 1.959963984540054 * FORM_REL_STD * abs(c))
     return {"width_N": [c - hw, c + hw]}
+
+
+def play_regressor(x, width_N: float, dt: float, smooth_s: float = SMOOTH_S) -> np.ndarray:
+    """The hysteresis regressor of a known force on the cell: ``h = (x_s - P_w[x_s]) / w``,
+    ``x_s`` the force averaged over ``2 smooth_s`` as :func:`reversal_regressor` averages the
+    reading, ``P_w`` :func:`play_operator` of width ``w = width_N``.
+
+    Parameters
+    ----------
+    x : array_like (k,)
+        The force on the cell on a uniform grid, N.
+    width_N : float
+        The play's width, N (> 0).
+    dt : float
+        The grid's step, s.
+    smooth_s : float
+        Half the span of the moving average, s.
+
+    Returns
+    -------
+    ndarray (k,) in [-1/2, 1/2]
+    """
+    span = max(1, int(round(smooth_s / dt)))
+    xs = np.asarray(_moving_average(jnp.asarray(x, float)[:, None], span))[:, 0]
+    return (xs - play_operator(xs, width_N)) / width_N
 
 
 _REGRESSOR_JIT = jax.jit(reversal_regressor, static_argnums=(1, 2))
