@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -389,10 +390,28 @@ def designed(args) -> int:
     of results/currents-designed.md next to its sum-of-sines row of results/currents.md, and
     keeps the file's text from ``## Reading`` on."""
     if not args.robot or len(args.robot) != 1:
-        raise SystemExit("--trajectory: give the one --robot it was designed for.")
+        print("--trajectory: give the one --robot it was designed for.", file=sys.stderr)
+        return 2
     name = args.robot[0]
-    csv = trajectory_csv(args.trajectory)
-    path = winch_sim.path_from_csv(csv, repeat=args.repeat)
+    if not Path(args.trajectory).is_file():
+        print(f"--trajectory: {args.trajectory} is not a file.", file=sys.stderr)
+        return 2
+    try:
+        csv = trajectory_csv(args.trajectory)
+    except (ValueError, KeyError) as exc:  # not excite's JSON
+        print(f"--trajectory: {args.trajectory} is not the JSON of `cdprid excite --json` "
+              f"({exc}).", file=sys.stderr)
+        return 2
+    if not csv.is_file():
+        print(f"--trajectory: {args.trajectory} names {csv}, which is not a file.",
+              file=sys.stderr)
+        return 2
+    try:
+        path = winch_sim.path_from_csv(csv, repeat=args.repeat)
+    except (ValueError, IndexError, KeyError) as exc:
+        print(f"--trajectory: {csv} is not a trajectory.csv of `cdprid excite` ({exc}).",
+              file=sys.stderr)
+        return 2
     if args.bound:
         b = np.array([bound(name, seed, duration=path.duration, path=path)
                       for seed in range(args.seeds)])
