@@ -27,7 +27,7 @@ from cdprid.diagnosis._context import DiagnosisContext
 from cdprid.diagnosis._model import ThetaLayout
 from cdprid.diagnosis._parts import RankedCandidate
 from cdprid.diagnosis._problem import Problem, design, heldout_rms, seed_design
-from cdprid.diagnosis._profile import clock_index, joint_delay
+from cdprid.diagnosis._profile import clock_index, clock_removal_test, joint_delay
 from cdprid.diagnosis._refit import refit_gauss_newton
 from cdprid.diagnosis._result import Finding
 from cdprid.diagnosis._signature import OWN_SIGNATURE, without_own_signature
@@ -66,7 +66,8 @@ def wald_given_others(Z, y, cols: list, lags: int) -> tuple[float, float]:
 
 
 def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int,
-                    min_gain: float, thr_p: float, structure: tuple = ()):
+                    min_gain: float, thr_p: float, structure: tuple = (),
+                    exact: dict | None = None):
     """Backward step: the finding whose removal hurts held-out prediction least, if it fails.
 
     A finding stays when removing it (given every other column of ``Z``: the other
@@ -76,7 +77,9 @@ def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int
     finding's own signature is used only where it is not
     (:func:`cdprid.diagnosis._signature.without_own_signature`): a signal that spans an
     effect's form does not displace it. Returns ``(index, reason, p)`` of the worst failing
-    finding (p: its Wald p-value given the others), or ``(None, '', 1.0)``.
+    finding (p: its Wald p-value given the others), or ``(None, '', 1.0)``. ``exact`` maps a
+    finding's index to its ``(gain, p)`` found otherwise (the clock offset by exact shifts:
+    :func:`cdprid.diagnosis._profile.clock_removal_test`), used instead of the linear ones.
     """
     Z0 = Z
     Z = np.concatenate([Z0, *structure], axis=2) if structure else Z0
@@ -90,10 +93,12 @@ def weakest_finding(accepted: list, Z, y, cols_of, heldout_rms, train, lags: int
         if structure:  # the signals with the finding's own signature projected out
             Z = np.concatenate([Z0] + [without_own_signature(Z0[:, :, cols], F, train)[0]
                                        for F in structure], axis=2)
-        rest = [j for j in range(p) if j not in cols]
-        rms_minus = heldout_rms(Z[:, :, rest], y)
-        gain = 1.0 - rms_full / rms_minus
-        _, pv = wald_given_others(Z[train], y[train], cols, lags)
+        if exact and k in exact:
+            gain, pv = exact[k]
+        else:
+            rest = [j for j in range(p) if j not in cols]
+            gain = 1.0 - rms_full / heldout_rms(Z[:, :, rest], y)
+            _, pv = wald_given_others(Z[train], y[train], cols, lags)
         fails = gain < min_gain or not pv < thr_p
         if fails and gain < worst_gain:
             worst, worst_gain, worst_p = k, gain, pv
@@ -478,7 +483,8 @@ def backward_stage(prob: Problem, s: Selection, feats: dict, alpha: float, min_g
         k, why, p_given = weakest_finding(list(s.accepted), Z, y, cols_of,
                                           functools.partial(heldout_rms, prob), train,
                                           prob.lags, min_gain, thr_p,
-                                          tuple(feats[k] for k in sig_names))
+                                          tuple(feats[k] for k in sig_names),
+                                          exact=_clock_exact(prob, s, Z, y, cols_of))
         if k is None:
             break
         c, f = s.accepted[k], s.findings[k]
@@ -496,6 +502,19 @@ def backward_stage(prob: Problem, s: Selection, feats: dict, alpha: float, min_g
                 "p_value": p_given})
         s = withdraw(prob, s, k, extra)
     return s, hints
+
+
+def _clock_exact(prob: Problem, s: Selection, Z, y, cols_of) -> dict:
+    """``{index: (gain, p)}`` of the clock offset finding by exact shifts of the tension
+    stream (:func:`cdprid.diagnosis._profile.clock_removal_test`); empty without one."""
+    di = clock_index(prob)
+    for k, c in enumerate(s.accepted):
+        cols = cols_of(c)
+        if di is not None and DIAGNOSIS[c.effect].clock and len(cols) == 1:
+            return {k: clock_removal_test(prob, Z, y, cols[0], float(s.theta[di]),
+                                          float(s.th_cov[di, di]),
+                                          functools.partial(heldout_rms, prob))}
+    return {}
 
 
 def _say_signatures(accepted, Z, sigs: dict, cols_of, train, say) -> None:
