@@ -226,13 +226,19 @@ def test_a_hysteretic_cell_leaves_no_clock_offset_behind(tmp_path):
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    from benchmarks.diagnosis import simulate_case
     from cdprid.diagnosis import diagnose
+    from cdprid.effects import Effect
     from cdprid.io import read_dataset
+    from cdprid.model import FOUR_SUSPENDED, InertialParameters, preset, robot_from_dict
+    from cdprid.simulation import SensorNoise, simulate, write_simulation
 
-    out = simulate_case([("load_cell_hysteresis", {"cable": 2, "width_N": 2.0})], 2,
-                        tmp_path, "four")
-    res = diagnose(read_dataset(out)).as_json()
+    robot = robot_from_dict(FOUR_SUSPENDED)  # benchmarks/diagnosis.py's simulate_case
+    sim = simulate(robot, preset("rich", robot), InertialParameters(6.0, [0.0] * 3,
+                                                                    np.eye(3) * 0.05),
+                   effects=[Effect("load_cell_hysteresis", {"cable": 2, "width_N": 2.0})],
+                   noise=SensorNoise(position_m=3e-4, tension_N=0.7, orientation_rad=0.0),
+                   seed=2)
+    res = diagnose(read_dataset(write_simulation(sim, tmp_path / "d"))).as_json()
     effects = [(f["effect"], f["parameters"].get("cable")) for f in res["findings"]]
     assert effects == [("load_cell_hysteresis", 2)], effects
     lo, hi = res["findings"][0]["interval"]["width_N"]
