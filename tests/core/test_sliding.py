@@ -85,3 +85,23 @@ def test_coulomb_level_on_the_expected_sign_is_unbiased(seed, scale):
     dead_zone = np.where(np.abs(speed) > 4 * std, np.sign(speed), 0.0)
     if scale == 1.0:  # slow: many samples near reversals
         assert fit(dead_zone) > 1.02 * c
+
+
+def test_expected_sign_is_scipys_erf_per_column_and_the_sign_without_noise():
+    """The one implementation of the sliding sign's expectation (the diagnosis, the episodes'
+    null model, the drives' fit): scipy's erf of v / (sqrt(2) std) with a std per column, the
+    plain sign where the std is 0, and a Monte-Carlo mean of sign(v + noise) at one point."""
+    from scipy.special import erf
+
+    from cdprid.core import expected_sign
+
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(200, 3)) * 0.01
+    std = np.array([0.002, 0.0, 0.05])
+    got = expected_sign(v, std)
+    assert np.allclose(got[:, 0], erf(v[:, 0] / (np.sqrt(2) * 0.002)), rtol=0, atol=1e-15)
+    assert np.array_equal(got[:, 1], np.sign(v[:, 1]))
+    assert np.allclose(got[:, 2], erf(v[:, 2] / (np.sqrt(2) * 0.05)), rtol=0, atol=1e-15)
+    assert np.array_equal(expected_sign(v, 0.0), np.sign(v))
+    mc = np.mean(np.sign(0.003 + 0.004 * rng.normal(size=400_000)))
+    assert abs(float(expected_sign(0.003, 0.004)) - mc) < 0.005  # MC std 0.0013

@@ -104,6 +104,7 @@ from cdprid.core._regression import regressors as regressors
 from cdprid.core._regression import wrench_matrices as wrench_matrices
 from cdprid.core._regression import wrench_matrix_series as wrench_matrix_series
 from cdprid.core._sliding import SLIDE_NOISE_M_S as SLIDE_NOISE_M_S
+from cdprid.core._sliding import expected_sign as expected_sign
 from cdprid.core._sliding import gauss_derivative as gauss_derivative
 from cdprid.core._sliding import sliding_sign as sliding_sign
 from cdprid.core._tension import CATMULL_ROM as CATMULL_ROM

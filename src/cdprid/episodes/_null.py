@@ -38,7 +38,7 @@ gauges creep and warm): per cell ``W_j P_k(t)``, Legendre polynomials of degree 
 recording, its shortest time scale :data:`ZERO_DRIFT_S`, three times the longest push the
 scan is for, so a push stays in the residual. The winches' own work is not among them.
 
-The friction column takes the expected sign of the sliding (:func:`expected_sign`: the
+The friction column takes the expected sign of the sliding (:func:`cdprid.core.expected_sign`: the
 estimated speed's noise makes the sign uncertain near a stop), and the reading's motion is
 told from its noise by a play operator whose width follows from :data:`REVERSAL_P`
 (:func:`motion`), never from a tuned rate floor.
@@ -52,6 +52,7 @@ import math
 import numpy as np
 from numpy.polynomial import legendre
 
+from cdprid.core import expected_sign
 from cdprid.effects import play_operator
 
 __all__ = ["REVERSAL_P", "ZERO_DRIFT_S", "Cells", "cells", "with_noise", "reversal_half_width",
@@ -70,7 +71,7 @@ class Cells:
         Wrench matrices (unfiltered).
     sliding : ndarray (n, m)
         ``sign(dl_j/dt)``: +1 paying out, -1 reeling in, its expected value where the
-        estimate's noise leaves it uncertain (:func:`expected_sign`).
+        estimate's noise leaves it uncertain (:func:`cdprid.core.expected_sign`).
     reading : ndarray (n, m)
         The cells' readings through the matched filter, N.
     rate : ndarray (n, m)
@@ -190,7 +191,7 @@ def cells(W, twist, tension, dt: float, segments, filt, t=None, speed_noise=0.0)
     t : ndarray (n,), optional
         Sample times, s: the zeros' drift (:func:`drift_basis`); None: no drift columns.
     speed_noise : float
-        Std of the estimated sliding speeds' noise, m/s (:func:`expected_sign`).
+        Std of the estimated sliding speeds' noise, m/s (:func:`cdprid.core.expected_sign`).
 
     Returns
     -------
@@ -211,21 +212,6 @@ def cells(W, twist, tension, dt: float, segments, filt, t=None, speed_noise=0.0)
               drift_basis(t) if t is not None else np.zeros((len(x), 0)), tuple(segments),
               filt)
     return with_noise(c, sigma)
-
-
-def expected_sign(v: np.ndarray, noise) -> np.ndarray:
-    """``E[sign(v_true)]`` given the estimate ``v`` with Gaussian noise of std ``noise``
-    (flat prior): ``erf(v / (sqrt(2) noise))``; ``sign(v)`` when ``noise`` is 0. Where the
-    estimate hovers about zero (a cable that nearly stops, a reversal) the friction's sign is
-    not known, and a hard sign would put a full friction step where there is none."""
-    v = np.asarray(v, float)
-    if not noise > 0:
-        return np.sign(v)
-    # the standard library's erf (no scipy.special on identify's path: ~0.1 s of its start)
-    return _erf(v / (np.sqrt(2.0) * float(noise)))
-
-
-_erf = np.vectorize(math.erf, otypes=[float])
 
 
 def speed_noise(position, dt: float, cutoff_hz: float) -> float:

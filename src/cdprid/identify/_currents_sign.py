@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cdprid.core import estimate_noise
+from cdprid.core import estimate_noise, expected_sign
 from cdprid.signal import zero_phase_filter
 
 __all__ = ["SIGN_CUTOFF_HZ", "STILL_S"]
@@ -56,8 +56,6 @@ def _friction_sign(v_fast, s_v, params: dict, dt: float):
 
 
 def _expected_sign(v, s_v):
-    """``E[sign(v_true)]`` for a velocity estimate ``v`` of noise std ``s_v``: ``erf(v /
-    (sqrt(2) s_v))`` (the sign itself when ``s_v`` is 0)."""
-    from scipy.special import erf
-
-    return erf(v / (np.sqrt(2.0) * np.maximum(np.asarray(s_v, float), 1e-9)))
+    """``E[sign(v_true)]`` for a velocity estimate ``v`` of noise std ``s_v`` (at least
+    1e-9 m/s): :func:`cdprid.core.expected_sign`."""
+    return expected_sign(v, np.maximum(np.asarray(s_v, float), 1e-9))
