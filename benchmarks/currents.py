@@ -92,13 +92,15 @@ def truth_vector(p):
                      IP[2, 2]])[:p]
 
 
-def one(robot, tau_ref, seed, duration, tmp, path=None):
+def one(robot, tau_ref, seed, duration, tmp, path=None, params=None):
     """(platform z, mass rel. error, m s_G rel. error, drive z (5, m), notes) of one seed
-    (``path``: the platform's motion instead of the seed's sum of sines)."""
+    (``path``: the platform's motion instead of the seed's sum of sines; ``params``: the
+    differentiator's, e.g. ``{"cutoff_hz": 3.0}``, chosen from the data when None)."""
     sim = winch_sim.simulate(robot, PLATFORM, seed=seed, duration=duration, tau_ref=tau_ref,
                              path=path)
     ds = read_dataset(winch_sim.write(tmp / f"s{seed}", robot, sim), require_tensions=False)
-    rep = identify_currents(ds, reference="drive:1", bound=False, estimator=ESTIMATOR)
+    rep = identify_currents(ds, reference="drive:1", bound=False, estimator=ESTIMATOR,
+                            params=params)
     m = len(robot["cable"])
     p = len(rep.names) - 5 * m
     x = truth_vector(p)
@@ -191,7 +193,7 @@ def row(name, Z, M, S, D, names, seconds, failed, untold=0) -> str:
             f" mean {100 * cover.mean():.0f} % | {seconds:.0f} s |")
 
 
-def run(name: str, seeds: int, duration: float, write, path=None) -> str:
+def run(name: str, seeds: int, duration: float, write, path=None, params=None) -> str:
     """The table row of one robot; ``write(row)`` after every seed (partial results kept)."""
     robot, tau_ref = ROBOTS[name]
     t0 = time.perf_counter()
@@ -200,7 +202,8 @@ def run(name: str, seeds: int, duration: float, write, path=None) -> str:
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(seeds):
             try:
-                z, mr, ms, dz, rep = one(robot, tau_ref, seed, duration, Path(tmp), path)
+                z, mr, ms, dz, rep = one(robot, tau_ref, seed, duration, Path(tmp), path,
+                                         params)
             except ValueError as e:  # the independent simulator's slack-cable check
                 failed += 1
                 print(f"{name} seed {seed}: {e}", flush=True)
@@ -221,14 +224,15 @@ def run(name: str, seeds: int, duration: float, write, path=None) -> str:
     return line
 
 
-def compare_one(name, seed, duration, tmp, path=None):
+def compare_one(name, seed, duration, tmp, path=None, params=None):
     """Per estimator ``(z (p,), mass err, m s_G err, drive z (5m,), mass std / bound, mass
     bound %)`` (``path``: the platform's motion instead of the seed's sum of sines)."""
     robot, tau_ref = ROBOTS[name]
     sim = winch_sim.simulate(robot, PLATFORM, seed=seed, duration=duration, tau_ref=tau_ref,
                              path=path)
     ds = read_dataset(winch_sim.write(tmp / f"s{seed}", robot, sim), require_tensions=False)
-    rep = identify_currents(ds, reference="drive:1", bound=False, estimator="oe")
+    rep = identify_currents(ds, reference="drive:1", bound=False, estimator="oe",
+                            params=params)
     c = rep.compared
     b_pct = bound(name, seed, duration=duration, path=path)[0]
     b_mass = b_pct / 100 * PLATFORM[0]
@@ -247,7 +251,7 @@ def compare_one(name, seed, duration, tmp, path=None):
     return out, rep.names[:p]
 
 
-def compare(name, seeds, duration, write, path=None, row=None):
+def compare(name, seeds, duration, write, path=None, row=None, params=None):
     """Rows of the side-by-side comparison for one robot, rewritten after every seed
     (``path``: the designed motion; ``row(name, key, res, names)``: the row's format,
     :func:`compare_row` by default)."""
@@ -256,7 +260,7 @@ def compare(name, seeds, duration, write, path=None, row=None):
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(seeds):
             try:
-                out, names = compare_one(name, seed, duration, Path(tmp), path)
+                out, names = compare_one(name, seed, duration, Path(tmp), path, params)
             except ValueError as e:
                 print(f"{name} seed {seed}: {e}", flush=True)
                 continue
@@ -320,10 +324,17 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=1,
                     help="with --trajectory: play it this many times back to back (it starts "
                          "and ends at rest at home)")
+    ap.add_argument("--cutoff", type=float, default=None, metavar="HZ",
+                    help="the differentiator's cutoff for every fit (default: chosen from the "
+                         "data, as `identify`); with --trajectory the rows say it")
     ap.add_argument("--robot-toml", default=None, metavar="DIR",
                     help="write DIR/ROBOT.toml for each robot (nominal drive data, drive 1 the "
                          "reference, the true platform) for `cdprid excite --source currents`")
     args = ap.parse_args(argv)
+    if args.cutoff is not None and not (np.isfinite(args.cutoff) and args.cutoff > 0):
+        print(f"--cutoff: {args.cutoff:g} Hz is not a positive number.", file=sys.stderr)
+        return 2
+    params = None if args.cutoff is None else {"cutoff_hz": args.cutoff}
     if args.robot_toml:
         for name in args.robot or list(ROBOTS):
             print(f"wrote {robot_toml(name, Path(args.robot_toml) / f'{name}.toml')}")
@@ -340,7 +351,8 @@ def main(argv=None) -> int:
                            + "\n")
 
         for name in args.robot or list(ROBOTS):
-            compare(name, args.seeds, args.duration, lambda lines, name=name: put(name, lines))
+            compare(name, args.seeds, args.duration, lambda lines, name=name: put(name, lines),
+                    params=params)
         print(out.read_text())
         return 0
     if args.bound:
@@ -368,7 +380,8 @@ def main(argv=None) -> int:
         Path(args.out).write_text(_text(args, list(rows.values())))
 
     for name in args.robot or list(ROBOTS):
-        run(name, args.seeds, args.duration, lambda line, name=name: write(name, line))
+        run(name, args.seeds, args.duration, lambda line, name=name: write(name, line),
+            params=params)
     print(_text(args, list(rows.values())))
     return 0
 
@@ -429,7 +442,9 @@ def designed(args) -> int:
     out = Path(args.out or ROOT / "results" / "currents-designed.md")
     rows, crows, tail = _designed_tables(out)
     label = (f" designed: {Path(args.trajectory).name}"
-             + (f" x {args.repeat}" if args.repeat > 1 else "") + f" ({path.duration:.1f} s) ")
+             + (f" x {args.repeat}" if args.repeat > 1 else "") + f" ({path.duration:.1f} s)"
+             + (f", cutoff {args.cutoff:g} Hz " if args.cutoff is not None else " "))
+    params = None if args.cutoff is None else {"cutoff_hz": args.cutoff}
 
     def write(line):
         cells = line.split("|")
@@ -446,9 +461,9 @@ def designed(args) -> int:
 
     if args.compare:
         compare(name, args.seeds, path.duration, write_compared, path=path,
-                row=designed_compare_row)
+                row=designed_compare_row, params=params)
     else:
-        run(name, args.seeds, path.duration, write, path=path)
+        run(name, args.seeds, path.duration, write, path=path, params=params)
     print(out.read_text())
     return 0
 
