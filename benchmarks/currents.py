@@ -475,20 +475,24 @@ DESIGNED_COMPARE_HEAD = [
     "| robot | trajectory | estimator | seeds | mass error % median / worst | m s_G error % "
     "median / worst | mass RMS z | worst HAC RMS z | worst drive coverage | mass std / bound, "
     "median (range) | mass error % mean +- its std error; std over seeds | mass bound % "
-    "median |", "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    "median | RMS z per parameter |",
+    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
 
 
 def designed_compare_row(name, key, res, names) -> str:
-    """:func:`compare_row` and two cells: the mass error's mean (with its standard error) and
-    spread over the seeds (bias against spread), and the median mass bound (%)."""
+    """:func:`compare_row` and three cells: the mass error's mean (with its standard error) and
+    spread over the seeds (bias against spread), the median mass bound (%) and the RMS z of
+    every platform parameter."""
     line = compare_row(name, key, res, names)
     fin = [r for r in res if np.all(np.isfinite(r[0])) and np.isfinite(r[4])]
     if len(fin) < 2:
-        return line + " | |"
+        return line + " | | |"
     M = 100 * np.array([r[1] for r in fin])
     sd = M.std(ddof=1)
     return (line + f" {M.mean():+.2f} +- {sd / np.sqrt(len(M)):.2f}; {sd:.2f} | "
-            f"{np.median([r[5] for r in fin]):.2f} |")
+            f"{np.median([r[5] for r in fin]):.2f} | " + " ".join(
+                f"{n} {z:.2f}" for n, z in zip(names, np.sqrt(np.mean(
+                    np.array([r[0] for r in fin]) ** 2, axis=0)), strict=True)) + " |")
 
 
 def _designed_tables(out):
