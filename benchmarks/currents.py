@@ -92,13 +92,15 @@ def truth_vector(p):
                      IP[2, 2]])[:p]
 
 
-def one(robot, tau_ref, seed, duration, tmp, path=None):
+def one(robot, tau_ref, seed, duration, tmp, path=None, params=None):
     """(platform z, mass rel. error, m s_G rel. error, drive z (5, m), notes) of one seed
-    (``path``: the platform's motion instead of the seed's sum of sines)."""
+    (``path``: the platform's motion instead of the seed's sum of sines; ``params``: the
+    differentiator's, e.g. ``{"cutoff_hz": 3.0}``, chosen from the data when None)."""
     sim = winch_sim.simulate(robot, PLATFORM, seed=seed, duration=duration, tau_ref=tau_ref,
                              path=path)
     ds = read_dataset(winch_sim.write(tmp / f"s{seed}", robot, sim), require_tensions=False)
-    rep = identify_currents(ds, reference="drive:1", bound=False, estimator=ESTIMATOR)
+    rep = identify_currents(ds, reference="drive:1", bound=False, estimator=ESTIMATOR,
+                            params=params)
     m = len(robot["cable"])
     p = len(rep.names) - 5 * m
     x = truth_vector(p)
@@ -191,7 +193,7 @@ def row(name, Z, M, S, D, names, seconds, failed, untold=0) -> str:
             f" mean {100 * cover.mean():.0f} % | {seconds:.0f} s |")
 
 
-def run(name: str, seeds: int, duration: float, write, path=None) -> str:
+def run(name: str, seeds: int, duration: float, write, path=None, params=None) -> str:
     """The table row of one robot; ``write(row)`` after every seed (partial results kept)."""
     robot, tau_ref = ROBOTS[name]
     t0 = time.perf_counter()
@@ -200,7 +202,8 @@ def run(name: str, seeds: int, duration: float, write, path=None) -> str:
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(seeds):
             try:
-                z, mr, ms, dz, rep = one(robot, tau_ref, seed, duration, Path(tmp), path)
+                z, mr, ms, dz, rep = one(robot, tau_ref, seed, duration, Path(tmp), path,
+                                         params)
             except ValueError as e:  # the independent simulator's slack-cable check
                 failed += 1
                 print(f"{name} seed {seed}: {e}", flush=True)
@@ -221,14 +224,18 @@ def run(name: str, seeds: int, duration: float, write, path=None) -> str:
     return line
 
 
-def compare_one(name, seed, duration, tmp):
-    """Per estimator ``(z (p,), mass err, m s_G err, drive z (5m,), mass std / bound)``."""
+def compare_one(name, seed, duration, tmp, path=None, params=None):
+    """Per estimator ``(z (p,), mass err, m s_G err, drive z (5m,), mass std / bound, mass
+    bound %)`` (``path``: the platform's motion instead of the seed's sum of sines)."""
     robot, tau_ref = ROBOTS[name]
-    sim = winch_sim.simulate(robot, PLATFORM, seed=seed, duration=duration, tau_ref=tau_ref)
+    sim = winch_sim.simulate(robot, PLATFORM, seed=seed, duration=duration, tau_ref=tau_ref,
+                             path=path)
     ds = read_dataset(winch_sim.write(tmp / f"s{seed}", robot, sim), require_tensions=False)
-    rep = identify_currents(ds, reference="drive:1", bound=False, estimator="oe")
+    rep = identify_currents(ds, reference="drive:1", bound=False, estimator="oe",
+                            params=params)
     c = rep.compared
-    b_mass = bound(name, seed, duration=duration)[0] / 100 * PLATFORM[0]
+    b_pct = bound(name, seed, duration=duration, path=path)[0]
+    b_mass = b_pct / 100 * PLATFORM[0]
     p = len(rep.names) - 5 * len(robot["cable"])
     x, d = truth_vector(p), sim["truth"].reshape(-1)
     out = {}
@@ -240,17 +247,20 @@ def compare_one(name, seed, duration, tmp):
         with np.errstate(divide="ignore", invalid="ignore"):
             dz = (th[p:] - d) / np.where(sd[p:] > 0, sd[p:], np.inf)
         ms = np.linalg.norm(th[1:4] - x[1:4]) / np.linalg.norm(x[1:4])
-        out[key] = ((th[:p] - x) / sd[:p], th[0] / x[0] - 1, ms, dz, sd[0] / b_mass)
+        out[key] = ((th[:p] - x) / sd[:p], th[0] / x[0] - 1, ms, dz, sd[0] / b_mass, b_pct)
     return out, rep.names[:p]
 
 
-def compare(name, seeds, duration, write):
-    """Rows of the side-by-side comparison for one robot, rewritten after every seed."""
+def compare(name, seeds, duration, write, path=None, row=None, params=None):
+    """Rows of the side-by-side comparison for one robot, rewritten after every seed
+    (``path``: the designed motion; ``row(name, key, res, names)``: the row's format,
+    :func:`compare_row` by default)."""
+    row = row or compare_row
     res = {"cls": [], "oe": [], "oe-sandwich": [], "oe-andrews": [], "oe-model": []}
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(seeds):
             try:
-                out, names = compare_one(name, seed, duration, Path(tmp))
+                out, names = compare_one(name, seed, duration, Path(tmp), path, params)
             except ValueError as e:
                 print(f"{name} seed {seed}: {e}", flush=True)
                 continue
@@ -263,7 +273,7 @@ def compare(name, seeds, duration, write):
             print(f"{name} seed {seed}: oe drive intervals missing: " + (", ".join(
                 f"{KINDS[j // m]}_{j % m + 1} (z {dz[j]:+.2f})" for j in np.flatnonzero(
                     np.abs(dz) > 1.96)) or "none"), flush=True)
-            write([compare_row(name, k, v, names) for k, v in res.items()])
+            write([row(name, k, v, names) for k, v in res.items()])
 
 
 def compare_row(name, key, res, names) -> str:
@@ -314,10 +324,17 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=1,
                     help="with --trajectory: play it this many times back to back (it starts "
                          "and ends at rest at home)")
+    ap.add_argument("--cutoff", type=float, default=None, metavar="HZ",
+                    help="the differentiator's cutoff for every fit (default: chosen from the "
+                         "data, as `identify`); with --trajectory the rows say it")
     ap.add_argument("--robot-toml", default=None, metavar="DIR",
                     help="write DIR/ROBOT.toml for each robot (nominal drive data, drive 1 the "
                          "reference, the true platform) for `cdprid excite --source currents`")
     args = ap.parse_args(argv)
+    if args.cutoff is not None and not (np.isfinite(args.cutoff) and args.cutoff > 0):
+        print(f"--cutoff: {args.cutoff:g} Hz is not a positive number.", file=sys.stderr)
+        return 2
+    params = None if args.cutoff is None else {"cutoff_hz": args.cutoff}
     if args.robot_toml:
         for name in args.robot or list(ROBOTS):
             print(f"wrote {robot_toml(name, Path(args.robot_toml) / f'{name}.toml')}")
@@ -334,7 +351,8 @@ def main(argv=None) -> int:
                            + "\n")
 
         for name in args.robot or list(ROBOTS):
-            compare(name, args.seeds, args.duration, lambda lines, name=name: put(name, lines))
+            compare(name, args.seeds, args.duration, lambda lines, name=name: put(name, lines),
+                    params=params)
         print(out.read_text())
         return 0
     if args.bound:
@@ -362,7 +380,8 @@ def main(argv=None) -> int:
         Path(args.out).write_text(_text(args, list(rows.values())))
 
     for name in args.robot or list(ROBOTS):
-        run(name, args.seeds, args.duration, lambda line, name=name: write(name, line))
+        run(name, args.seeds, args.duration, lambda line, name=name: write(name, line),
+            params=params)
     print(_text(args, list(rows.values())))
     return 0
 
@@ -421,12 +440,75 @@ def designed(args) -> int:
               f"{b[:, 1].max():.1f} |", flush=True)
         return 0
     out = Path(args.out or ROOT / "results" / "currents-designed.md")
+    rows, crows, tail = _designed_tables(out)
+    label = (f" designed: {Path(args.trajectory).name}"
+             + (f" x {args.repeat}" if args.repeat > 1 else "") + f" ({path.duration:.1f} s)"
+             + (f", cutoff {args.cutoff:g} Hz " if args.cutoff is not None else " "))
+    params = None if args.cutoff is None else {"cutoff_hz": args.cutoff}
+
+    def write(line):
+        cells = line.split("|")
+        rows[f"{name}|{label.strip()}"] = "|".join(cells[:2] + [label] + cells[2:])
+        _designed_write(out, args.seeds, rows, crows, tail)
+
+    def write_compared(lines):
+        for line in lines:
+            cells = line.split("|")
+            if cells[2].strip() in DESIGNED_COMPARED:
+                crows[f"{name}|{label.strip()}|{cells[2].strip()}"] = "|".join(
+                    cells[:2] + [label] + cells[2:])
+        _designed_write(out, args.seeds, rows, crows, tail)
+
+    if args.compare:
+        compare(name, args.seeds, path.duration, write_compared, path=path,
+                row=designed_compare_row, params=params)
+    else:
+        run(name, args.seeds, path.duration, write, path=path, params=params)
+    print(out.read_text())
+    return 0
+
+
+DESIGNED_COMPARED = ("cls", "oe")
+"""The estimators of results/currents-designed.md's ``--compare`` table (the output error's
+other covariances are printed per seed only through results/currents-oe.md's runs)."""
+DESIGNED_COMPARE_HEAD = [
+    "| robot | trajectory | estimator | seeds | mass error % median / worst | m s_G error % "
+    "median / worst | mass RMS z | worst HAC RMS z | worst drive coverage | mass std / bound, "
+    "median (range) | mass error % mean +- its std error; std over seeds | mass bound % "
+    "median | RMS z per parameter |",
+    "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+
+
+def designed_compare_row(name, key, res, names) -> str:
+    """:func:`compare_row` and three cells: the mass error's mean (with its standard error) and
+    spread over the seeds (bias against spread), the median mass bound (%) and the RMS z of
+    every platform parameter."""
+    line = compare_row(name, key, res, names)
+    fin = [r for r in res if np.all(np.isfinite(r[0])) and np.isfinite(r[4])]
+    if len(fin) < 2:
+        return line + " | | |"
+    M = 100 * np.array([r[1] for r in fin])
+    sd = M.std(ddof=1)
+    return (line + f" {M.mean():+.2f} +- {sd / np.sqrt(len(M)):.2f}; {sd:.2f} | "
+            f"{np.median([r[5] for r in fin]):.2f} | " + " ".join(
+                f"{n} {z:.2f}" for n, z in zip(names, np.sqrt(np.mean(
+                    np.array([r[0] for r in fin]) ** 2, axis=0)), strict=True)) + " |")
+
+
+def _designed_tables(out):
+    """results/currents-designed.md's rows: the plain Monte Carlo's (keyed robot|trajectory,
+    with the sums of sines' rows of results/currents.md), the ``--compare`` table's (keyed
+    robot|trajectory|estimator), and the text from ``## Reading`` on."""
     old = out.read_text() if out.exists() else ""
     cut = old.index("## Reading") if "## Reading" in old else len(old)
     old, tail = old[:cut], old[cut:]
-    rows = {line.split("|")[1].strip() + "|" + line.split("|")[2].strip(): line
-            for line in old.splitlines() if line.startswith("| ") and "---" not in line
-            and not line.startswith("| robot ")}
+    rows, crows, table = {}, {}, None
+    for line in old.splitlines():
+        if line.startswith("| robot "):
+            table = crows if "| estimator |" in line else rows
+        elif line.startswith("| ") and "---" not in line and table is not None:
+            cells = [c.strip() for c in line.split("|")]
+            table["|".join(cells[1:4] if table is crows else cells[1:3])] = line
     base = ROOT / "results" / "currents.md"
     label = " 30 s sums of sines (results/currents.md) "
     for line in base.read_text().splitlines() if base.exists() else []:
@@ -434,28 +516,29 @@ def designed(args) -> int:
         if len(cells) > 2 and cells[1].strip() in ROBOTS and "'cannot tell'" in cells[2]:
             rows[f"{cells[1].strip()}|{label.strip()}"] = "|".join(cells[:2] + [label]
                                                                   + cells[2:])
-    label = (f" designed: {Path(args.trajectory).name}"
-             + (f" x {args.repeat}" if args.repeat > 1 else "") + f" ({path.duration:.1f} s) ")
+    return rows, crows, tail
 
-    def write(line):
-        cells = line.split("|")
-        rows[f"{name}|{label.strip()}"] = "|".join(cells[:2] + [label] + cells[2:])
-        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
-                                capture_output=True, text=True).stdout.strip()
-        out.write_text("\n".join([
-            "# Identification from motor currents on a designed trajectory (issue 41)", "",
-            "Generated by `benchmarks/currents.py --trajectory ... [--repeat N] --robot ... "
-            f"--seeds {args.seeds}` at {commit}, one robot per run (each run updates its "
-            "rows). The "
-            "recordings and the fit are those of results/currents.md (same simulator, noises, "
-            "per-seed drive constants, drive 1 the reference, the benchmark's estimator), the "
-            "platform's motion the designed trajectory (`cdprid excite --source currents`) "
-            "instead of each seed's sum of sines.", "", *DESIGNED_HEAD,
-            *[rows[k] for k in sorted(rows)], "", tail]))
 
-    run(name, args.seeds, path.duration, write, path=path)
-    print(out.read_text())
-    return 0
+def _designed_write(out, seeds, rows, crows, tail):
+    """Write results/currents-designed.md: the plain table, the ``--compare`` table (when it
+    has rows) and the kept text."""
+    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                            capture_output=True, text=True).stdout.strip()
+    compared = ["", "Both estimators on the same recordings (`--compare`, one "
+                "`identify_currents(..., estimator=\"oe\")` run per seed; `cls` its starting "
+                "point); mass std / bound: that seed's Cramer-Rao bound of the same designed "
+                "recording (`--bound`).", "", *DESIGNED_COMPARE_HEAD,
+                *[crows[k] for k in sorted(crows)]] if crows else []
+    out.write_text("\n".join([
+        "# Identification from motor currents on a designed trajectory (issue 41)", "",
+        "Generated by `benchmarks/currents.py --trajectory ... [--repeat N] [--compare] "
+        f"--robot ... --seeds {seeds}` at {commit}, one robot per run (each run updates its "
+        "rows). The recordings are those of results/currents.md (same simulator, noises, "
+        "per-seed drive constants, drive 1 the reference), the platform's motion the designed "
+        "trajectory (`cdprid excite --source currents`) instead of each seed's sum of sines. "
+        f"The first table's fit is the benchmark's plain estimator (`{ESTIMATOR}`, the "
+        "corrected least squares, as in results/currents.md).", "", *DESIGNED_HEAD,
+        *[rows[k] for k in sorted(rows)], *compared, "", tail]))
 
 
 def _text(args, rows) -> str:
