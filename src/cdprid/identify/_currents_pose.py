@@ -139,12 +139,14 @@ def pose_noise_shift(st: RefitSetup, sig, motion, phi, p: int, ref, drives, nois
     PoseShift, or None when the poses show no noise (or ``pairs`` is 0).
     """
     pairs = PAIRS if pairs is None else int(pairs)
+    if pairs <= 0:
+        return None
     m = st.ds.robot.n_cables
     s_pos = float(noise.get("position_m") or 0.0)
     s_rot = noise.get("rotation_rad")
     if st.model != "full" or s_rot is None or not s_rot > 0:
         s_rot = None
-    if (not s_pos > 0 and s_rot is None) or pairs <= 0:
+    if not s_pos > 0 and s_rot is None:
         return None
     theta0 = _theta(phi, p, m)
     prior = _a_prior(drives, ref, p, m)
