@@ -11,8 +11,8 @@ Newton-Euler regressor of the filtered motion). On a redundant robot the interna
 projected on the complement of ``diag(a) N`` in the whitened current space (the Cramer-Rao
 bound's model in ``benchmarks/currents.py``). Both sides pass the accelerations' filter
 (``F[i]``, ``F[sign]``, the differentiated lengths), so the measured current's noise sits in
-the response alone: no errors in variables (the encoder and pose noise left inside are small,
-measured in ``docs/currents-estimator.md``).
+the response alone: no errors in variables from the currents (the pose noise's, inside ``Z``
+and ``W``, is removed by re-noising: :mod:`cdprid.identify._currents_pose`).
 
 Gauss-Newton (Levenberg-Marquardt damped) in ``(x, a, J, f_v, f_c, c)`` from the corrected
 least squares, the reference parameter held at its value, each cable weighted by its current
