@@ -37,7 +37,6 @@ def _fits(tmp_path, noise_pos, monkeypatch, seed=0, path=None, params=None):
     return plain, identify_currents(ds, **kw)
 
 
-@pytest.mark.slow
 def test_pose_noise_bias_is_removed(tmp_path, monkeypatch):
     """The six-cable design of results/currents-designed.md (32 s), 0.2 mm position noise
     only, seed 0: uncorrected, m z_G is 0.49 % of |m s_G| off (3 std, the pose noise's
