@@ -140,8 +140,15 @@ def test_estimator_reaches_the_json(short_recording, tmp_path):
     base = ["identify", str(short_recording), "--source", "currents", "--reference", "drive:1",
             "--params", '{"cutoff_hz": 4}', "--json", str(out)]
     assert main(base + ["--estimator", "cls"]) == 0
-    assert json.loads(out.read_text())["estimator"] == "cls"
+    js = json.loads(out.read_text())
+    assert js["estimator"] == "cls" and js["pose_noise_correction"] is None
     assert main(base + ["--force"]) == 0
     js = json.loads(out.read_text())
     assert js["estimator"] == "oe"
     assert any("output-error estimator" in n for n in js["notes"])
+    # the pose noise's bias subtracted, per parameter, with its Monte-Carlo std
+    pc = js["pose_noise_correction"]
+    assert set(pc["shift"]) == set(js["parameters"]) | {
+        f"{k}_{j}" for k in ("k", "J", "fv", "fc", "c") for j in range(1, 7)}
+    assert pc["shift"]["k_1"] == 0.0 and all(v >= 0 for v in pc["shift_std"].values())
+    assert any(n.startswith("pose noise (errors in variables)") for n in js["notes"])

@@ -47,8 +47,9 @@ from cdprid.core import crb as crb_bound
 from cdprid.identify._auto import cutoff_from_data, resolve_params
 from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
 from cdprid.identify._cells import CellCalibration
-from cdprid.identify._currents_oe import datasheet_drives, refit_output_error
+from cdprid.identify._currents_oe import current_weights, datasheet_drives, refit_output_error
 from cdprid.identify._currents_oe import raw_rates as _raw_rates
+from cdprid.identify._currents_pose import RefitSetup, pose_noise_shift, shifted_fit
 from cdprid.identify._currents_sign import STILL_S, _expected_sign, _fast_rate, _friction_sign
 from cdprid.identify._drive_cells import cells_against_drives
 from cdprid.identify._eiv_currents import corrected, normal_and_noise
@@ -308,9 +309,8 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes,
                _datasheet_prior(drives, ref, len(PARAMETER_NAMES[model]), m, notes))
     if estimator == "oe":
-        fit = refit_output_error(ds, fit["p"], motion, idx, reg, fit, ref, drives,
-                                 np.asarray(sig.tension), lengths, noise["sign"], wf, sig.dt,
-                                 params, noise, ct, notes, warns)
+        fit = _output_error(ds, sig, motion, model, differentiator, params, wf, keep, idx, reg,
+                            trim, int(chunk), lengths, noise, ct, fit, ref, drives, notes, warns)
     cells = cells_against_drives(ds, model, motion, idx, np.asarray(sig.tension), lengths,
                                  noise.pop("sign"), wf, sig.dt, params, fit["theta"],
                                  fit["cov"], int(chunk), notes)
@@ -322,6 +322,31 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     if cells is None:
         return rep
     return dataclasses.replace(rep, cells=cells, warnings=rep.warnings + cells.warnings)
+
+
+def _output_error(ds, sig, motion, model, differentiator, params, wf, keep, idx, reg, trim,
+                  chunk, lengths, noise, ct, fit, ref, drives, notes, warns) -> dict:
+    """The output error refitted from the corrected least squares ``fit``
+    (:mod:`cdprid.identify._currents_oe`), the pose noise's bias removed by re-noising
+    (:mod:`cdprid.identify._currents_pose`)."""
+    fit = refit_output_error(ds, fit["p"], motion, idx, reg, fit, ref, drives,
+                             np.asarray(sig.tension), lengths, noise["sign"], wf, sig.dt,
+                             params, noise, ct, notes, warns)
+    if "oe" not in fit:
+        return fit
+
+    def regression(s, mo):
+        """The platform regression of the poses of ``s`` at the kept samples ``idx``."""
+        s0 = dataclasses.replace(s, tension=np.zeros_like(s.tension))
+        r, _, k = _regression(ds, s0, mo, model, differentiator, "matched", wf, keep, trim,
+                              chunk, [], [])
+        return _SubRegression(r, np.searchsorted(np.flatnonzero(k), idx))
+
+    st = RefitSetup(ds, model, differentiator, params, wf, idx, regression,
+                    np.asarray(sig.tension), lengths, noise["sign"],
+                    current_weights(noise, ct, sig.dt))
+    sh = pose_noise_shift(st, sig, motion, fit["oe"].phi, fit["p"], ref, drives, noise)
+    return shifted_fit(fit, sh, fit["p"], notes, warns)
 
 
 def _currents_aligned(ds, ct, cur_raw, t_start, t_end):

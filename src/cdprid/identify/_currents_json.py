@@ -79,9 +79,21 @@ def currents_json(rep) -> dict:
         "drives": drives,
         "scale_reference": rep.reference.as_json(),
         "load_cells": None if rep.cells is None else rep.cells.as_json(),
+        "pose_noise_correction": _pose_json(rep),
         "warnings": list(rep.warnings),
         "notes": list(rep.notes),
     }
+
+
+def _pose_json(rep):
+    """The output error's pose-noise bias that was subtracted (``shift``) and its Monte-Carlo
+    std (``shift_std``) per parameter, or None (``cls``, or no correction)."""
+    c = rep.compared or {}
+    if "pose_shift" not in c:
+        return None
+    sd = np.sqrt(np.clip(np.diag(c["pose_shift_cov"]), 0, None))
+    return {"shift": {n: float(v) for n, v in zip(rep.names, c["pose_shift"], strict=True)},
+            "shift_std": {n: float(v) for n, v in zip(rep.names, sd, strict=True)}}
 
 
 def result_table(title: str, names, theta, std, reference, notes=(), warnings=(),

@@ -11,8 +11,8 @@ Newton-Euler regressor of the filtered motion). On a redundant robot the interna
 projected on the complement of ``diag(a) N`` in the whitened current space (the Cramer-Rao
 bound's model in ``benchmarks/currents.py``). Both sides pass the accelerations' filter
 (``F[i]``, ``F[sign]``, the differentiated lengths), so the measured current's noise sits in
-the response alone: no errors in variables (the encoder and pose noise left inside are small,
-measured in ``docs/currents-estimator.md``).
+the response alone: no errors in variables from the currents (the pose noise's, inside ``Z``
+and ``W``, is removed by re-noising: :mod:`cdprid.identify._currents_pose`).
 
 Gauss-Newton (Levenberg-Marquardt damped) in ``(x, a, J, f_v, f_c, c)`` from the corrected
 least squares, the reference parameter held at its value, each cable weighted by its current
@@ -319,6 +319,14 @@ def _a_prior(drives, ref, p: int, m: int):
     return (P, mean) if P.any() else None
 
 
+def current_weights(noise: dict, t_cur, dt: float) -> np.ndarray:
+    """Per-cable weights (1 / A^2): the inverse of the current noise's long-run variance per
+    pose sample (``sigma_i^2 dt_i / dt_pose``, at most ``sigma_i^2``)."""
+    s_i = np.maximum(np.asarray(noise["current_A"], float), 1e-6)
+    ratio = min(1.0, float(np.median(np.diff(t_cur))) / dt)
+    return 1.0 / (s_i ** 2 * ratio)
+
+
 def refit_output_error(ds, model_p: int, motion, idx, reg, fit: dict, ref, drives, current,
                        lengths, sign, wf, dt: float, params: dict, noise: dict, t_cur,
                        notes: list, warns: list) -> dict:
@@ -344,9 +352,7 @@ def refit_output_error(ds, model_p: int, motion, idx, reg, fit: dict, ref, drive
     phi0[p:p + m] = 1.0 / th0[p:p + m]
     fixed = ref.index(p)
     phi0[fixed] = 1.0 / ref.value if ref.kind == "drive" else ref.value
-    s_i = np.maximum(np.asarray(noise["current_A"], float), 1e-6)
-    ratio = min(1.0, float(np.median(np.diff(t_cur))) / dt)
-    w = 1.0 / (s_i ** 2 * ratio)
+    w = current_weights(noise, t_cur, dt)
     try:
         Dc = commutator(ds, motion, idx, current, lengths, sign, wf, dt, th0, p)
         oe = fit_output_error(G, I, L2, L1, S, C1, phi0, fixed, w, Nn,
