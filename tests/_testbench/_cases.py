@@ -14,6 +14,8 @@ glitches (:mod:`._episodes`), and gives the same recording without them (its cle
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from tests._testbench._episodes import draw_glitches, draw_pushes, push_wrench
 from tests._testbench._motion import motion
@@ -23,10 +25,13 @@ from tests._testbench._sensors import Sensors
 
 
 def floor8_case(seed: int, duration_s: float | None = None, hysteresis: bool | None = None,
-                noise: bool = True) -> Recording:
+                noise: bool = True, tension_rate_hz: float | None = None) -> Recording:
     """The seed's recording of the floor-winch robot (module docstring); ``hysteresis``
-    forces a hysteretic cell on (True) or off (False)."""
+    forces a hysteretic cell on (True) or off (False); ``tension_rate_hz`` replaces the drawn
+    load-cell rate (every other draw unchanged; the AR(1) pole stays per sample)."""
     rob, s, dur, exit_error, drag = _floor8_draw(seed, duration_s, hysteresis)
+    if tension_rate_hz is not None:
+        s = dataclasses.replace(s, tension_rate_hz=float(tension_rate_hz))
     return record(rob, s, seed, dur, exit_error=exit_error, drag_Ns_per_m=drag, noise=noise)
 
 
