@@ -149,6 +149,14 @@ def joint_delay(prob: Problem, theta, x, rotational: bool, active_idx, grid=GRID
     return float(best if min(fa, fb) <= cost[k] else grid[k])
 
 
+def _parabola(c_minus: float, c_0: float, c_plus: float, h: float) -> tuple[float, float]:
+    """The profile's curvature and the vertex of the parabola through three costs ``h`` apart
+    (the vertex meaningful only for a positive curvature)."""
+    curv = (c_minus - 2.0 * c_0 + c_plus) / h**2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return float(curv), float(c_0 - (c_plus - c_minus) ** 2 / (8.0 * curv * h**2))
+
+
 def profile_interval(grid, cost, d_star: float, var: float, level: float = CHI2_95):
     """95 % interval of the delay from its concentrated training cost, HAC-calibrated.
 
@@ -169,10 +177,10 @@ def profile_interval(grid, cost, d_star: float, var: float, level: float = CHI2_
     if not 0 < k < len(grid) - 1:
         return (min(wald[0], grid[0]) if k == 0 else wald[0],
                 max(wald[1], grid[-1]) if k == len(grid) - 1 else wald[1], True)
-    curv = (cost[k - 1] - 2 * cost[k] + cost[k + 1]) / h**2
+    curv, c_vertex = _parabola(cost[k - 1], cost[k], cost[k + 1], h)
     if not (curv > 0 and var > 0):
         return float(grid[0]), float(grid[-1]), True
-    c_star = min(float(cost.min()), cost[k] - (cost[k + 1] - cost[k - 1]) ** 2 / (8 * curv * h**2))
+    c_star = min(float(cost.min()), c_vertex)
     lr = 2.0 * (cost - c_star) / (curv * var)
     ends, open_ends = [], False
     for step in (-1, 1):
@@ -231,10 +239,10 @@ def clock_removal_test(prob: Problem, Z, y, col: int, d_star: float, var: float,
     h = float(GRID_S[1] - GRID_S[0])
     Q = _projector(Zr[tr])
     cm, c0, cp, cz = _costs(prob, Q, y_fix[tr], d_star, [d_star - h, d_star, d_star + h, 0.0])
-    curv = (cm - 2.0 * c0 + cp) / h**2
+    curv, c_vertex = _parabola(cm, c0, cp, h)
     p = 1.0
     if curv > 0 and var > 0:
-        c_star = min(c0, c0 - (cp - cm) ** 2 / (8.0 * curv * h**2))
+        c_star = min(c0, c_vertex)
         p = float(chi2_sf(max(2.0 * (cz - c_star) / (curv * var), 0.0), 1))
     S = shift_wrenches(prob, [0.0, d_star])
     y0 = y_fix + (S[0] - S[1]) * prob.wrow[None, :]
