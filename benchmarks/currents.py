@@ -239,7 +239,13 @@ def compare_one(name, seed, duration, tmp, path=None, params=None):
     p = len(rep.names) - 5 * len(robot["cable"])
     x, d = truth_vector(p), sim["truth"].reshape(-1)
     out = {}
+    # the output error before the pose noise's correction (_currents_pose), from the same fit:
+    # the shift added back, its Monte-Carlo covariance taken out (None: no correction made)
+    sh = c.get("pose_shift")
+    th_u, cov_u = ((rep.theta, rep.cov) if sh is None
+                   else (rep.theta + sh, rep.cov - c["pose_shift_cov"]))
     for key, th, cov in (("cls", c["cls_theta"], c["cls_cov"]), ("oe", rep.theta, rep.cov),
+                         ("oe-uncorrected", th_u, cov_u),
                          ("oe-sandwich", rep.theta, c["cov_sandwich"]),
                          ("oe-andrews", rep.theta, c["cov_andrews"]),
                          ("oe-model", rep.theta, c["cov_model"])):
@@ -251,14 +257,17 @@ def compare_one(name, seed, duration, tmp, path=None, params=None):
     return out, rep.names[:p]
 
 
-def compare(name, seeds, duration, write, path=None, row=None, params=None):
+def compare(name, seeds, duration, write, path=None, row=None, params=None, dump=None,
+            first=0):
     """Rows of the side-by-side comparison for one robot, rewritten after every seed
     (``path``: the designed motion; ``row(name, key, res, names)``: the row's format,
-    :func:`compare_row` by default)."""
+    :func:`compare_row` by default; ``dump``: a file each seed's results are appended to, one
+    JSON line per seed; seeds ``first .. first + seeds - 1``)."""
     row = row or compare_row
-    res = {"cls": [], "oe": [], "oe-sandwich": [], "oe-andrews": [], "oe-model": []}
+    res = {"cls": [], "oe": [], "oe-uncorrected": [], "oe-sandwich": [], "oe-andrews": [],
+           "oe-model": []}
     with tempfile.TemporaryDirectory() as tmp:
-        for seed in range(seeds):
+        for seed in range(first, first + seeds):
             try:
                 out, names = compare_one(name, seed, duration, Path(tmp), path, params)
             except ValueError as e:
@@ -266,14 +275,29 @@ def compare(name, seeds, duration, write, path=None, row=None, params=None):
                 continue
             for k, v in out.items():
                 res[k].append(v)
+            if dump:
+                _dump(dump, name, seed, names, out)
             print(f"{name} seed {seed}: " + "; ".join(
                 f"{k} mass {100 * v[1]:+.2f} % (eff {v[4]:.2f}) m s_G {100 * v[2]:.1f} %"
-                for k, v in out.items() if k in ("cls", "oe")), flush=True)
+                for k, v in out.items() if k in ("cls", "oe", "oe-uncorrected")), flush=True)
             dz, m = out["oe"][3], len(out["oe"][3]) // 5
             print(f"{name} seed {seed}: oe drive intervals missing: " + (", ".join(
                 f"{KINDS[j // m]}_{j % m + 1} (z {dz[j]:+.2f})" for j in np.flatnonzero(
                     np.abs(dz) > 1.96)) or "none"), flush=True)
             write([row(name, k, v, names) for k, v in res.items()])
+
+
+def _dump(file, name, seed, names, out):
+    """Append one seed's :func:`compare_one` results to ``file`` as a JSON line."""
+    import json
+
+    rec = {"robot": name, "seed": seed, "names": list(names), "kinds": list(KINDS),
+           "estimators": {k: {"z": np.asarray(v[0]).tolist(), "mass_err": float(v[1]),
+                              "msg_err": float(v[2]), "drive_z": np.asarray(v[3]).tolist(),
+                              "mass_std_over_bound": float(v[4]), "mass_bound_pct": float(v[5])}
+                          for k, v in out.items()}}
+    with open(file, "a") as fh:
+        fh.write(json.dumps(rec, allow_nan=True) + "\n")
 
 
 def compare_row(name, key, res, names) -> str:
@@ -327,6 +351,11 @@ def main(argv=None) -> int:
     ap.add_argument("--cutoff", type=float, default=None, metavar="HZ",
                     help="the differentiator's cutoff for every fit (default: chosen from the "
                          "data, as `identify`); with --trajectory the rows say it")
+    ap.add_argument("--dump", default=None, metavar="FILE",
+                    help="with --compare: append each seed's results (platform z, errors, drive "
+                         "z per estimator) to FILE, one JSON line per seed")
+    ap.add_argument("--first-seed", type=int, default=0, metavar="N",
+                    help="with --compare: seeds N .. N + --seeds - 1 (to add seeds to a dump)")
     ap.add_argument("--robot-toml", default=None, metavar="DIR",
                     help="write DIR/ROBOT.toml for each robot (nominal drive data, drive 1 the "
                          "reference, the true platform) for `cdprid excite --source currents`")
@@ -352,7 +381,7 @@ def main(argv=None) -> int:
 
         for name in args.robot or list(ROBOTS):
             compare(name, args.seeds, args.duration, lambda lines, name=name: put(name, lines),
-                    params=params)
+                    params=params, dump=args.dump, first=args.first_seed)
         print(out.read_text())
         return 0
     if args.bound:
@@ -461,14 +490,14 @@ def designed(args) -> int:
 
     if args.compare:
         compare(name, args.seeds, path.duration, write_compared, path=path,
-                row=designed_compare_row, params=params)
+                row=designed_compare_row, params=params, dump=args.dump, first=args.first_seed)
     else:
         run(name, args.seeds, path.duration, write, path=path, params=params)
     print(out.read_text())
     return 0
 
 
-DESIGNED_COMPARED = ("cls", "oe")
+DESIGNED_COMPARED = ("cls", "oe", "oe-uncorrected")
 """The estimators of results/currents-designed.md's ``--compare`` table (the output error's
 other covariances are printed per seed only through results/currents-oe.md's runs)."""
 DESIGNED_COMPARE_HEAD = [
