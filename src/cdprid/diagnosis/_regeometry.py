@@ -30,8 +30,10 @@ from cdprid.effects import DIAGNOSIS
 
 
 def is_geometry(c) -> bool:
-    """Whether candidate ``c`` moves a point of the geometry (exit or attachment point)."""
-    return bool(DIAGNOSIS[c.effect].displacement)
+    """Whether candidate ``c`` is a geometry error: it moves a point of the geometry (exit or
+    attachment point) or tilts the frame (a form on gravity)."""
+    form = DIAGNOSIS[c.effect]
+    return bool(form.displacement) or getattr(form, "gravity", None) is not None
 
 
 def needs_reselection(accepted) -> bool:
@@ -75,13 +77,16 @@ def geometry_reselection(prob: Problem, base, s: Selection, candidates, alpha: f
     t = s
     while (k := next((k for k, c in enumerate(t.accepted) if is_geometry(c)), None)) is not None:
         t = withdraw(prob, t, k, extra)
-    pool = [c for c in candidates if is_geometry(c)]
-    for step in range(len(t.accepted) + 1, max_effects + 1):
-        nxt, _, _ = forward_step(prob, base, t, pool, (), alpha, min_gain, extra,
-                                 lambda m: say(f"geometry again: {m}"), step, thr_p)
-        if nxt is None:
-            break
-        t = nxt
+    # the sensor side first (what the geometry carried may be a sensor error the greedy path
+    # never reached), then the geometry given it
+    for pool in ([c for c in candidates if not is_geometry(c) and not extends_base(c)],
+                 [c for c in candidates if is_geometry(c)]):
+        for step in range(len(t.accepted) + 1, max_effects + 1):
+            nxt, _, _ = forward_step(prob, base, t, pool, (), alpha, min_gain, extra,
+                                     lambda m: say(f"geometry again: {m}"), step, thr_p)
+            if nxt is None:
+                break
+            t = nxt
     info = {"tried": True, "greedy_path": [c.label for c in s.accepted],
             "again": [c.label for c in t.accepted]}
     if set(t.accepted) == set(s.accepted):
