@@ -350,6 +350,8 @@ def _checks(prob, base, s, candidates, feats, cfg: Search, *, thr_first,
     s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, ctx, say)
     s, regeo = geometry_reselection(prob, base, s, candidates, alpha, min_gain, thr_first,
                                     cfg.max_effects, ctx, say)
+    if regeo.get("kept") == "geometry selected again":  # a new model: each finding needed?
+        s, _ = backward_stage(prob, s, {}, alpha, min_gain, thr_first, ctx, say)
     s, unstable = stability_stage(prob, s, ctx, say)
     s, withdrawn = geometry_stage(prob, s, candidates, min_gain, ctx, say)
     s, implausible_now = plausibility_stage(prob, s, ctx, say)
