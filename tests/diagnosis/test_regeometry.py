@@ -53,8 +53,11 @@ def test_floor8_seed_2_names_no_anchor_error(tmp_path):
 
     rec = floor8_case(2)
     res = diagnose(read_dataset(write(rec, tmp_path / "d", overwrite=True)))
-    named = {f.effect for f in res.findings}
-    truth = {name for name, _ in rec.effects}
+    named = {(f.effect, f.parameters.get("cable")) for f in res.findings}
+    truth = {(name, p.get("cable")) for name, p in rec.effects}
+    # on its cable: the reselection's sensor pass (geometry held back) once took a 0.44 N
+    # offset on cable 5 in the exit-point error's place; weighed against the geometry it
+    # was chosen without, it is withdrawn (sensor_pass_check)
     assert named <= truth, named - truth
     # before session 11 the greedy path took the anchor errors and the reselection replaced
     # them; since the hysteresis form finds the cell on cable 1 first, no geometry is taken
