@@ -36,7 +36,7 @@ from cdprid.diagnosis._hysteresis import (
 )
 from cdprid.diagnosis._lengths import lengths_stream, with_elasticity
 from cdprid.diagnosis._problem import Problem, force_heldout_rms, measured, prepare
-from cdprid.diagnosis._regeometry import geometry_reselection
+from cdprid.diagnosis._regeometry import geometry_reselection, sensor_pass_check
 from cdprid.diagnosis._replace import adopt_better
 from cdprid.diagnosis._restart import MIN_FINDINGS, choose, pair_start
 from cdprid.diagnosis._parts import ParameterEstimate, ParameterEstimates
@@ -350,9 +350,15 @@ def _checks(prob, base, s, candidates, feats, cfg: Search, *, thr_first,
     s, hints = backward_stage(prob, s, feats, alpha, min_gain, thr_first, ctx, say)
     s, regeo = geometry_reselection(prob, base, s, candidates, alpha, min_gain, thr_first,
                                     cfg.max_effects, ctx, say)
+    sensor_first = []
+    if regeo.get("kept") == "geometry selected again":  # a new model: each finding needed?
+        s, _ = backward_stage(prob, s, {}, alpha, min_gain, thr_first, ctx, say)
+        added = [c for c in candidates if c.label in regeo.get("sensor_pass", ())]
+        s, sensor_first = sensor_pass_check(prob, s, added, candidates, min_gain, ctx, say)
     s, unstable = stability_stage(prob, s, ctx, say)
     s, withdrawn = geometry_stage(prob, s, candidates, min_gain, ctx, say)
     s, implausible_now = plausibility_stage(prob, s, ctx, say)
+    withdrawn = sensor_first + withdrawn
     if unstable or withdrawn or implausible_now:  # what the others carried may not be needed
         # (given the model alone: the unexplained structure's signals were weighed in the
         # first pass; here a generic sign-of-velocity signal would displace friction)
