@@ -23,9 +23,7 @@ the same path: nothing is done.
 
 from __future__ import annotations
 
-import numpy as np
-
-from cdprid.diagnosis._candidates import alias_label, implausible, vocab_params
+from cdprid.diagnosis._candidates import alias_label, vocab_params
 from cdprid.diagnosis._competing import dm_p_worse
 from cdprid.diagnosis._problem import Problem, heldout_rms
 from cdprid.diagnosis._restart import choose
@@ -35,14 +33,12 @@ from cdprid.diagnosis._selection import (
     extends_base,
     forward_step,
     linear_model,
-    model_implausible,
     withdraw,
 )
 from cdprid.diagnosis._stability import (
     GEOMETRY_DM_LEVEL,
     _losses,
-    _replace,
-    _screen,
+    best_replacement,
     geometry_verdict,
 )
 from cdprid.effects import DIAGNOSIS
@@ -202,20 +198,8 @@ def _best_geometry(prob: Problem, s: Selection, k: int, candidates: list, extra:
     """The geometry candidate that, in finding ``k``'s place, predicts the held-out data best:
     ``(rms, candidate, refitted model, per-sample held-out losses)`` or None."""
     alts = [(g,) for g in candidates if is_geometry(g) and g not in s.accepted]
-    best = None
-    for (g,) in _screen(prob, s, k, alts):
-        try:
-            t = _replace(prob, s, k, (g,))
-        except np.linalg.LinAlgError:
-            continue
-        if implausible(g.effect, vocab_params(g, t.theta, prob.layout, extra, t.th_cov)) or \
-                model_implausible(prob, t, extra):
-            continue
-        Zt, yt, _, _ = linear_model(prob, t)
-        r = heldout_rms(prob, Zt, yt)
-        if best is None or r < best[0]:
-            best = (r, g, t, _losses(prob, Zt, yt))
-    return best
+    best = best_replacement(prob, s, k, alts, extra)
+    return None if best is None else (best[0], best[1][0], best[2], best[3])
 
 
 __all__ = ["geometry_reselection", "is_geometry", "needs_reselection", "sensor_pass_check"]

@@ -390,10 +390,35 @@ def _best_alternative(prob: Problem, s: Selection, k: int, candidates: list, ext
     ``(rms, alternative, refitted model, per-sample held-out losses)``, or None. An
     alternative whose refit is singular (its columns dependent on the model's) or implausible
     is no account of the data."""
-    best = None
     c = s.accepted[k]
     alts = (tilt_alternatives(candidates, s.accepted) if frame_geometry(c)
             else sensor_alternatives(c, candidates, s.accepted))
+    return best_replacement(prob, s, k, alts, extra)
+
+
+def best_replacement(prob: Problem, s: Selection, k: int, alts: list, extra: dict):
+    """Of the alternatives ``alts`` (tuples of candidates), the one that, in finding ``k``'s
+    place, predicts the held-out data best after the linearised screening (:func:`_screen`)
+    and a refit: ``(rms, alternative, refitted model, per-sample held-out losses)``, or None.
+    An alternative whose refit is singular or implausible is no account of the data.
+
+    Parameters
+    ----------
+    prob, s
+        The problem and the model.
+    k : int
+        The finding replaced.
+    alts : list of tuple
+        The alternatives, each a tuple of candidates.
+    extra : dict
+        The candidates' context.
+
+    Returns
+    -------
+    tuple or None
+        ``(rms, alternative, model, losses)`` of the best alternative.
+    """
+    best = None
     for alt in _screen(prob, s, k, alts):
         try:
             t = _replace(prob, s, k, alt)
@@ -556,5 +581,5 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
     return s, out
 
 
-__all__ = ["frame_geometry", "geometry_stage", "geometry_verdict", "plausibility_stage",
+__all__ = ["best_replacement", "frame_geometry", "geometry_stage", "geometry_verdict", "plausibility_stage",
            "restated", "stability_stage", "survey_tolerance_m", "tilt_alternatives"]
