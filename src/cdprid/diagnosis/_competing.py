@@ -94,8 +94,22 @@ def clock_twins(c, candidates) -> list:
     return []
 
 
-def _losses(prob: Problem, Z, y) -> np.ndarray:
-    """Per-sample held-out squared error (weighted units, the 6 rows summed)."""
+def heldout_losses(prob: Problem, Z, y) -> np.ndarray:
+    """Per-sample held-out squared error of a linearised model (weighted units, the 6 rows
+    summed): the losses the Diebold-Mariano comparison (:func:`dm_p_worse`) weighs.
+
+    Parameters
+    ----------
+    prob : Problem
+        The problem (its held-out folds).
+    Z, y : ndarray
+        The model's linearisation (:func:`cdprid.diagnosis._selection.linear_model`).
+
+    Returns
+    -------
+    ndarray
+        One loss per held-out sample.
+    """
     _, r = heldout_residuals(prob, Z, y)
     return np.sum(r * r, axis=1)
 
@@ -155,7 +169,7 @@ def _competing(prob, s, candidates, min_gain, extra, say, better):
         by_label.setdefault(alias_label(c), c)
     Z, y, _, _ = linear_model(prob, s)
     rms_best = heldout_rms(prob, Z, y)
-    loss_best = _losses(prob, Z, y)
+    loss_best = heldout_losses(prob, Z, y)
     pairs = []
     for k, (c, f) in enumerate(zip(s.accepted, s.findings, strict=True)):
         if extends_base(c):
@@ -181,7 +195,7 @@ def _competing(prob, s, candidates, min_gain, extra, say, better):
         Za, ya, _, _ = linear_model(prob, t)
         rms = heldout_rms(prob, Za, ya)
         rel = (rms - rms_best) / rms_best
-        loss = _losses(prob, Za, ya)
+        loss = heldout_losses(prob, Za, ya)
         p, kind = dm_p_worse(loss, loss_best, prob.lags), verdict_of(rel, loss, loss_best,
                                                                       prob.lags, min_gain)
         if kind == "replaces":
@@ -212,7 +226,7 @@ def _whole_model(prob, s, o, min_gain, extra, say):
     Zo, yo, _, _ = linear_model(prob, o)
     rms_best, rms = heldout_rms(prob, Z, y), heldout_rms(prob, Zo, yo)
     rel = (rms - rms_best) / rms_best
-    p = dm_p_worse(_losses(prob, Zo, yo), _losses(prob, Z, y), prob.lags)
+    p = dm_p_worse(heldout_losses(prob, Zo, yo), heldout_losses(prob, Z, y), prob.lags)
     gone = [c for c in s.accepted if c not in o.accepted]
     new = [c for c in o.accepted if c not in s.accepted]
     if not new or not (rel < min_gain or p > DM_LEVEL):

@@ -23,13 +23,11 @@ the same path: nothing is done.
 
 from __future__ import annotations
 
-from cdprid.diagnosis._candidates import alias_label, vocab_params
-from cdprid.diagnosis._competing import dm_p_worse
+from cdprid.diagnosis._competing import dm_p_worse, heldout_losses
 from cdprid.diagnosis._problem import Problem, heldout_rms
 from cdprid.diagnosis._restart import choose
 from cdprid.diagnosis._selection import (
     Selection,
-    effect_size_N,
     extends_base,
     forward_step,
     linear_model,
@@ -37,8 +35,8 @@ from cdprid.diagnosis._selection import (
 )
 from cdprid.diagnosis._stability import (
     GEOMETRY_DM_LEVEL,
-    _losses,
     best_replacement,
+    cannot_tell_entry,
     geometry_verdict,
 )
 from cdprid.effects import DIAGNOSIS
@@ -165,7 +163,8 @@ def sensor_pass_check(prob: Problem, s: Selection, added, candidates, min_gain: 
         Z, y, _, _ = linear_model(prob, s)
         rms_c = heldout_rms(prob, Z, y)
         best = _best_geometry(prob, s, k, candidates, extra)
-        p_worse = 0.0 if best is None else dm_p_worse(best[3], _losses(prob, Z, y), prob.lags)
+        p_worse = (0.0 if best is None
+                   else dm_p_worse(best[3], heldout_losses(prob, Z, y), prob.lags))
         verdict = geometry_verdict(rms_c, None if best is None else best[0], p_worse, min_gain,
                                    GEOMETRY_DM_LEVEL)
         if verdict == "geometry":  # the sensor-side finding beats every geometry reading
@@ -175,21 +174,16 @@ def sensor_pass_check(prob: Problem, s: Selection, added, candidates, min_gain: 
                    f"{best[1].label}, p = {p_worse:.2g} that it is worse)"))
             continue
         r, g, t, _ = best
-        f = s.findings[k]
-        readings = f"{g.label} {vocab_params(g, t.theta, prob.layout, extra, t.th_cov)}"
         say(f"geometry again: {c.label} (accepted with the geometry held back) and {g.label} "
             f"predict the held-out data alike or the latter better ({rms_c:.4f} against "
             f"{r:.4f}, p = {p_worse:.2g} that {g.label} is worse): neither is named")
-        out.append({
-            "where": c.label, "size": effect_size_N(prob, s, c), "p_value": 1.0,
-            "test": "sensor-side finding against geometry alternatives (held-out)",
-            "withdrawn_finding": alias_label(c),
-            "correlates_with": (
-                f"acts like {c.vocabulary_effect} {f.parameters}, but {g.label} predicts the "
-                f"held-out data {'as well' if r > rms_c else 'better'} ({rms_c:.4g} against "
-                f"{r:.4g}, weighted units; p = {p_worse:.2g} that it predicts worse); the "
-                f"other reading: {readings}. The data cannot tell them apart: neither is "
-                "named; a calibration of the cell or a survey of the point would tell")})
+        what = (f"acts like {c.vocabulary_effect} {s.findings[k].parameters}, but {g.label} "
+                f"predicts the held-out data {'as well' if r > rms_c else 'better'} "
+                f"({rms_c:.4g} against {r:.4g}, weighted units; p = {p_worse:.2g} that it "
+                "predicts worse)")
+        out.append(cannot_tell_entry(
+            prob, s, c, (g,), t, what, extra,
+            test="sensor-side finding against geometry alternatives (held-out)"))
         s = withdraw(prob, s, k, extra)
     return s, out
 

@@ -38,8 +38,8 @@ from cdprid.diagnosis._candidates import (
     vocab_params,
     well_determined,
 )
-from cdprid.diagnosis._competing import DM_LEVEL, dm_p_worse
-from cdprid.diagnosis._problem import Problem, heldout_residuals, heldout_rms
+from cdprid.diagnosis._competing import DM_LEVEL, dm_p_worse, heldout_losses
+from cdprid.diagnosis._problem import Problem, heldout_rms
 from cdprid.diagnosis._result import Finding
 from cdprid.diagnosis._selection import (
     Selection,
@@ -379,12 +379,6 @@ def _screen(prob: Problem, s: Selection, k: int, alts: list, n_keep: int = 3) ->
     return [a for _, a in scored[:n_keep]]
 
 
-def _losses(prob: Problem, Z, y) -> np.ndarray:
-    """Per-sample held-out squared error (weighted units, the 6 rows summed)."""
-    _, r = heldout_residuals(prob, Z, y)
-    return np.sum(r * r, axis=1)
-
-
 def _best_alternative(prob: Problem, s: Selection, k: int, candidates: list, extra: dict):
     """The sensor-side alternative to finding ``k`` that predicts the held-out data best:
     ``(rms, alternative, refitted model, per-sample held-out losses)``, or None. An
@@ -431,7 +425,7 @@ def best_replacement(prob: Problem, s: Selection, k: int, alts: list, extra: dic
         Zt, yt, _, _ = linear_model(prob, t)
         r = heldout_rms(prob, Zt, yt)
         if best is None or r < best[0]:
-            best = (r, alt, t, _losses(prob, Zt, yt))
+            best = (r, alt, t, heldout_losses(prob, Zt, yt))
     return best
 
 
@@ -506,14 +500,32 @@ def geometry_verdict(rms_geo: float, rms_alt: float | None, p_alt_worse: float,
     return "cannot tell"
 
 
-def _cannot_tell(prob, s, c, alt, t, what, extra, survey="a survey of the point") -> dict:
-    """The ``unexplained`` entry of a geometry error the data cannot tell from its best
-    sensor-side alternative (both readings, with what would tell)."""
+def cannot_tell_entry(prob, s, c, alt, t, what, extra, survey="a survey of the point",
+                      test="geometry against sensor-side alternatives (held-out)") -> dict:
+    """The ``unexplained`` entry of finding ``c`` that the data cannot tell from its best
+    alternative: a geometry error against the sensor side (:func:`geometry_stage`), or a
+    sensor-side finding against the geometry (``_regeometry.sensor_pass_check``).
+
+    Parameters
+    ----------
+    prob, s, c
+        The problem, the model and its withdrawn finding.
+    alt, t
+        The alternative's candidates and the model they were fitted in, in ``c``'s place.
+    what, survey, test
+        What ``c`` acts like, the survey that would tell, the entry's ``test``.
+    extra : dict
+        The candidates' context.
+
+    Returns
+    -------
+    dict
+        The entry, both readings in ``correlates_with``.
+    """
     readings = "; ".join(f"{a.label} {vocab_params(a, t.theta, prob.layout, extra, t.th_cov)}"
                          for a in alt)
     return {"where": c.label, "size": effect_size_N(prob, s, c), "p_value": 1.0,
-            "test": "geometry against sensor-side alternatives (held-out)",
-            "withdrawn_finding": alias_label(c),
+            "test": test, "withdrawn_finding": alias_label(c),
             "correlates_with": f"{what}; the other reading: {readings}. The data cannot tell "
                                f"them apart: neither is named; {survey} or a "
                                "calibration of the cell would tell"}
@@ -545,7 +557,8 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
         Z, y, _, _ = linear_model(prob, s)
         rms_geo = heldout_rms(prob, Z, y)
         best = _best_alternative(prob, s, k, candidates, extra)
-        p_worse = 0.0 if best is None else dm_p_worse(best[3], _losses(prob, Z, y), prob.lags)
+        p_worse = (0.0 if best is None
+                   else dm_p_worse(best[3], heldout_losses(prob, Z, y), prob.lags))
         verdict = geometry_verdict(rms_geo, None if best is None else best[0], p_worse, min_gain,
                                    TILT_DM_LEVEL if tilt else GEOMETRY_DM_LEVEL)
         if verdict == "geometry":
@@ -575,11 +588,12 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
             say(f"geometry: {c.label} ({amount}) and {label} predict the held-out "
                 f"data alike ({rms_geo:.4f} against {r:.4f}, p = {p_worse:.2g} that {label} "
                 "is worse): the data cannot tell them apart; neither is named")
-            out.append(_cannot_tell(prob, s, c, alt, t, what, extra,
+            out.append(cannot_tell_entry(prob, s, c, alt, t, what, extra,
                                     "a level of the frame" if tilt else "a survey of the point"))
             s = withdraw(prob, s, k, extra)
     return s, out
 
 
-__all__ = ["best_replacement", "frame_geometry", "geometry_stage", "geometry_verdict", "plausibility_stage",
-           "restated", "stability_stage", "survey_tolerance_m", "tilt_alternatives"]
+__all__ = ["best_replacement", "cannot_tell_entry", "frame_geometry", "geometry_stage",
+           "geometry_verdict", "plausibility_stage", "restated", "stability_stage",
+           "survey_tolerance_m", "tilt_alternatives"]
