@@ -363,6 +363,9 @@ def main(argv=None) -> int:
     if args.cutoff is not None and not (np.isfinite(args.cutoff) and args.cutoff > 0):
         print(f"--cutoff: {args.cutoff:g} Hz is not a positive number.", file=sys.stderr)
         return 2
+    if args.first_seed < 0:
+        print(f"--first-seed: {args.first_seed} is not a seed (0 or more).", file=sys.stderr)
+        return 2
     params = None if args.cutoff is None else {"cutoff_hz": args.cutoff}
     if args.robot_toml:
         for name in args.robot or list(ROBOTS):
