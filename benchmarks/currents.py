@@ -243,9 +243,13 @@ def compare_one(name, seed, duration, tmp, path=None, params=None):
     # the shift added back, its Monte-Carlo covariance taken out (None: no correction made)
     sh = c.get("pose_shift")
     th_u, cov_u = ((rep.theta, rep.cov) if sh is None
-                   else (rep.theta + sh, rep.cov - c["pose_shift_cov"]))
+                   else (rep.theta + sh, c.get("cov_uncorrected",
+                                               rep.cov - c["pose_shift_cov"])))
+    # the corrected estimate with session 13's covariance (the pose noise's first-order
+    # variance not in the floor), for the intervals side by side
+    cov_p = rep.cov if sh is None else cov_u + c["pose_shift_cov"]
     for key, th, cov in (("cls", c["cls_theta"], c["cls_cov"]), ("oe", rep.theta, rep.cov),
-                         ("oe-uncorrected", th_u, cov_u),
+                         ("oe-uncorrected", th_u, cov_u), ("oe-nofirst", rep.theta, cov_p),
                          ("oe-sandwich", rep.theta, c["cov_sandwich"]),
                          ("oe-andrews", rep.theta, c["cov_andrews"]),
                          ("oe-model", rep.theta, c["cov_model"])):
@@ -264,8 +268,8 @@ def compare(name, seeds, duration, write, path=None, row=None, params=None, dump
     :func:`compare_row` by default; ``dump``: a file each seed's results are appended to, one
     JSON line per seed; seeds ``first .. first + seeds - 1``)."""
     row = row or compare_row
-    res = {"cls": [], "oe": [], "oe-uncorrected": [], "oe-sandwich": [], "oe-andrews": [],
-           "oe-model": []}
+    res = {"cls": [], "oe": [], "oe-uncorrected": [], "oe-nofirst": [], "oe-sandwich": [],
+           "oe-andrews": [], "oe-model": []}
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(first, first + seeds):
             try:

@@ -49,7 +49,7 @@ from cdprid.identify._batch import _choose_model, _regression, _wrench_filter
 from cdprid.identify._cells import CellCalibration
 from cdprid.identify._currents_oe import current_weights, datasheet_drives, refit_output_error
 from cdprid.identify._currents_oe import raw_rates as _raw_rates
-from cdprid.identify._currents_pose import RefitSetup, pose_noise_shift, shifted_fit
+from cdprid.identify._currents_pose import RefitSetup, pose_noise_correction, shifted_fit
 from cdprid.identify._currents_sign import STILL_S, _expected_sign, _fast_rate, _friction_sign
 from cdprid.identify._drive_cells import cells_against_drives
 from cdprid.identify._eiv_currents import corrected, normal_and_noise
@@ -345,7 +345,7 @@ def _output_error(ds, sig, motion, model, differentiator, params, wf, keep, idx,
     st = RefitSetup(ds, model, differentiator, params, wf, idx, regression,
                     np.asarray(sig.tension), lengths, noise["sign"],
                     current_weights(noise, ct, sig.dt))
-    sh = pose_noise_shift(st, sig, motion, fit["oe"].phi, fit["p"], ref, drives, noise)
+    sh = pose_noise_correction(st, sig, motion, fit["oe"].phi, fit["p"], ref, drives, noise)
     return shifted_fit(fit, sh, fit["p"], notes, warns)
 
 
