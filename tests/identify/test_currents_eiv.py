@@ -18,6 +18,7 @@ from cdprid.model import SIX_SUSPENDED
 SIX = dict(SIX_SUSPENDED, home=[0.0, 0.0, 1.4])
 PLATFORM = (6.0, np.array([0.01, -0.005, -0.05]), np.diag([0.06, 0.07, 0.09]))
 MSG = 6.0 * PLATFORM[1]  # m s_G, kg m
+PAIRS_DEFAULT = pose.PAIRS
 
 
 DESIGN = Path(__file__).resolve().parents[2] / "results/currents-designed/six-trajectory.csv"
@@ -33,21 +34,23 @@ def _fits(tmp_path, noise_pos, monkeypatch, seed=0, path=None, params=None):
     kw = dict(reference="drive:1", bound=False, params=params, model="full")
     monkeypatch.setattr(pose, "PAIRS", 0)
     plain = identify_currents(ds, **kw)
-    monkeypatch.setattr(pose, "PAIRS", 2)
+    monkeypatch.setattr(pose, "PAIRS", PAIRS_DEFAULT)
     return plain, identify_currents(ds, **kw)
 
 
 def test_pose_noise_bias_is_removed(tmp_path, monkeypatch):
     """The six-cable design of results/currents-designed.md (32 s), 0.2 mm position noise
     only, seed 0: uncorrected, m z_G is 0.49 % of |m s_G| off (3 std, the pose noise's
-    errors in variables); corrected, m s_G's error is at most a fifth of that, the note and
-    the warning say so, and the std grows by less than 30 % (the Monte-Carlo spread)."""
+    errors in variables); corrected, m s_G's error is at most a third of that and m z_G
+    within its std (over eight re-noising seeds with 2 pairs the ratio was 0.07-0.28, m z_G
+    -0.1..-0.9 std: the shift's Monte-Carlo error), the note and the warning say so, and the
+    std grows by less than 30 % (the Monte-Carlo spread)."""
     plain, corr = _fits(tmp_path, 2e-4, monkeypatch,
                         path=winch_sim.path_from_csv(str(DESIGN)))
     e0 = np.linalg.norm(plain.theta[1:4] - MSG)
     e1 = np.linalg.norm(corr.theta[1:4] - MSG)
     assert e0 > 2.5 * plain.std[3]  # the bias is there to remove
-    assert e1 < e0 / 5.0, (e0, e1)
+    assert e1 < e0 / 3.0, (e0, e1)
     assert abs(corr.theta[3] - MSG[2]) < corr.std[3]
     assert any(n.startswith("pose noise (errors in variables)") for n in corr.notes)
     assert not any(n.startswith("pose noise (errors in variables)") for n in plain.notes)

@@ -151,4 +151,8 @@ def test_estimator_reaches_the_json(short_recording, tmp_path):
     assert set(pc["shift"]) == set(js["parameters"]) | {
         f"{k}_{j}" for k in ("k", "J", "fv", "fc", "c") for j in range(1, 7)}
     assert pc["shift"]["k_1"] == 0.0 and all(v >= 0 for v in pc["shift_std"].values())
+    # the pose noise's own share of each std, inside the reported std
+    assert set(pc["first_order_std"]) == set(pc["shift"])
+    assert pc["first_order_std"]["k_1"] == 0.0 and pc["first_order_std"]["m"] > 0
+    assert pc["first_order_std"]["m"] <= js["parameters"]["m"]["std"] * (1 + 1e-12)
     assert any(n.startswith("pose noise (errors in variables)") for n in js["notes"])

@@ -304,6 +304,7 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     reg, wf, keep = _regression(ds, sig0, motion, model, differentiator, "matched", wf, keep,
                                 trim, int(chunk), notes, warns)
     noise = _noise(ds, sig, ct, cur_raw, motion.t, lengths, wf, differentiator, params, pre)
+    noise["lengths_measured"] = lens is not None
     idx, reg, D, rates = _design(ds, sig, motion, reg, keep, lengths, lens, ct, pre, wf,
                                  noise, differentiator, params, notes)
     fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes,

@@ -86,14 +86,20 @@ def currents_json(rep) -> dict:
 
 
 def _pose_json(rep):
-    """The output error's pose-noise bias that was subtracted (``shift``) and its Monte-Carlo
-    std (``shift_std``) per parameter, or None (``cls``, or no correction)."""
+    """The output error's pose-noise bias that was subtracted (``shift``), its Monte-Carlo
+    std (``shift_std``) and the pose noise's first-order share of each std, in the floor of
+    the reported std (``first_order_std``) per parameter, or None (``cls``, or no
+    correction)."""
     c = rep.compared or {}
     if "pose_shift" not in c:
         return None
     sd = np.sqrt(np.clip(np.diag(c["pose_shift_cov"]), 0, None))
-    return {"shift": {n: float(v) for n, v in zip(rep.names, c["pose_shift"], strict=True)},
-            "shift_std": {n: float(v) for n, v in zip(rep.names, sd, strict=True)}}
+    out = {"shift": {n: float(v) for n, v in zip(rep.names, c["pose_shift"], strict=True)},
+           "shift_std": {n: float(v) for n, v in zip(rep.names, sd, strict=True)}}
+    if c.get("pose_first_cov") is not None:
+        sf = np.sqrt(np.clip(np.diag(c["pose_first_cov"]), 0, None))
+        out["first_order_std"] = {n: float(v) for n, v in zip(rep.names, sf, strict=True)}
+    return out
 
 
 def result_table(title: str, names, theta, std, reference, notes=(), warnings=(),

@@ -26,6 +26,11 @@ first-order response to ``PROBES`` re-noisings, far cheaper than refits), and th
 every std is ``H^-1`` plus that share (:func:`shifted_fit`). A pair's own half-difference
 ``(f+ - f-) / 2`` is one such response, but two pairs are two degrees of freedom: too few.
 
+The encoder lengths, where lengths.csv is measured, sit in the regressor too (``J l''`` and
+``f_v l'``, their differences through the filter): they are re-noised with the poses, at the
+level their 4th differences give on the pose clock (on the six-cable design their errors in
+variables were about half of a +0.4 std bias of Ixz).
+
 The seeds come from the recording's poses (:func:`data_seed`): one recording always gets the
 same result, and recordings of one trajectory independent Monte-Carlo errors.
 
@@ -56,8 +61,9 @@ from cdprid.identify._free_eiv import _perturbed
 __all__ = ["PAIRS", "PROBES", "PoseShift", "data_seed", "pose_noise_correction",
            "pose_noise_shift", "pose_noise_variance"]
 
-#: antithetic pairs of the re-noising (each pair two output-error refits)
-PAIRS = 2
+#: antithetic pairs of the re-noising (each pair two output-error refits); with 2 the shift's
+#: Monte-Carlo error was up to 0.9 of a std in the pose noise's worst case (six-cable design)
+PAIRS = 4
 #: antithetic one-step probes of the pose noise's first-order variance (each two residuals)
 PROBES = 16
 
@@ -78,6 +84,8 @@ class PoseShift:
         :func:`pose_noise_variance`'s probes.
     probes : int
         How many probes ``cov_first`` comes from (0: the pairs).
+    s_len : ndarray (m,) or None
+        Encoder length noise added per cable, m (None: the lengths not perturbed).
     s_pos : float
         Position noise added, m.
     s_rot : float or None
@@ -92,6 +100,7 @@ class PoseShift:
     pairs: int
     cov_first: np.ndarray | None = None
     probes: int = 0
+    s_len: np.ndarray | None = None
 
 
 def _theta(phi, p: int, m: int) -> np.ndarray:
@@ -141,24 +150,43 @@ def _refit(st: RefitSetup, sig, motion, phi0, theta0, fixed: int, p: int, prior)
     return _theta(oe.phi, p, st.ds.robot.n_cables)
 
 
-def _renoised(st: RefitSetup, sig, motion, e_pos, e_rot):
-    """The aligned signals and their motion re-estimated with the poses moved by ``e_pos``
-    and rotated by ``e_rot`` (None: not rotated)."""
-    sig2, _ = _perturbed(sig, motion, e_pos, e_rot)
-    return sig2, estimate_motion(sig2, st.differentiator, st.params,
-                                 angular=(st.model == "full"))
+def _renoised(st: RefitSetup, sig, motion, e, sgn: float):
+    """``(st2, sig2, motion2)``: the setup, the aligned signals and their motion re-estimated
+    with the draw ``e = (e_pos, e_rot, e_len)`` added times ``sgn`` (poses moved by
+    ``e_pos``, rotated by ``e_rot``, encoder lengths moved by ``e_len``; None: not
+    perturbed)."""
+    e_pos, e_rot, e_len = e
+    sig2, _ = _perturbed(sig, motion, sgn * e_pos, None if e_rot is None else sgn * e_rot)
+    st2 = st if e_len is None else dataclasses.replace(st, lengths=st.lengths + sgn * e_len)
+    return st2, sig2, estimate_motion(sig2, st.differentiator, st.params,
+                                      angular=(st.model == "full"))
 
 
 def _levels(st: RefitSetup, noise: dict):
-    """``(s_pos, s_rot)``: the re-noising's levels (``s_rot`` None: no rotation noise, or
-    the translation model); None when the poses show no noise."""
+    """``(s_pos, s_rot, s_len)``: the re-noising's levels (``s_rot`` None: no rotation
+    noise, or the translation model; ``s_len`` None: no encoder lengths measured, or no
+    noise in them); None when neither the poses nor the encoders show noise."""
     s_pos = float(noise.get("position_m") or 0.0)
     s_rot = noise.get("rotation_rad")
     if st.model != "full" or s_rot is None or not s_rot > 0:
         s_rot = None
-    if not s_pos > 0 and s_rot is None:
+    s_len = noise.get("length_m") if noise.get("lengths_measured") else None
+    if s_len is not None:
+        s_len = np.clip(np.nan_to_num(np.asarray(s_len, float)), 0.0, None)
+        s_len = s_len if np.any(s_len > 0) else None
+    if not s_pos > 0 and s_rot is None and s_len is None:
         return None
-    return s_pos, None if s_rot is None else float(s_rot)
+    return s_pos, None if s_rot is None else float(s_rot), s_len
+
+
+def _draw(rng, n: int, m: int, lv):
+    """One draw ``(e_pos (n, 3), e_rot (n, 3) or None, e_len (n, m) or None)`` at the levels
+    ``lv`` of :func:`_levels`."""
+    s_pos, s_rot, s_len = lv
+    e_pos = s_pos * rng.standard_normal((n, 3))
+    e_rot = None if s_rot is None else s_rot * rng.standard_normal((n, 3))
+    e_len = None if s_len is None else s_len[None, :] * rng.standard_normal((n, m))
+    return e_pos, e_rot, e_len
 
 
 def data_seed(sig) -> int:
@@ -220,7 +248,6 @@ def pose_noise_variance(st: RefitSetup, sig, motion, phi, p: int, ref, drives, n
     lv = _levels(st, noise) if probes > 0 else None
     if lv is None:
         return None
-    s_pos, s_rot = lv
     m = st.ds.robot.n_cables
     theta0 = _theta(phi, p, m)
     sw = np.sqrt(np.asarray(st.weights, float))[None, :]
@@ -233,13 +260,11 @@ def pose_noise_variance(st: RefitSetup, sig, motion, phi, p: int, ref, drives, n
     rng = np.random.default_rng(data_seed(sig) if seed is None else seed)
     n, out = len(sig.t), []
     for _ in range(probes):
-        e_pos = s_pos * rng.standard_normal((n, 3))
-        e_rot = None if s_rot is None else s_rot * rng.standard_normal((n, 3))
+        e = _draw(rng, n, m, lv)
         rs = []
         for sgn in (1.0, -1.0):
-            s2, mo = _renoised(st, sig, motion, sgn * e_pos,
-                               None if e_rot is None else sgn * e_rot)
-            ins = _inputs(st, s2, mo, theta0, p)
+            st2, s2, mo = _renoised(st, sig, motion, e, sgn)
+            ins = _inputs(st2, s2, mo, theta0, p)
             rs.append(np.asarray(_residual_fn(*ins[:6], sw, *ins[6:])[0](phi)).reshape(-1))
         h = np.zeros(len(phi))
         h[o] = -np.linalg.solve(H, Jm.T @ (0.5 * (rs[0] - rs[1])))
@@ -284,26 +309,24 @@ def pose_noise_shift(st: RefitSetup, sig, motion, phi, p: int, ref, drives, nois
     lv = _levels(st, noise) if pairs > 0 else None
     if lv is None:
         return None
-    s_pos, s_rot = lv
     m = st.ds.robot.n_cables
     theta0 = _theta(phi, p, m)
     prior = _a_prior(drives, ref, p, m)
     rng = np.random.default_rng(data_seed(sig) if seed is None else seed)
     n, means, halves = len(sig.t), [], []
     for _ in range(pairs):
-        e_pos = s_pos * rng.standard_normal((n, 3))
-        e_rot = None if s_rot is None else s_rot * rng.standard_normal((n, 3))
+        e = _draw(rng, n, m, lv)
         fits = []
         for sgn in (1.0, -1.0):
-            sig2, mo = _renoised(st, sig, motion, sgn * e_pos,
-                                 None if e_rot is None else sgn * e_rot)
-            fits.append(_refit(st, sig2, mo, phi, theta0, ref.index(p), p, prior))
+            st2, sig2, mo = _renoised(st, sig, motion, e, sgn)
+            fits.append(_refit(st2, sig2, mo, phi, theta0, ref.index(p), p, prior))
         means.append(0.5 * (fits[0] + fits[1]) - theta0)
         halves.append(0.5 * (fits[0] - fits[1]))
     means, halves = np.array(means), np.array(halves)
     d = means - means.mean(0)
     cov_mc = d.T @ d / max(1, len(d) - 1) / len(d)
-    return PoseShift(means.mean(0), cov_mc, s_pos, s_rot, pairs, halves.T @ halves / pairs)
+    return PoseShift(means.mean(0), cov_mc, lv[0], lv[1], pairs, halves.T @ halves / pairs,
+                     s_len=lv[2])
 
 
 def pose_noise_correction(st: RefitSetup, sig, motion, phi, p: int, ref, drives,
@@ -366,6 +389,8 @@ def shifted_fit(fit: dict, sh: PoseShift | None, p: int, notes: list, warns: lis
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(std > 0, sh.shift / std, 0.0)
     rot = "" if sh.s_rot is None else f", rotation {1e3 * sh.s_rot:.3g} mrad"
+    rot += ("" if sh.s_len is None else
+            f", the encoder lengths {1e3 * np.min(sh.s_len):.3g}-{1e3 * np.max(sh.s_len):.3g} mm")
     shown = ", ".join(f"{names[k]} {z[k]:+.2f}" for k in range(p))
     notes.append(f"pose noise (errors in variables): the output error refitted on the poses "
                  f"re-noised at their measured levels (position {1e3 * sh.s_pos:.3g} mm{rot}; "
@@ -373,16 +398,18 @@ def shifted_fit(fit: dict, sh: PoseShift | None, p: int, notes: list, warns: lis
                  f"in std: {shown}; largest over the drives "
                  f"{z[p:][np.argmax(np.abs(z[p:]))]:+.2f}), its Monte-Carlo spread in the std"
                  + ("" if sh.cov_first is None else
-                    f"; the pose noise's own variance ({sh.probes or sh.pairs} antithetic "
+                    f"; the pose (and encoder) noise's own variance ({sh.probes or sh.pairs} "
+                    "antithetic "
                     "probes, one Gauss-Newton step each) added to the current noise's in the "
                     "floor of every std"))
     big = [names[k] for k in np.flatnonzero(np.abs(z) > 1.0)]
     if big:
         more = f" and {len(big) - 6} more" if len(big) > 6 else ""
-        warns.append(f"the pose noise biased {', '.join(big[:6])}{more} by more than one std "
-                     "(removed by "
-                     "re-noising; the correction assumes white pose noise of the measured "
-                     "level): lower the cutoff or the pose noise to need less of it.")
+        enc = "" if sh.s_len is None else " (with the encoder noise)"
+        warns.append(f"the pose noise biased{enc} {', '.join(big[:6])}{more} by more than one "
+                     "std (removed by re-noising; the correction assumes white pose and encoder "
+                     "noise of the measured levels): lower the cutoff or the pose noise to need "
+                     "less of it.")
     compared = dict(c0, pose_shift=sh.shift, pose_shift_cov=sh.cov_mc,
                     pose_first_cov=sh.cov_first, cov_uncorrected=fit["cov"],
                     cov_floored=cov_floor)
