@@ -101,6 +101,26 @@ def _resid(phi, G, I, L2, L1, S, C1, sw, Nn, Dc):
 
 _resid_jit = jax.jit(_resid)
 _jac_jit = jax.jit(jax.jacfwd(_resid))
+_grad_jit = jax.jit(jax.grad(lambda phi, *data: 0.5 * jnp.sum(_resid(phi, *data) ** 2)))
+
+
+def gradient_fn(G, I, L2, L1, S, C1, sw, Nn, Dc=None):
+    """``phi -> J^T r``: the gradient of half the residuals' sum of squares (reverse mode, one
+    pass: far cheaper than the Jacobian), compiled once per shape.
+
+    Parameters
+    ----------
+    G, I, L2, L1, S, C1, sw, Nn, Dc
+        As in :func:`fit_output_error` (``sw`` the whitening, ``(1, m)``).
+
+    Returns
+    -------
+    callable
+    """
+    data = tuple(jnp.asarray(v, float) for v in (G, I, L2, L1, S, C1, sw))
+    data = data + (None if Nn is None else jnp.asarray(Nn, float),
+                   jnp.zeros_like(data[1]) if Dc is None else jnp.asarray(Dc, float))
+    return lambda phi: np.asarray(_grad_jit(jnp.asarray(phi, float), *data))
 
 
 def _residual_fn(G, I, L2, L1, S, C1, sw, Nn, Dc=None):
