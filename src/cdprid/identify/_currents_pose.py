@@ -28,8 +28,10 @@ every std is ``H^-1`` plus that share (:func:`shifted_fit`). A pair's own half-d
 
 The encoder lengths, where lengths.csv is measured, sit in the regressor too (``J l''`` and
 ``f_v l'``, their differences through the filter): they are re-noised with the poses, at the
-level their 4th differences give on the pose clock (on the six-cable design their errors in
-variables were about half of a +0.4 std bias of Ixz).
+level their 4th differences give on the pose clock. (On the six-cable design, recordings
+without encoder noise halve a +0.4 std bias of Ixz, but re-noising the encoders does not move
+it: it is not this errors-in-variables term; the Coulomb signs and the samples left out near
+rest, both from the noisy encoder rates and kept in the refits, are the untested suspects.)
 
 The seeds come from the recording's poses (:func:`data_seed`): one recording always gets the
 same result, and recordings of one trajectory independent Monte-Carlo errors.
