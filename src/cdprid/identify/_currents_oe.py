@@ -279,11 +279,23 @@ def oe_inputs(ds, motion, idx, reg, current, lengths, sign, wf, dt: float, param
     W = np.asarray(wrench_matrices(ds.robot, motion.position, motion.B_R_P))[idx]
     Z = np.concatenate([reg.wrench_block(i0, min(len(idx), i0 + 2048))[0]
                         for i0 in range(0, len(idx), 2048)])
-    G = np.linalg.pinv(W) @ Z
+    G = _right_inverse(W, Z)
     Nn = None
     if m > 6:
-        Nn = np.linalg.svd(W)[2][:, 6:, :].transpose(0, 2, 1)
+        # an orthonormal basis of W's null space (the residual's projection does not depend on
+        # which): the last m - 6 columns of the complete QR of W^T
+        Nn = np.linalg.qr(np.swapaxes(W, 1, 2), mode="complete")[0][:, :, 6:]
     return G, I, L2, L1, S, C1, Nn
+
+
+def _right_inverse(W, B):
+    """``W^+ B`` per sample for full-row-rank wrench matrices ``W`` (n, 6, m): ``W^T (W
+    W^T)^-1 B`` (the pseudo-inverse's least-norm solution, a 6 x 6 solve instead of an SVD;
+    ``B`` (n, 6, k) or (n, 6))."""
+    vec = B.ndim == 2
+    B = B[..., None] if vec else B
+    X = np.swapaxes(W, 1, 2) @ np.linalg.solve(W @ np.swapaxes(W, 1, 2), B)
+    return X[..., 0] if vec else X
 
 
 def commutator(ds, motion, idx, current, lengths, sign, wf, dt: float, theta, p: int):
@@ -313,7 +325,7 @@ def commutator(ds, motion, idx, current, lengths, sign, wf, dt: float, theta, p:
     W = np.asarray(wrench_matrices(ds.robot, motion.position, motion.B_R_P))
     Fu = np.asarray(wf(np.einsum("nam,nm->na", W, tau)))[idx]
     Ft = np.asarray(wf(tau, np.ones(tau.shape[1])))[idx]
-    return np.einsum("nma,na->nm", np.linalg.pinv(W[idx]), Fu) - Ft
+    return _right_inverse(W[idx], Fu) - Ft
 
 
 def datasheet_drives(drives, ref, m: int):
