@@ -223,6 +223,16 @@ def _levels(st: RefitSetup, noise: dict):
     return s_pos, None if s_rot is None else float(s_rot), s_len
 
 
+def _start(st: RefitSetup, noise: dict, phi, p: int, count: int):
+    """``(lv, m, theta0)`` for ``count`` antithetic draws: the levels (:func:`_levels`), the
+    number of cables and the estimate as ``theta``; None without draws or without noise."""
+    lv = _levels(st, noise) if count > 0 else None
+    if lv is None:
+        return None
+    m = st.ds.robot.n_cables
+    return lv, m, _theta(phi, p, m)
+
+
 def _draw(rng, n: int, m: int, lv):
     """One draw ``(e_pos (n, 3), e_rot (n, 3) or None, e_len (n, m) or None)`` at the levels
     ``lv`` of :func:`_levels`."""
@@ -291,11 +301,10 @@ def pose_noise_variance(st: RefitSetup, sig, motion, phi, p: int, ref, drives, n
     ndarray (q, q) in ``theta`` space (``k`` in N/A), or None (no pose noise, or no probes).
     """
     probes = PROBES if probes is None else int(probes)
-    lv = _levels(st, noise) if probes > 0 else None
-    if lv is None:
+    start = _start(st, noise, phi, p, probes)
+    if start is None:
         return None
-    m = st.ds.robot.n_cables
-    theta0 = _theta(phi, p, m)
+    lv, m, theta0 = start
     sw = np.sqrt(np.asarray(st.weights, float))[None, :]
     o, Jm, H = _linearised(st, sig, motion, phi, p, ref, drives) if lin is None else lin
     rng = np.random.default_rng(data_seed(sig) if seed is None else seed)
@@ -351,11 +360,10 @@ def pose_noise_shift(st: RefitSetup, sig, motion, phi, p: int, ref, drives, nois
     better one.
     """
     pairs = PAIRS if pairs is None else int(pairs)
-    lv = _levels(st, noise) if pairs > 0 else None
-    if lv is None:
+    start = _start(st, noise, phi, p, pairs)
+    if start is None:
         return None
-    m = st.ds.robot.n_cables
-    theta0 = _theta(phi, p, m)
+    lv, m, theta0 = start
     prior = _a_prior(drives, ref, p, m)
     rng = np.random.default_rng(data_seed(sig) if seed is None else seed)
     n, means, halves = len(sig.t), [], []
