@@ -156,3 +156,20 @@ def test_estimator_reaches_the_json(short_recording, tmp_path):
     assert pc["first_order_std"]["k_1"] == 0.0 and pc["first_order_std"]["m"] > 0
     assert pc["first_order_std"]["m"] <= js["parameters"]["m"]["std"] * (1 + 1e-12)
     assert any(n.startswith("pose noise (errors in variables)") for n in js["notes"])
+
+
+def test_progress_names_each_stage(short_recording):
+    """``progress`` hears the stages in order: the corrected least squares, then the output
+    error with its pose and encoder noise; ``cls`` stops after the first."""
+    from cdprid.identify import identify_currents
+    from cdprid.io import read_dataset
+
+    ds = read_dataset(short_recording, require_tensions=False)
+    kw = dict(reference="drive:1", bound=False, params={"cutoff_hz": 4.0})
+    said = []
+    identify_currents(ds, progress=said.append, **kw)
+    assert said[0] == "corrected least squares" and len(said) == 2
+    assert said[1].startswith("output error, then its pose and encoder noise")
+    said.clear()
+    identify_currents(ds, progress=said.append, estimator="cls", **kw)
+    assert said == ["corrected least squares"]

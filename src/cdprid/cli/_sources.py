@@ -70,9 +70,10 @@ def run_source(args, parse_params, write_json) -> int:
         rep = identify_currents_payload(ds, read_dataset(other, require_tensions=False), kg,
                                         std, **kw)
     elif args.source == "currents":
+        from cdprid.base import Progress
         from cdprid.identify import identify_currents
 
-        rep = identify_currents(ds, **kw)
+        rep = identify_currents(ds, progress=Progress("identify").say, **kw)
     else:
         from cdprid.identify import identify_free_motion
 

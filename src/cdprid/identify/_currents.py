@@ -247,7 +247,7 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
                       differentiator: str = "euler-filtfilt", params: dict | None = None,
                       t_start: float | None = None, t_end: float | None = None,
                       trim: float = TRIM_S, chunk: int = CHUNK, bound: bool = True,
-                      drives=None, estimator: str = "oe") -> CurrentsReport:
+                      drives=None, estimator: str = "oe", progress=None) -> CurrentsReport:
     """Identify the platform and every drive from poses, winch lengths and motor currents.
 
     Parameters
@@ -276,17 +276,15 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
         Default: robot.toml's drive fields.
     estimator : {"oe", "cls"}
         Output error (default; ``_currents_oe``) or the corrected least squares it starts from.
+    progress : callable(str), optional
+        Told each stage as it starts (the command's progress lines).
 
     Returns
     -------
     CurrentsReport
     """
-    if differentiator != "euler-filtfilt":
-        raise InputError("--source currents uses the differentiator euler-filtfilt (its "
-                         f"zero-phase filter is matched on every drive column), not "
-                         f"{differentiator}.")
-    if estimator not in ("cls", "oe"):
-        raise InputError(f"--estimator: {estimator!r} is not one of cls, oe.")
+    say = progress or (lambda msg: None)
+    _check_options(differentiator, estimator)
     m = ds.robot.n_cables
     drives = read_drives(ds.path) if drives is None and ds.path is not None else drives
     ref = choose_reference(reference, ds.robot, drives)
@@ -307,9 +305,11 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     noise["lengths_measured"] = lens is not None
     idx, reg, D, rates = _design(ds, sig, motion, reg, keep, lengths, lens, ct, pre, wf,
                                  noise, differentiator, params, notes)
+    say("corrected least squares")
     fit = _fit(ds, model, motion, idx, reg, D, ref, rates, noise, int(chunk), notes,
                _datasheet_prior(drives, ref, len(PARAMETER_NAMES[model]), m, notes))
     if estimator == "oe":
+        say("output error, then its pose and encoder noise (re-noised refits and probes)")
         fit = _output_error(ds, sig, motion, model, differentiator, params, wf, keep, idx, reg,
                             trim, int(chunk), lengths, noise, ct, fit, ref, drives, notes, warns)
     cells = cells_against_drives(ds, model, motion, idx, np.asarray(sig.tension), lengths,
@@ -323,6 +323,16 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     if cells is None:
         return rep
     return dataclasses.replace(rep, cells=cells, warnings=rep.warnings + cells.warnings)
+
+
+def _check_options(differentiator: str, estimator: str) -> None:
+    """One sentence (InputError) for a differentiator or estimator the currents path lacks."""
+    if differentiator != "euler-filtfilt":
+        raise InputError("--source currents uses the differentiator euler-filtfilt (its "
+                         f"zero-phase filter is matched on every drive column), not "
+                         f"{differentiator}.")
+    if estimator not in ("cls", "oe"):
+        raise InputError(f"--estimator: {estimator!r} is not one of cls, oe.")
 
 
 def _output_error(ds, sig, motion, model, differentiator, params, wf, keep, idx, reg, trim,
