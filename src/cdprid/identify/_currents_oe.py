@@ -117,18 +117,21 @@ def gradient_fn(G, I, L2, L1, S, C1, sw, Nn, Dc=None):
     -------
     callable
     """
-    data = tuple(jnp.asarray(v, float) for v in (G, I, L2, L1, S, C1, sw))
-    data = data + (None if Nn is None else jnp.asarray(Nn, float),
-                   jnp.zeros_like(data[1]) if Dc is None else jnp.asarray(Dc, float))
+    data = _model_data(G, I, L2, L1, S, C1, sw, Nn, Dc)
     return lambda phi: np.asarray(_grad_jit(jnp.asarray(phi, float), *data))
+
+
+def _model_data(G, I, L2, L1, S, C1, sw, Nn, Dc):
+    """The residual's data as device arrays in :func:`_resid`'s order (``Dc`` None: zeros)."""
+    data = tuple(jnp.asarray(v, float) for v in (G, I, L2, L1, S, C1, sw))
+    return data + (None if Nn is None else jnp.asarray(Nn, float),
+                   jnp.zeros_like(data[1]) if Dc is None else jnp.asarray(Dc, float))
 
 
 def _residual_fn(G, I, L2, L1, S, C1, sw, Nn, Dc=None):
     """``(r(phi), dr/dphi(phi))``: the residual (n, m) and its Jacobian (n, m, q), compiled
     once per shape."""
-    data = tuple(jnp.asarray(v, float) for v in (G, I, L2, L1, S, C1, sw))
-    data = data + (None if Nn is None else jnp.asarray(Nn, float),
-                   jnp.zeros_like(data[1]) if Dc is None else jnp.asarray(Dc, float))
+    data = _model_data(G, I, L2, L1, S, C1, sw, Nn, Dc)
     return (lambda phi: _resid_jit(jnp.asarray(phi, float), *data),
             lambda phi: _jac_jit(jnp.asarray(phi, float), *data))
 
