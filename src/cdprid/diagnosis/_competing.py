@@ -114,6 +114,30 @@ def heldout_losses(prob: Problem, Z, y) -> np.ndarray:
     return np.sum(r * r, axis=1)
 
 
+def heldout_against(prob: Problem, s, loss_alt) -> tuple[float, float]:
+    """``(rms, p_worse)``: the held-out rms of the model ``s`` and the one-sided
+    Diebold-Mariano p-value that an alternative with per-sample held-out losses ``loss_alt``
+    predicts worse than it (0.0 when ``loss_alt`` is None: no alternative).
+
+    Parameters
+    ----------
+    prob : Problem
+    s : Selection
+        The model as it stands.
+    loss_alt : ndarray or None
+        The alternative's :func:`heldout_losses`.
+
+    Returns
+    -------
+    (float, float)
+    """
+    Z, y, _, _ = linear_model(prob, s)
+    rms = heldout_rms(prob, Z, y)
+    if loss_alt is None:
+        return rms, 0.0
+    return rms, dm_p_worse(loss_alt, heldout_losses(prob, Z, y), prob.lags)
+
+
 def competing_models(prob: Problem, s, candidates, min_gain: float, extra: dict,
                      say=lambda msg: None, other=None, better=None) -> tuple[list, int]:
     """Alternative complete models within the noise of the final one.

@@ -23,14 +23,13 @@ the same path: nothing is done.
 
 from __future__ import annotations
 
-from cdprid.diagnosis._competing import dm_p_worse, heldout_losses
-from cdprid.diagnosis._problem import Problem, heldout_rms
+from cdprid.diagnosis._competing import heldout_against
+from cdprid.diagnosis._problem import Problem
 from cdprid.diagnosis._restart import choose
 from cdprid.diagnosis._selection import (
     Selection,
     extends_base,
     forward_step,
-    linear_model,
     withdraw,
 )
 from cdprid.diagnosis._stability import (
@@ -160,11 +159,8 @@ def sensor_pass_check(prob: Problem, s: Selection, added, candidates, min_gain: 
         if c not in s.accepted:
             continue
         k = s.accepted.index(c)
-        Z, y, _, _ = linear_model(prob, s)
-        rms_c = heldout_rms(prob, Z, y)
         best = _best_geometry(prob, s, k, candidates, extra)
-        p_worse = (0.0 if best is None
-                   else dm_p_worse(best[3], heldout_losses(prob, Z, y), prob.lags))
+        rms_c, p_worse = heldout_against(prob, s, None if best is None else best[3])
         verdict = geometry_verdict(rms_c, None if best is None else best[0], p_worse, min_gain,
                                    GEOMETRY_DM_LEVEL)
         if verdict == "geometry":  # the sensor-side finding beats every geometry reading

@@ -38,7 +38,7 @@ from cdprid.diagnosis._candidates import (
     vocab_params,
     well_determined,
 )
-from cdprid.diagnosis._competing import DM_LEVEL, dm_p_worse, heldout_losses
+from cdprid.diagnosis._competing import DM_LEVEL, heldout_against, heldout_losses
 from cdprid.diagnosis._problem import Problem, heldout_rms
 from cdprid.diagnosis._result import Finding
 from cdprid.diagnosis._selection import (
@@ -554,11 +554,8 @@ def geometry_stage(prob: Problem, s: Selection, candidates: list, min_gain: floa
         if not tilt and (not DIAGNOSIS[c.effect].displacement
                          or _displacement_m(c, s, prob) <= tol):
             continue
-        Z, y, _, _ = linear_model(prob, s)
-        rms_geo = heldout_rms(prob, Z, y)
         best = _best_alternative(prob, s, k, candidates, extra)
-        p_worse = (0.0 if best is None
-                   else dm_p_worse(best[3], heldout_losses(prob, Z, y), prob.lags))
+        rms_geo, p_worse = heldout_against(prob, s, None if best is None else best[3])
         verdict = geometry_verdict(rms_geo, None if best is None else best[0], p_worse, min_gain,
                                    TILT_DM_LEVEL if tilt else GEOMETRY_DM_LEVEL)
         if verdict == "geometry":
