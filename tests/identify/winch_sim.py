@@ -263,13 +263,15 @@ def reflected(d):
 
 def simulate(robot_dict, params, seed, duration=30.0, rate_pose=100.0, rate_drive=500.0,
              noise_pos=2e-4, noise_rot=3e-4, noise_A=0.03, noise_len=5e-5, amp=0.25,
-             rot_amp=0.08, tau_ref=40.0, datasheet_error=0.1, path=None):
+             rot_amp=0.08, tau_ref=40.0, datasheet_error=0.1, path=None, drive_edit=None):
     """Streams of one recording: dict with pose (t, p, q), drives (t, i, l), the truth and
     the robot.toml drive fields (drive 1 exact, the others' torque constants off by up to
     ``datasheet_error``). ``path``: the platform's motion instead of the seed's sum of sines
     (an object with ``p(t)``, ``pdd(t)``, ``R(t)`` over arrays of times, as :class:`Path`
     and :class:`SampledPath`); the seed's sum of sines is still drawn, so that the drive
-    constants and the noise of a seed are the same draws with and without it."""
+    constants and the noise of a seed are the same draws with and without it. ``drive_edit``:
+    a function of the drawn physical constants (the dict of :func:`drive_truth`) returning
+    those the winches have (e.g. without friction), applied after the seed's draws."""
     rng = np.random.default_rng(seed)
     A = np.array([c["exit"] for c in robot_dict["cable"]], float)
     b = np.array([c["anchor"] for c in robot_dict["cable"]], float)
@@ -285,6 +287,7 @@ def simulate(robot_dict, params, seed, duration=30.0, rate_pose=100.0, rate_driv
         raise ValueError(f"slack cable in the simulation (min tension {tau.min():.3g} N)")
     L0, L1, L2 = lengths(A, b, path, td)
     d = drive_truth(rng, m)
+    d = d if drive_edit is None else drive_edit(dict(d))
     cur = currents(d, tau, L1, L2) + noise_A * rng.standard_normal(tau.shape)
     lens = L0 + noise_len * rng.standard_normal(tau.shape)
     tp = np.arange(0.0, duration, 1.0 / rate_pose)

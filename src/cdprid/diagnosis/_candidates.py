@@ -47,12 +47,15 @@ def alias_label(c: Candidate) -> str:
     return c.effect if c.cable is None else f"{c.effect}:cable={c.cable}"
 
 
-def candidate_list(m: int, has_rotation: bool, robot=None) -> list[Candidate]:
+def candidate_list(m: int, has_rotation: bool, robot=None, source: str = "tensions",
+                   reference_cable: int | None = None) -> list[Candidate]:
     """Every candidate (effect x cable) for m cables, by group then in the table's order.
 
     An effect declared ``when="no_pulley"`` (the swivel pulley's opposite arrival direction)
     is a candidate only when robot.toml models no pulley (every radius 0, so the axis may be
-    a default); ``when="rotation"`` only when the pose stream rotates.
+    a default); ``when="rotation"`` only when the pose stream rotates; a form of one stream
+    (``stream="tensions"`` or ``"currents"``) only on that source; a ``not_on_reference``
+    form never on the scale reference drive.
 
     Parameters
     ----------
@@ -62,6 +65,10 @@ def candidate_list(m: int, has_rotation: bool, robot=None) -> list[Candidate]:
         Whether the pose stream rotates.
     robot : CableRobot, optional
         Decides the ``when="no_pulley"`` candidates.
+    source : str
+        The force stream: ``"tensions"`` (load cells) or ``"currents"`` (winch drives).
+    reference_cable : int, optional
+        The scale reference drive (1-based), currents only.
 
     Returns
     -------
@@ -72,10 +79,11 @@ def candidate_list(m: int, has_rotation: bool, robot=None) -> list[Candidate]:
     out = []
     for group in sorted({f.group for f in DIAGNOSIS.values()}):
         for name, f in DIAGNOSIS.items():
-            if f.group != group or not ok[f.when]:
+            if f.group != group or not ok[f.when] or f.stream not in ("any", source):
                 continue
-            out += ([Candidate(name, i) for i in range(1, m + 1)] if f.per_cable
-                    else [Candidate(name)])
+            out += ([Candidate(name, i) for i in range(1, m + 1) if not (
+                f.not_on_reference and i == reference_cable)] if f.per_cable
+                else [Candidate(name)])
     return out
 
 
@@ -114,9 +122,17 @@ def vocab_params(c: Candidate, th_values: np.ndarray, layout: ThetaLayout,
     if form.displacement and th_cov is not None:
         v = well_determined(v, th_cov[np.ix_(idx, idx)])
     head = {"cable": c.cable} if form.per_cable else {}
+    extra = _with_cable(extra, c.cable)
     if form.params is not None:
         return {**head, **form.params(v, extra)}
     return {**head, **dict(zip(form.keys, _split(form, v), strict=True))}
+
+
+def _with_cable(extra, cable):
+    """The forms' context with the candidate's cable set (a dict gets the key)."""
+    if isinstance(extra, DiagnosisContext):
+        return dataclasses.replace(extra, cable=cable)
+    return {**(extra or {}), "cable": cable}
 
 
 def implausible(effect: str, params: dict) -> str:
@@ -151,6 +167,7 @@ def vocab_interval(c: Candidate, th_values, th_std, layout,
     idx = layout.candidate_indices(c.effect, c.cable)
     v, s = th_values[idx], th_std[idx]
     lo, hi = v - z * s, v + z * s
+    extra = _with_cable(extra, c.cable)
     if form.interval is not None:
         return form.interval(lo, hi, extra)
     out = {}

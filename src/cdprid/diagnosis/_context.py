@@ -37,6 +37,13 @@ class DiagnosisContext:
         (:func:`cdprid.diagnosis._unexplained.finding_floor_N`); 0 when not set.
     base_mass_kg : float or None
         The base model's mass (kg), the reference of the model's plausibility.
+    drive_k : numpy.ndarray or None
+        The drives' datasheet current-to-force constants ``(m,)`` N/A (``diagnose --source
+        currents``: the reading is ``k i``; a current offset in A is its offset in N over
+        ``k``).
+    cable : int or None
+        The candidate's cable (1-based), set by the vocabulary forms' readers
+        (:func:`cdprid.diagnosis._candidates.vocab_params`) for a per-cable form.
     """
 
     rotation_amplitude: float | None = None
@@ -44,6 +51,8 @@ class DiagnosisContext:
     pulley_axis: np.ndarray | None = dataclasses.field(default=None, compare=False)
     finding_floor_N: float = 0.0
     base_mass_kg: float | None = None
+    drive_k: np.ndarray | None = dataclasses.field(default=None, compare=False)
+    cable: int | None = None
 
     def __getitem__(self, key: str):
         value = getattr(self, key) if key in _NAMES else None

@@ -45,6 +45,8 @@ class ThetaLayout:
         i = 0
         for form in DIAGNOSIS.values():
             for name, size in form.blocks:
+                if name in sl:  # shared with a form of the other stream (one set of numbers)
+                    continue
                 n = size * m if form.per_cable else size
                 sl[name] = slice(i, i + n)
                 self.block_shapes[name] = (form.per_cable, size)
@@ -140,6 +142,10 @@ class DiagData(eqx.Module):
     #: (:func:`cdprid.effects.reversal_regressor` of ``tau_grid``, computed once with the
     #: data); ``None``: computed by the form at each evaluation
     hyst_h: jnp.ndarray | None = None
+    #: the cable length accelerations of the nominal geometry, (n, m) (second differences of
+    #: the lengths at the poses, per segment; the drive's reflected inertia reads them);
+    #: ``None``: zero (a load-cell stream)
+    lddot: jnp.ndarray | None = None
 
     @property
     def stream(self) -> TensionStream:
@@ -152,6 +158,12 @@ class DiagData(eqx.Module):
         vals = self.tau_grid if self.tau_smooth is None else self.tau_smooth
         return TensionStream(self.tau_t0 + self.tau_dt * jnp.arange(k), vals,
                              self.tau_t0, self.tau_dt)
+
+
+def lddot_of(d: DiagData):
+    """The cable length accelerations of every sample and cable, ``(n, m)`` (zero when the
+    data do not carry them)."""
+    return jnp.zeros_like(d.ldot) if d.lddot is None else d.lddot
 
 
 def slide_of(d: DiagData):
@@ -177,7 +189,8 @@ def measured_side(d: DiagData, th):
     tau = tension_at(d.stream, d.t + th["delay"], CATMULL_ROM)
     tau = (tau - th["offset"] - th["drift"] * d.clock[:, None]) / (1.0 + th["gain"])
     tau = tau + (th["coulomb"] + th["coulomb_all"]) * slide_of(d) \
-        + (th["pvisc"] + th["pvisc_all"]) * d.ldot
+        + (th["pvisc"] + th["pvisc_all"]) * d.ldot \
+        + (th["inertia"] + th["inertia_all"]) * lddot_of(d)
     rob = shifted_robot(d.robot, th)
     g = tilt_gravity(d.robot.gravity, th["tilt"])
 
@@ -222,7 +235,8 @@ def model_side(d: DiagData, th, x, rotational: bool):
 
 
 #: the per-cable local parameter vector: every theta block, in layout order, (block, size)
-LOCAL_BLOCKS = tuple((name, size) for form in DIAGNOSIS.values() for name, size in form.blocks)
+LOCAL_BLOCKS = tuple(dict.fromkeys(  # a block shared by two streams' forms once
+    (name, size) for form in DIAGNOSIS.values() for name, size in form.blocks))
 
 
 def local_blocks(local) -> dict:
@@ -234,11 +248,11 @@ def local_blocks(local) -> dict:
     return out
 
 
-def _context(local_c, p, R, k, ref, taud_c, ldot_c, t_c, slide_c) -> dict:
+def _context(local_c, p, R, k, ref, taud_c, ldot_c, t_c, slide_c, lddot_c=0.0) -> dict:
     """The hooks' context of one cable and sample (:mod:`cdprid.effects._context`)."""
     return {"at": local_blocks(local_c), "taud": taud_c, "ldot": ldot_c, "R": R, "p": p,
             "k": k, "ref": ref, "t": t_c, "slide": jnp.sign(ldot_c) if slide_c is None
-            else slide_c}
+            else slide_c, "lddot": lddot_c}
 
 
 def cable_tension(local, tau_c, c):
@@ -283,7 +297,7 @@ def cable_geometry(local, A, b, r, g0, c):
 
 
 def cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c, ldot_c,
-                       t_c=0.0, slide_c=None):
+                       t_c=0.0, slide_c=None, lddot_c=0.0):
     """Wrench (6,) of one cable on the platform, with its own effect parameters.
 
     ``local``: every theta block for this cable (:data:`LOCAL_BLOCKS`; per-cable blocks hold
@@ -291,11 +305,12 @@ def cable_contribution(local, A, b, r, k, ref, p, R, tau_c, taud_c, g0, local_c,
     linearisation point. The effects act through the hooks of
     :data:`cdprid.effects.DIAGNOSIS`, in table order: ``tension`` on the reading ``tau_c``
     (its rate ``taud_c``, the cable rate ``ldot_c``, the clock ``t_c``, the friction sign
-    ``slide_c``, by default ``sign(ldot_c)``; :func:`cable_tension`), ``geometry`` on the
+    ``slide_c``, by default ``sign(ldot_c)``, its acceleration ``lddot_c``;
+    :func:`cable_tension`), ``geometry`` on the
     exit point, the attachment and the pulley radius, ``leave`` on the leave point,
     ``gravity`` and ``load`` (a force at the attachment; :func:`cable_geometry`).
     """
-    c = _context(local_c, p, R, k, ref, taud_c, ldot_c, t_c, slide_c)
+    c = _context(local_c, p, R, k, ref, taud_c, ldot_c, t_c, slide_c, lddot_c)
     tau = cable_tension(local, tau_c, c)
     u, bb, load = cable_geometry(local, A, b, r, g0, c)
     f = u * tau + load
@@ -422,15 +437,17 @@ def tension_jac(d, theta, layout):
     tau_c, taud_c = _tension_inputs(d, th)
     rob = d.robot
 
-    def per_sample(p, R, tc, tdc, ld, clk, sl):
-        def per_cable(lc, k, ref, ti, tdi, li, si):
-            c = _context(lc, p, R, k, ref, tdi, li, clk, si)
+    def per_sample(p, R, tc, tdc, ld, clk, sl, ldd):
+        def per_cable(lc, k, ref, ti, tdi, li, si, lddi):
+            c = _context(lc, p, R, k, ref, tdi, li, clk, si, lddi)
             f = functools.partial(cable_tension, tau_c=ti, c=c)
             return f(lc), jax.jacfwd(f)(lc)
 
-        return jax.vmap(per_cable)(loc, rob.pulley_axis, rob.pulley_reference, tc, tdc, ld, sl)
+        return jax.vmap(per_cable)(loc, rob.pulley_axis, rob.pulley_reference, tc, tdc, ld, sl,
+                                   ldd)
 
-    return jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot, d.clock, slide_of(d))
+    return jax.vmap(per_sample)(d.p, d.R, tau_c, taud_c, d.ldot, d.clock, slide_of(d),
+                                lddot_of(d))
 
 
 tension_jac = cached_executable(tension_jac, name="diagnosis.tension_jac",

@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from cdprid.base import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S
+from cdprid.base import CUTOFF_HZ, TAUT_THRESHOLD_N, TRIM_S, InputError
 from cdprid.core import refuse_implausible, rest_mask
 from cdprid.diagnosis._base import BaseFit, NoiseLevels, base_fit, noise_levels, null_residuals
 from cdprid.diagnosis._budget import MAX_SAMPLES, joined_time, subset
@@ -29,6 +29,7 @@ from cdprid.diagnosis._candidates import alias_label, candidate_list
 from cdprid.diagnosis._clock import INTERVAL_CAVEAT, clock_check, clock_interval, clock_stage
 from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._context import DiagnosisContext
+from cdprid.diagnosis._drives import SOURCES, drive_dataset
 from cdprid.diagnosis._hysteresis import (
     TENSION_RATE_SIGNAL,
     direction_feature,
@@ -157,7 +158,7 @@ def _split_at_joins(sig, joins):
 
 
 def _problem(ds, train_until, *, cutoff_hz, trim, n_folds, taut_N, max_samples, say,
-             keep_episodes=False):
+             keep_episodes=False, source="tensions"):
     """The problem on the whole recording or on its budgeted subset (on the recording's own
     clock) without its episodes (:mod:`cdprid.episodes`, unless kept), its lengths stream, the
     notes (the alignment's included), the episodes and the problem with them kept."""
@@ -173,7 +174,7 @@ def _problem(ds, train_until, *, cutoff_hz, trim, n_folds, taut_N, max_samples, 
             train_until = joined_time(sub, train_until)
     prob = prepare(ds, train_until, cutoff_hz, trim, n_folds, taut_N,
                    joins=sub.joins if sub is not None else (),
-                   clock=sub.clock if sub is not None else None)
+                   clock=sub.clock if sub is not None else None, source=source)
     sig = _split_at_joins(align(ds), sub.joins if sub is not None else ())
     notes.extend(n for n in sig.notes if n not in notes)
     eps = find_episodes(ds.robot, sig, cutoff_hz, trim=trim, use=prob.use,
@@ -212,6 +213,8 @@ def diagnose(
     progress=None,
     max_samples: int = MAX_SAMPLES,
     keep_episodes: bool = False,
+    source: str = "tensions",
+    reference: str | None = None,
 ) -> DiagnosisResult:
     """Diagnose what the paper's model misses in a dataset.
 
@@ -246,6 +249,13 @@ def diagnose(
         (:func:`cdprid.diagnosis._budget.subset`; ``notes`` and ``info["subset"]`` say which).
     keep_episodes : bool
         Keep the episodes (:mod:`cdprid.episodes`) in the fits (by default left out).
+    source : str
+        The force stream: ``"tensions"`` (load cells, tensions.csv) or ``"currents"`` (the
+        winch drives' currents.csv read as the datasheet's tension ``k i``, the drive-side
+        effects the candidates: :mod:`cdprid.diagnosis._drives`, docs/drives.md).
+    reference : str, optional
+        With ``source="currents"``: ``drive:K``, the drive whose torque constant is the
+        scale (default: robot.toml's ``drive_reference`` or calibrated drive).
 
     Returns
     -------
@@ -253,10 +263,14 @@ def diagnose(
     """
     say = _timed_say(progress, t0 := time.perf_counter())
     cfg = Search(alpha, n_null, max_effects, min_gain, seed)
+    ds, drives = _source(ds, source, reference)
     prob, sub, lengths, notes, (eps, prob_with) = _problem(
         ds, train_until, cutoff_hz=cutoff_hz, trim=trim, n_folds=n_folds, taut_N=taut_N,
-        max_samples=max_samples, say=say, keep_episodes=keep_episodes)
-    prob, base, noise, ctx, candidates = _base_stage(prob, notes, say)
+        max_samples=max_samples, say=say, keep_episodes=keep_episodes, source=source)
+    if drives is not None:
+        notes.insert(0, drives.note())
+        say(notes[0])
+    prob, base, noise, ctx, candidates = _base_stage(prob, notes, say, drives)
     prob, s, (other, second), clock, ranking, thr_first = _search(
         prob, base, noise, ctx, candidates, cfg, say)
     s, hints, withdrawn, clock, regeo = _checks(
@@ -272,6 +286,8 @@ def diagnose(
     _complete_info(info, not_named=not_named_sizes(prob, base, s, candidates, ctx, thr_first),
                    rule=rule, el_info=el_info, clock_info=clock, second=second, t0=t0,
                    sub=sub, regeo=regeo)
+    if drives is not None:
+        info.update(source="currents", source_currents=drives.as_json())
     return _result(prob, prob_with, eps, s, base, resid, noise, seed=seed, say=say,
                    base_heldout_rms=base_ho, findings=findings, extended_parameters=ext_params,
                    extended_heldout_rms=ext_ho, ranking=ranking, info=info,
@@ -412,10 +428,27 @@ def _structure(prob) -> dict:
         prob.use, slide=prob.d.slide).items()}
 
 
-def _base_stage(prob, notes: list, say):
+def _source(ds, source: str, reference):
+    """``(dataset, DriveSource or None)``: the force stream the diagnosis reads (one sentence
+    on a bad source, a missing stream or a reference without currents)."""
+    if source not in SOURCES:
+        raise InputError(f"--source {source!r}: use one of {', '.join(SOURCES)}.")
+    if source == "currents":
+        return drive_dataset(ds, reference)
+    if reference is not None:
+        raise InputError("--reference applies to --source currents only (the load cells fix "
+                         "the scale).")
+    if ds.tension is None:
+        raise InputError(f"{ds.path}: the dataset has no tensions.csv; diagnose its motor "
+                         "currents with --source currents.")
+    return ds, None
+
+
+def _base_stage(prob, notes: list, say, drives=None):
     """The base model's fit, the noise levels estimated from the data and the context the
-    candidates' checks read and the candidates: ``(prob, base, noise, context,
-    candidates)``."""
+    candidates' checks read and the candidates (of the problem's source; ``drives`` a
+    :class:`~cdprid.diagnosis._drives.DriveSource` on currents): ``(prob, base, noise,
+    context, candidates)``."""
     prob, base = base_fit(prob)
     if base.rotational:
         notes.append(f"the platform rotates by up to {prob.rotation_deg:.2g} deg: the base model "
@@ -432,8 +465,11 @@ def _base_stage(prob, notes: list, say):
                            rotation_amplitude_std=noise.rotation_amplitude_std,
                            pulley_axis=axes[0] if np.allclose(axes, axes[0]) else axes,
                            finding_floor_N=finding_floor_N(prob.tension[prob.use]),
-                           base_mass_kg=float(base.x[0]))
-    candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot)
+                           base_mass_kg=float(base.x[0]),
+                           drive_k=None if drives is None else drives.k_nominal)
+    candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot,
+                                source=prob.source, reference_cable=None if drives is None
+                                else drives.reference_cable)
     return prob, base, noise, ctx, candidates
 
 

@@ -86,6 +86,9 @@ class Problem:
     #: force on the cell (:func:`cdprid.diagnosis._hysteresis.refine_hysteresis`), not the
     #: reading alone
     hysteresis_refined: tuple = ()
+    #: the force stream: ``"tensions"`` (load cells) or ``"currents"`` (the winch drives'
+    #: currents read as the datasheet's tension ``k i``; :func:`cdprid.diagnosis.diagnose`)
+    source: str = "tensions"
     #: linearisations already computed (see :func:`design`); not part of the problem's value
     cache: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
@@ -108,7 +111,7 @@ class Problem:
 
 def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CUTOFF_HZ,
             trim: float = TRIM_S, n_folds: int = 5, taut_N: float = TAUT_THRESHOLD_N, *,
-            joins: tuple = (), clock=None) -> Problem:
+            joins: tuple = (), clock=None, source: str = "tensions") -> Problem:
     """Align, differentiate, build the forward-model data and the masks: samples inside the
     trimmed recording where every cable is taut (:func:`cdprid.core.taut_mask`, as real data).
 
@@ -127,6 +130,9 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
         within the trim margin of each are left out.
     clock : callable, optional
         Times -> the recording's clock for time-dependent effects (default t - tension_t[0]).
+    source : str
+        ``"tensions"`` or ``"currents"`` (the data then also carry the cable length
+        accelerations the drives' inertia reads, :func:`length_accelerations`).
 
     Returns
     -------
@@ -157,7 +163,8 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
                  jnp.asarray(v), jnp.asarray(a), jnp.asarray(om), jnp.asarray(al),
                  stream.values, jnp.asarray(ldot), jnp.asarray(clk), stream.t0, tdt,
                  jnp.asarray(slide), smoothed_stream(stream).values, hysteresis_regressor(
-                     stream.values, tdt))
+                     stream.values, tdt), None if source != "currents" else jnp.asarray(
+                     length_accelerations(lengths, dt, sig.segments)))
     margin = max(trim, 0.1)
     use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
            & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))
@@ -182,10 +189,41 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
         d=d, layout=ThetaLayout(m), t=sig.t, position=sig.position, quaternion=sig.quaternion,
         tension=np.asarray(tension_at(stream, sig.t, CATMULL_ROM)), tau_grid=tau_grid, R=R, v=v,
         a=a, om=om, W_all=W_all, motion=motion,
-        has_rotation=bool(sig.has_rotation), dt=dt, tdt=tdt, cutoff_hz=cutoff_hz, use=use,
+        has_rotation=bool(sig.has_rotation), dt=dt, source=source, tdt=tdt, cutoff_hz=cutoff_hz, use=use,
         train=train, test=test, n_slack=n_slack, n_folds=n_folds,
         lags=int(math.ceil(3.0 / (cutoff_hz * dt))),  # correlation length, filtered residual
     )
+
+
+def length_accelerations(lengths, dt: float, segments=()) -> np.ndarray:
+    """Second central differences of cable lengths, segment by segment, ``(n, m)`` m/s^2.
+
+    Raw (not low-passed): the measured side's matched filter then smooths them as the
+    differentiator smooths the platform's accelerations (its Butterworth after the same
+    second difference), so a drive's inertia ``J l''`` and the platform's ``m a`` see one
+    filter. A segment's end samples repeat their neighbour's value; a segment shorter than
+    three samples gets zeros (those samples are trimmed from every fit).
+
+    Parameters
+    ----------
+    lengths : (n, m) m
+    dt : float, s
+    segments : sequence of (int, int), optional
+        Half-open gap-free index ranges (default: one).
+
+    Returns
+    -------
+    numpy.ndarray (n, m)
+    """
+    x = np.asarray(lengths, float)
+    out = np.zeros_like(x)
+    for a, b in (segments or ((0, len(x)),)):
+        if b - a < 3:
+            continue
+        dd = (x[a + 2:b] - 2.0 * x[a + 1:b - 1] + x[a:b - 2]) / dt ** 2
+        out[a + 1:b - 1] = dd
+        out[a], out[b - 1] = dd[0], dd[-1]
+    return out
 
 
 def smoothed_stream(stream: TensionStream) -> TensionStream:

@@ -42,6 +42,10 @@ class CableContext:
     bb : (3,) array, optional
         Attachment in the base frame relative to P, ``R b``, m (set after the geometry
         hooks, before the ``leave`` hooks; None before).
+    lddot : float
+        Acceleration of that cable length (the nominal geometry's, raw second differences
+        of the poses that the matched filter then smooths like the accelerations), m/s^2;
+        0 where the diagnosis does not build it (load cells: no hook reads it).
     """
 
     at: dict
@@ -54,6 +58,7 @@ class CableContext:
     t: Any = 0.0
     slide: Any = None
     bb: Any = None
+    lddot: Any = 0.0
 
     def __getitem__(self, key: str):
         """``c["ldot"]``: the attribute (the hooks' key access, as on a dict)."""

@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 
-__all__ = ["DiagnosisForm", "SpecError"]
+__all__ = ["DiagnosisForm", "SpecError", "STREAMS"]
+
+#: the force streams a diagnosis form may be restricted to (:attr:`DiagnosisForm.stream`)
+STREAMS = ("any", "tensions", "currents")
 
 
 class SpecError(Exception):
@@ -40,6 +43,12 @@ class DiagnosisForm:
     when : str
         ``"always"``, ``"no_pulley"`` (robot.toml gives no pulley) or ``"rotation"``
         (the pose stream rotates).
+    stream : str
+        The force stream whose recordings make it a candidate: ``"any"``, ``"tensions"``
+        (load cells: ``tensions.csv``) or ``"currents"`` (winch drives: ``currents.csv``,
+        ``diagnose --source currents``). A form may share theta blocks (and so their hooks)
+        with a form of the other stream: the drive's current offset, torque constant and
+        friction act on the reading as the load cell's offset, gain and pulley friction do.
     keys : tuple of str
         JSON parameter names of the block values, one per block, in order (a key of
         ``size`` 3 or 2 takes that many values as one list). Required with ``params=`` too.
@@ -92,6 +101,9 @@ class DiagnosisForm:
     per_cable: bool = False
     group: int = 2
     when: str = "always"
+    stream: str = "any"
+    #: never a candidate on the scale reference drive (a torque constant taken as exact)
+    not_on_reference: bool = False
     keys: tuple = ()
     params: object = None
     interval: object = None
@@ -122,6 +134,11 @@ class DiagnosisForm:
     model: object = None
 
     def __post_init__(self):
+        if self.not_on_reference and not self.per_cable:
+            raise SpecError("not_on_reference needs a per-cable form.")
+        if self.stream not in STREAMS:
+            raise SpecError(f"a diagnosis form's stream is one of {STREAMS}, not "
+                            f"{self.stream!r}.")
         if self.blocks and len(self.keys) != len(self.blocks):
             raise SpecError(
                 f"a diagnosis form needs one JSON name in keys per theta block (also with "

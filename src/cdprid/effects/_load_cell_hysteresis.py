@@ -303,6 +303,7 @@ SPEC = EffectSpec(
     doc=_DOC, place=Place.CELL, read=read,
     diagnosis=DiagnosisForm(
         blocks=(("hysteresis", 1),), per_cable=True, group=1, keys=("width_N",),
+        stream="tensions",
         model=_hysteresis_model, bounds={"width_N": 100.0}, nonneg=("width_N",),
         interval=_interval, cell_play=True,
         separated_by={

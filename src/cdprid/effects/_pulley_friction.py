@@ -53,9 +53,11 @@ SPEC = EffectSpec(
     place=Place.PULLEY, read=_read,
     diagnosis=DiagnosisForm(
         blocks=(("coulomb", 1), ("pvisc", 1)), per_cable=True, group=1, keys=_KEYS,
+        stream="tensions",
         tension=_undo, bounds=_BOUNDS, nonneg=_KEYS),
     variants=(("pulley_friction_all", DiagnosisForm(
         blocks=(("coulomb_all", 1), ("pvisc_all", 1)), group=1, keys=_KEYS,
+        stream="tensions",
         tension=_undo_all,
         params=lambda v, extra: {"cable": "all", "coulomb_N": float(v[0]),
                                  "viscous_Ns_per_m": float(v[1])},

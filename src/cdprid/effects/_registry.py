@@ -36,6 +36,10 @@ _MODULES = (
     "cable_elasticity",
     "external_wrench",
     "load_cell_hysteresis",
+    "current_offset",
+    "torque_constant_error",
+    "drive_friction",
+    "drive_inertia",
 )
 
 #: every effect's :class:`EffectSpec`, in the table's order
@@ -44,11 +48,21 @@ REGISTRY: tuple[EffectSpec, ...] = tuple(
 
 
 def _check(registry) -> None:
-    """Raise SpecError on duplicate names or tension hooks out of the physical order."""
+    """Raise SpecError on duplicate names, tension hooks out of the physical order or theta
+    blocks shared by forms of one stream (or of different shapes)."""
     names = [s.name for s in registry] + [k for s in registry for k, _ in s.variants]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise SpecError(f"effect names registered twice: {dup}.")
+    shapes: dict = {}
+    for key, f in ((k, f) for s in registry for k, f in s.forms().items()):
+        for block, size in f.blocks:  # a shared block (another stream's form) keeps its shape
+            first = shapes.setdefault(block, (f.per_cable, size, f.stream, key))
+            if first[:2] != (f.per_cable, size) or (first[3] != key and "any" in (
+                    first[2], f.stream)) or (first[3] != key and first[2] == f.stream):
+                raise SpecError(f"theta block {block!r} is shared by {first[3]!r} and {key!r}: "
+                                 "only forms of different streams may share a block, with "
+                                 "one shape.")
     places = [s.place.value for s in registry for f in s.forms().values()
               if f.tension is not None]
     if places != sorted(places, reverse=True):

@@ -32,7 +32,12 @@ class Place(enum.Enum):
     the platform, through its pulley, the cell's mechanics, its gain, its zero); the
     simulator applies the effects of these places in this order and the diagnosis undoes
     them in the reverse one. ``CLOCK`` is the tension stream's time stamps, ``ENCODER`` the
-    winch encoders' stream (``lengths.csv``).
+    winch encoders' stream (``lengths.csv``). ``DRIVE`` is the winch drive between the cable
+    and the motor current (format 1.2, ``currents.csv``): its reflected inertia, friction,
+    torque constant and current offset, which a motor current sees and a load cell does not;
+    the diagnosis reads a current stream as the datasheet's tension ``k i`` and undoes the
+    drive's effects through the load cell's own tension hooks where they have the same form
+    (offset, gain, friction), the inertia last.
     """
 
     NONE = 0
@@ -40,12 +45,13 @@ class Place(enum.Enum):
     GEOMETRY = 2
     GRAVITY = 3
     PLATFORM = 4
-    PULLEY = 5
-    CELL = 6
-    GAIN = 7
-    ZERO = 8
-    CLOCK = 9
-    ENCODER = 10
+    DRIVE = 5
+    PULLEY = 6
+    CELL = 7
+    GAIN = 8
+    ZERO = 9
+    CLOCK = 10
+    ENCODER = 11
 
     @property
     def load_cell(self) -> bool:

@@ -44,6 +44,7 @@ SPEC = EffectSpec(
     doc=_DOC, place=Place.ZERO, read=read,
     diagnosis=DiagnosisForm(
         blocks=(("drift", 1),), per_cable=True, group=1, keys=("rate_N_per_s",),
+        stream="tensions",
         tension=_undo, bounds={"rate_N_per_s": 100.0},
         separated_by={"tension_offset": "a longer recording (an offset stays, a drift grows "
                       "with time)",

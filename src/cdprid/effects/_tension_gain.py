@@ -25,6 +25,7 @@ SPEC = EffectSpec(
     # theta holds gain - 1 (the block is 0 for a right gain)
     diagnosis=DiagnosisForm(
         blocks=(("gain", 1),), per_cable=True, group=1, keys=("gain",),
+        stream="tensions",
         tension=lambda tau, q, c: tau / (1.0 + q["gain"]),
         params=lambda v, extra: {"gain": float(1.0 + v[0])},
         interval=lambda lo, hi, extra: {"gain": [float(1 + lo[0]), float(1 + hi[0])]},

@@ -21,6 +21,7 @@ SPEC = EffectSpec(
     place=Place.ZERO, read=_read,
     diagnosis=DiagnosisForm(
         blocks=(("offset", 1),), per_cable=True, group=1, keys=("offset_N",),
+        stream="tensions",
         tension=lambda tau, q, c: tau - q["offset"], bounds={"offset_N": 1e3},
         separated_by={"tension_gain": "a trajectory with a wider range of tension on that "
                       "cable (a gain scales with the tension, an offset does not)"}),
