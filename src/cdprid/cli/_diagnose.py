@@ -19,7 +19,8 @@ def _run(args) -> int:
     if args.json:
         check_output(args.json, force=args.force, flag="--json", inputs=inputs)
     check_outputs(args, inputs, args.force)
-    ds = read_dataset(args.dataset)
+    source = args.source or _auto_source(args.dataset)
+    ds = read_dataset(args.dataset, require_tensions=source != "tensions")
 
     def progress(msg):
         check_pending()  # a safe point for a signal recorded where it could not be raised
@@ -28,7 +29,8 @@ def _run(args) -> int:
 
     res = diagnose(ds, train_until=args.train_until, alpha=args.alpha, n_null=args.n_null,
                    max_effects=args.max_effects, seed=args.seed, progress=progress,
-                   keep_episodes=args.keep_episodes)
+                   keep_episodes=args.keep_episodes, source=source,
+                   reference=args.reference)
     for note in res.notes:
         print(f"note: {note}")
     print(f"base model: m = {res.base_parameters['m'].value:.5g} kg, held-out force residual "
@@ -75,6 +77,17 @@ def _run(args) -> int:
     return 0
 
 
+def _auto_source(dataset) -> str:
+    """``currents`` for a dataset folder with currents.csv and no tensions.csv, else
+    ``tensions`` (whose absence read_dataset then reports)."""
+    from pathlib import Path
+
+    root = Path(dataset)
+    if not (root / "tensions.csv").exists() and (root / "currents.csv").exists():
+        return "currents"
+    return "tensions"
+
+
 def configure(p) -> None:
     """Give the ``diagnose`` parser its description and options (the command registry,
     :mod:`cdprid.cli._commands`, creates it)."""
@@ -100,6 +113,15 @@ def configure(p) -> None:
                    help="greedy selection stops here (>= 1)")
     p.add_argument("--seed", type=V.nonneg_int, default=0, help="seed of the null simulation")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--source", choices=("tensions", "currents"), default=None,
+                   help="the force stream: tensions (load cells, tensions.csv) or currents "
+                   "(the winch drives' currents.csv as the datasheet's tension k i; the "
+                   "drive-side effects are the candidates: docs/drives.md); default: "
+                   "currents when the dataset has currents.csv and no tensions.csv")
+    p.add_argument("--reference", default=None, metavar="drive:K",
+                   help="--source currents: the drive whose torque constant is the scale "
+                   "(default: robot.toml's drive_reference = true, else a drive with "
+                   "torque_constant_tolerance = 0)")
     p.add_argument("--keep-episodes", action="store_true", help="keep the located episodes "
                    "(pushes, load-cell steps, pose glitches, outside work) in the fits; they "
                    "are reported either way")

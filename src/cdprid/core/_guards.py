@@ -386,7 +386,7 @@ GUARD_FIT_MAX_SAMPLES = SWAP_CHECK_MAX_SAMPLES
 MIN_USABLE_SAMPLES = 200
 
 
-def refuse_implausible(ds, taut_N: float | None = None) -> None:
+def refuse_implausible(ds, taut_N: float | None = None, enforce: bool = True) -> list[str]:
     """Raise :class:`~cdprid.base.UserError` (exit 2) when a plausibility guard fires on ``ds``.
 
     Called at the entry of a feature that must not report on untrustworthy data (the
@@ -400,6 +400,15 @@ def refuse_implausible(ds, taut_N: float | None = None) -> None:
     taut_N : float, optional
         Tension below which a cable counts as slack, N (default
         :data:`cdprid.base.TAUT_THRESHOLD_N`).
+    enforce : bool
+        False: the guards on the base fit are returned instead of raised (the diagnosis on
+        motor currents, whose datasheet model lacks the drives' inertia and friction that the
+        guards' thresholds assume absent); the geometry and the usable samples still refuse.
+
+    Returns
+    -------
+    list of str
+        With ``enforce=False``, the guards that fired (else empty).
     """
     from cdprid.io import align
 
@@ -407,9 +416,12 @@ def refuse_implausible(ds, taut_N: float | None = None) -> None:
     sig = align(ds)
     _check_usable(ds, sig, taut_N)
     bad = refusals(plausibility_warnings(ds, sig))
+    if bad and not enforce:
+        return bad
     if bad:
         raise UserError(f"{ds.path}: the base model cannot be trusted on these data, so no "
                         f"effect is named: {bad[0]}")
+    return []
 
 
 def _check_usable(ds, sig, taut_N: float | None) -> None:

@@ -70,7 +70,8 @@ def base_fit(prob: Problem) -> tuple[Problem, BaseFit]:
         The problem with ``wrow`` (row weights, 1/N and 1/(N m)) set, and the fit (x: m in kg,
         m s_G in kg m, the inertia in kg m^2 when rotational; residual rms in N).
     """
-    theta0 = jnp.zeros(prob.layout.size)
+    theta0 = (jnp.zeros(prob.layout.size) if prob.theta0 is None
+              else jnp.asarray(prob.theta0, float))  # the drive model on currents
     A4 = np.asarray(regs_jit(prob.d, theta0, prob.layout, False))
     A10 = np.asarray(regs_jit(prob.d, theta0, prob.layout, True)) if prob.has_rotation else None
     y0 = cable_side(prob, theta0)[0]

@@ -29,7 +29,17 @@ from cdprid.diagnosis._candidates import alias_label, candidate_list
 from cdprid.diagnosis._clock import INTERVAL_CAVEAT, clock_check, clock_interval, clock_stage
 from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._context import DiagnosisContext
-from cdprid.diagnosis._drives import SOURCES, drive_dataset
+from cdprid.diagnosis._drives import (
+    SOURCES,
+    drive_dataset,
+    drive_findings,
+    drive_named,
+    drive_final,
+    drive_start,
+    drive_theta,
+    platform_candidates,
+    set_aside,
+)
 from cdprid.diagnosis._hysteresis import (
     TENSION_RATE_SIGNAL,
     direction_feature,
@@ -97,6 +107,8 @@ class Search:
     max_effects: int
     min_gain: float
     seed: int
+    #: currents: identify's drive-side tests (:func:`cdprid.diagnosis._drives.drive_named`)
+    drive_tests: tuple = ()
 
 
 def summarize(prob: Problem, base: BaseFit, s: Selection, noise: NoiseLevels, settings: dict):
@@ -162,8 +174,12 @@ def _problem(ds, train_until, *, cutoff_hz, trim, n_folds, taut_N, max_samples, 
     """The problem on the whole recording or on its budgeted subset (on the recording's own
     clock) without its episodes (:mod:`cdprid.episodes`, unless kept), its lengths stream, the
     notes (the alignment's included), the episodes and the problem with them kept."""
-    refuse_implausible(ds, taut_N)  # every plausibility guard of identify refuses here
+    # every plausibility guard of identify refuses here; on currents they are notes (the
+    # datasheet model lacks the drives' inertia and friction, which their thresholds assume)
+    guards = refuse_implausible(ds, taut_N, enforce=source != "currents")
     lengths, notes = lengths_stream(ds)
+    notes += [f"plausibility guard (not enforced on motor currents, whose datasheet model "
+              f"lacks the drives' inertia and friction): {g}" for g in guards]
     t_first = float(ds.tension_t[0])  # the recording's clock starts there (Subset.clock)
     sub = subset(ds, max_samples, margin_s=max(trim, 0.1))
     if sub is not None:
@@ -263,16 +279,23 @@ def diagnose(
     """
     say = _timed_say(progress, t0 := time.perf_counter())
     cfg = Search(alpha, n_null, max_effects, min_gain, seed)
-    ds, drives = _source(ds, source, reference)
+    ds, drives = _source(ds, source, reference, say)
     prob, sub, lengths, notes, (eps, prob_with) = _problem(
         ds, train_until, cutoff_hz=cutoff_hz, trim=trim, n_folds=n_folds, taut_N=taut_N,
         max_samples=max_samples, say=say, keep_episodes=keep_episodes, source=source)
-    if drives is not None:
-        notes.insert(0, drives.note())
+    tests = drive_named(drives, alpha) if drives is not None else []
+    cfg = dataclasses.replace(cfg, drive_tests=tuple(tests))
+    if drives is not None:  # the datasheet model with identify's named departures
+        th0 = drive_theta(drives, prob.layout,
+                          [(t["effect"], t["cable"]) for t in tests if t["named"]])
+        prob, prob_with = (dataclasses.replace(x, theta0=th0) for x in (prob, prob_with))
+        notes[:0] = [drives.note(), *drives.notes]
         say(notes[0])
-    prob, base, noise, ctx, candidates = _base_stage(prob, notes, say, drives)
-    prob, s, (other, second), clock, ranking, thr_first = _search(
+    prob, base, noise, ctx, candidates = _base_stage(prob, notes, say, drives, tests)
+    prob, s, (other, second, drive), clock, ranking, thr_first = _search(
         prob, base, noise, ctx, candidates, cfg, say)
+    if drives is not None:  # the drive side is decided: the checks are the platform's
+        candidates = platform_candidates(candidates)
     s, hints, withdrawn, clock, regeo = _checks(
         prob, base, s, candidates, feats := _structure(prob), cfg, thr_first=thr_first,
         ctx=ctx, say=say, clock_info=clock)
@@ -280,6 +303,15 @@ def diagnose(
         prob, s, candidates, cfg, thr_first, other, ctx=ctx, say=say, notes=notes, clock_info=clock)
     unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn, noise, alpha=alpha, say=say)
     findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
+    if drives is not None:
+        named = drive_findings(prob, s, tests, alpha)
+        findings = list(named) + list(drive_final(prob, s, drive, tests, ctx)) + findings
+        if len(drive) > sum(t["named"] for t in tests if t["effect"] != "torque_constant_error"):
+            notes.append("the drive-side findings the drive phase named beside identify's tests "
+                         "are fitted with the torque constants held at identify's values: "
+                         "their intervals leave out the torque constants' uncertainty")
+        say("drive-side effects named from identify's drive model: " + (", ".join(
+            f"{f.effect}[cable {f.parameters['cable']}]" for f in named) or "none"))
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
         "train_until": train_until, "taut_threshold_N": taut_N,
         "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
@@ -287,7 +319,7 @@ def diagnose(
                    rule=rule, el_info=el_info, clock_info=clock, second=second, t0=t0,
                    sub=sub, regeo=regeo)
     if drives is not None:
-        info.update(source="currents", source_currents=drives.as_json())
+        info.update(source="currents", source_currents={**drives.as_json(), "tests": tests})
     return _result(prob, prob_with, eps, s, base, resid, noise, seed=seed, say=say,
                    base_heldout_rms=base_ho, findings=findings, extended_parameters=ext_params,
                    extended_heldout_rms=ext_ho, ranking=ranking, info=info,
@@ -428,13 +460,13 @@ def _structure(prob) -> dict:
         prob.use, slide=prob.d.slide).items()}
 
 
-def _source(ds, source: str, reference):
+def _source(ds, source: str, reference, say):
     """``(dataset, DriveSource or None)``: the force stream the diagnosis reads (one sentence
     on a bad source, a missing stream or a reference without currents)."""
     if source not in SOURCES:
         raise InputError(f"--source {source!r}: use one of {', '.join(SOURCES)}.")
     if source == "currents":
-        return drive_dataset(ds, reference)
+        return drive_dataset(ds, reference, progress=lambda m: say(f"identify: {m}"))
     if reference is not None:
         raise InputError("--reference applies to --source currents only (the load cells fix "
                          "the scale).")
@@ -444,7 +476,7 @@ def _source(ds, source: str, reference):
     return ds, None
 
 
-def _base_stage(prob, notes: list, say, drives=None):
+def _base_stage(prob, notes: list, say, drives=None, tests=()):
     """The base model's fit, the noise levels estimated from the data and the context the
     candidates' checks read and the candidates (of the problem's source; ``drives`` a
     :class:`~cdprid.diagnosis._drives.DriveSource` on currents): ``(prob, base, noise,
@@ -470,6 +502,9 @@ def _base_stage(prob, notes: list, say, drives=None):
     candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot,
                                 source=prob.source, reference_cable=None if drives is None
                                 else drives.reference_cable)
+    if drives is not None:  # identify's named drive-side effects are in the model already
+        named = {(t["effect"], t["cable"]) for t in tests if t["named"]}
+        candidates = [c for c in candidates if (c.effect, c.cable) not in named]
     return prob, base, noise, ctx, candidates
 
 
@@ -477,11 +512,18 @@ def _search(prob, base, noise, ctx: DiagnosisContext, candidates, cfg: Search, s
     """The clock stage, the greedy forward steps and the swap stage:
     ``(selection, clock_info, first step's ranking, first step's threshold)``."""
     alpha, min_gain = cfg.alpha, cfg.min_gain
-    s0, clock_info = clock_stage(prob, base, start(prob, base), candidates, alpha, min_gain,
-                                 ctx, say)
+    first = start(prob, base)
+    if cfg.drive_tests:  # currents: identify's named drive-side effects accepted first
+        first = drive_start(prob, first, cfg.drive_tests, alpha, ctx)
+    s0, clock_info = clock_stage(prob, base, first, candidates, alpha, min_gain, ctx, say)
+    rng = np.random.default_rng(cfg.seed)
+    drive = ()
+    if prob.source == "currents":  # the drive side first: present on every real winch
+        s0, drive = set_aside(_drive_phase(prob, base, s0, candidates, noise, cfg, rng, ctx,
+                                           say))
+        candidates = platform_candidates(candidates)
     s = s0
     ranking, thr_first = [], alpha / len(candidates)
-    rng = np.random.default_rng(cfg.seed)
     for step in range(1, cfg.max_effects + 1):
         # null replicates calibrate the first step's threshold; later steps reuse it
         nulls = null_residuals(prob, noise, s.x[:4], cfg.n_null, rng) if step == 1 else ()
@@ -497,8 +539,29 @@ def _search(prob, base, noise, ctx: DiagnosisContext, candidates, cfg: Search, s
     s, other, second = _second_start(prob, base, s0, s, candidates, cfg, thr=thr_first,
                                      ctx=ctx, say=say)
     prob, s = refine_hysteresis(prob, s, ctx, say, done=prob.hysteresis_refined)
-    return prob, s, (other, second), clock_info, ranking, thr_first
+    return prob, s, (other, second, drive), clock_info, ranking, thr_first
 
+
+
+def _drive_phase(prob, base, s, candidates, noise, cfg: Search, rng, ctx, say):
+    """Forward steps over the drive-side candidates alone (currents), before the platform's:
+    every winch has some friction, inertia, offset and torque-constant error, which a
+    platform-side effect with more freedom (an exit point's three coordinates) would otherwise
+    absorb first when identify's tests did not name them. Its thresholds are calibrated on its
+    own null replicates; the search's own steps follow from its model."""
+    pool = [c for c in candidates if DIAGNOSIS[c.effect].stream == "currents"]
+    if not pool:
+        return s
+    thr = 1.0
+    for step in range(1, len(pool) + 1):
+        nulls = null_residuals(prob, noise, s.x[:4], cfg.n_null, rng) if step == 1 else ()
+        nxt, _, t = forward_step(prob, base, s, pool, nulls, cfg.alpha, cfg.min_gain, ctx,
+                                 lambda m: say(f"drive side: {m}"), step, thr)
+        thr = t if step == 1 else thr
+        if nxt is None:
+            break
+        s = nxt
+    return s
 
 
 def _second_start(prob, base, s0, s, candidates, cfg: Search, *, thr, ctx: DiagnosisContext,

@@ -89,6 +89,9 @@ class Problem:
     #: the force stream: ``"tensions"`` (load cells) or ``"currents"`` (the winch drives'
     #: currents read as the datasheet's tension ``k i``; :func:`cdprid.diagnosis.diagnose`)
     source: str = "tensions"
+    #: the effect parameters every fit starts from and holds where not refitted (the drive
+    #: model on currents, :func:`cdprid.diagnosis._drives.drive_theta`); None: zero
+    theta0: np.ndarray | None = dataclasses.field(default=None, compare=False, repr=False)
     #: linearisations already computed (see :func:`design`); not part of the problem's value
     cache: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
 

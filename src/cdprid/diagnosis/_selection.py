@@ -162,11 +162,13 @@ def start(prob: Problem, base: BaseFit) -> Selection:
     Returns
     -------
     Selection
-        Theta zero, x the base fit's (padded to 10), no finding.
+        Theta zero (``prob.theta0`` when set: the drive model on currents), x the base fit's
+        (padded to 10), no finding.
     """
     size = prob.layout.size
     x = np.concatenate([base.x, np.zeros(10 - len(base.x))])
-    return Selection(np.zeros(size), x, base.rotational, (), (), (), np.zeros((size, size)))
+    theta = np.zeros(size) if prob.theta0 is None else np.array(prob.theta0, float)
+    return Selection(theta, x, base.rotational, (), (), (), np.zeros((size, size)))
 
 
 def linear_model(prob: Problem, s: Selection):

@@ -15,6 +15,7 @@ import numpy as np
 
 from cdprid.base import InputError
 from cdprid.effects._registry import SPECS, spec_of
+from cdprid.effects._spec import Place as _Place
 
 __all__ = [
     "Effect",
@@ -88,10 +89,23 @@ def validate_effects(effects, n_cables: int) -> list[Effect]:
     Returns
     -------
     list of Effect
+
+    Raises
+    ------
+    InputError
+        A cable beyond the robot's, an effect given twice that may be given once, or a
+        drive-side effect (``Place.DRIVE``: the simulator's load-cell recording has no motor
+        current).
     """
     out = []
     for e in effects:
         e = e if isinstance(e, Effect) else Effect(*e)
+        if SPECS[e.name].place is _Place.DRIVE:
+            raise InputError(
+                f"effect '{e.name}' acts in a winch drive, on its motor current, which this "
+                "simulation does not write: simulate the drives with "
+                "cdprid.simulation.simulate_drives (their true k, J, fv, fc, c) and diagnose "
+                "with --source currents.")
         c = e.params.get("cable")
         if c is not None and c != "all" and c > n_cables:
             raise InputError(
