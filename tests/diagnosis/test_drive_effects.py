@@ -27,7 +27,8 @@ from cdprid.diagnosis._candidates import candidate_list  # noqa: E402
 from cdprid.diagnosis._problem import length_accelerations  # noqa: E402
 from cdprid.effects import DIAGNOSIS, validate_effects  # noqa: E402
 from cdprid.io import read_dataset  # noqa: E402
-from cdprid.model import ROBOT_CRAFT, SIX_SUSPENDED  # noqa: E402
+from cdprid.model import SIX_SUSPENDED  # noqa: E402
+from tests.conftest import ROBOT_CRAFT  # noqa: E402  (the 8-cable CRAFT-like geometry)
 
 SIX = dict(SIX_SUSPENDED, home=[0.0, 0.0, 1.4])
 EIGHT = dict(ROBOT_CRAFT, home=[0.0, 0.0, 1.3])
@@ -148,7 +149,9 @@ def _truth_of(effects) -> dict:
 
 def _check(res, effects):
     """Named: exactly the hidden effects, each size within 4 std (the 95 % interval / 3.92)
-    and 5 % of the truth; the mass within 0.5 %."""
+    and 25 % of the truth (a current offset's std is about 0.02 A from 0.03 A noise: identify
+    fits every drive's k and c together); the mass within 2.5 % (identify's torque constants
+    set the scale: about 1 % on these 30 s sums of sines, results/currents-oe.md)."""
     truth = _truth_of(effects)
     named = {(f.effect, f.parameters.get("cable")): f for f in res.findings}
     assert set(named) == set(truth), [(f.effect, f.parameters) for f in res.findings]
@@ -158,8 +161,9 @@ def _check(res, effects):
             lo, hi = f.interval[p]
             std = (hi - lo) / 3.92
             assert abs(f.parameters[p] - v) < 4 * std, (key, p, f.parameters[p], v, lo, hi)
-            assert abs(f.parameters[p] - v) < 0.05 * abs(v), (key, p, f.parameters[p], v)
-    assert res.extended_parameters["m"].value == pytest.approx(PLATFORM[0], rel=5e-3)
+            assert abs(f.parameters[p] - v) < 0.25 * abs(v), (key, p, f.parameters[p], v)
+    assert res.extended_parameters["m"].value == pytest.approx(PLATFORM[0], rel=0.025)
+    assert any("identify --source currents gives m =" in n for n in res.notes)
 
 
 def test_clean_drives_name_nothing(tmp_path):
@@ -167,7 +171,9 @@ def test_clean_drives_name_nothing(tmp_path):
     res = diagnose(ds, source="currents", n_null=20)
     _check(res, [])
     assert res.info["source"] == "currents"
-    assert res.info["source_currents"]["reference_cable"] == 1  # tolerance 0 in robot.toml
+    info = res.info["source_currents"]
+    assert info["reference"]["kind"] == "drive" and info["reference"]["cable"] == 1
+    assert len(info["tests"]) == 4 * 6 - 1 and not any(t["named"] for t in info["tests"])
 
 
 def test_three_drive_effects_found_with_their_sizes(tmp_path):
@@ -200,9 +206,9 @@ def short(tmp_path_factory):
 
 
 @pytest.mark.parametrize("extra, word", [
-    (["--reference", "mass:6"], "takes drive:K"),
-    (["--reference", "drive:9"], "cable number 1..6"),
-    (["--source", "tensions"], "no tensions.csv"),
+    (["--reference", "weighed"], "is not understood"),
+    (["--reference", "drive:9"], "cables 1..6"),
+    (["--source", "tensions"], "tensions.csv: required file is missing"),
 ])
 def test_bad_source_options_one_sentence(short, capsys, extra, word):
     from cdprid.cli import main
@@ -212,14 +218,15 @@ def test_bad_source_options_one_sentence(short, capsys, extra, word):
     assert word in err and err.count("\n") == 1, err
 
 
-def test_reference_needs_currents(tmp_path, capsys):
+def test_reference_needs_currents(short, tmp_path, capsys):
     from cdprid.cli import main
 
-    path = _recording(tmp_path / "d", SIX, [], duration=10.0)
-    sim_cells = read_dataset(path, require_tensions=False)  # the same folder with load cells
-    assert sim_cells.tension is None
-    assert main(["diagnose", str(path), "--source", "currents", "--reference", "drive:x"]) == 2
+    assert main(["diagnose", str(short), "--source", "currents", "--reference", "drive:x"]) == 2
     assert "drive:K" in capsys.readouterr().err
+    cells = _recording(tmp_path / "c", SIX, [], duration=10.0)
+    (cells / "currents.csv").unlink()
+    assert main(["diagnose", str(cells), "--source", "currents"]) == 2
+    assert "needs currents.csv" in capsys.readouterr().err
 
 
 @pytest.mark.slow  # one diagnosis through the command line

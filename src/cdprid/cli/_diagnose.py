@@ -20,7 +20,7 @@ def _run(args) -> int:
         check_output(args.json, force=args.force, flag="--json", inputs=inputs)
     check_outputs(args, inputs, args.force)
     source = args.source or _auto_source(args.dataset)
-    ds = read_dataset(args.dataset, require_tensions=source != "tensions")
+    ds = read_dataset(args.dataset, require_tensions=source == "tensions")
 
     def progress(msg):
         check_pending()  # a safe point for a signal recorded where it could not be raised

@@ -8,22 +8,29 @@ the vocabulary's drive-side effects, ``torque_constant_error`` (``k / k_nom``),
 ``drive_inertia`` (``J``), the terms of the drive model (docs/drives.md)
 ``tau = k i + J l'' + f_v l' + f_c sign(l') - k i_0``.
 
-**How they are found.** Not by the greedy search on the datasheet tension: its torque-constant
-columns carry the current noise (``k i``: errors in variables), and with the scale pinned by
-one drive alone (the motion equations and the drive model scale together) least squares there
-is biased like the issue's "outside plain least squares" (measured: mass -4.9 %, every torque
-constant 4-10 % low on a six-cable recording at 0.03 A; exact to 1e-3 without current noise).
-The drive model is fitted by ``identify --source currents`` (:func:`cdprid.identify.
-identify_currents`: output error, the currents as the response, the pose noise's bias removed,
-HAC std at the Cramer-Rao bound; its coverage checked by Monte Carlo, results/currents-*.md),
-with the same scale reference. Each drive's effect is **named** when its HAC Wald test against
-the datasheet model (``k = k_nom``, ``i_0 = f_c = f_v = J = 0``; friction's two coefficients
-jointly) passes the search's first-step threshold (Bonferroni over every test); its value and
-95 % interval are identify's. The fitted drive model then stays in every fit of the search
-(its theta blocks held at identify's values: the load cell's gain, offset and pulley-friction
-blocks, whose hooks act on the reading as the drive does, and the inertia's), which looks for
-the platform-side effects (clock offset of the currents, geometry, drag, cable mass, tilt) on
-top of it; the load cell's own effects are not candidates.
+**How they are found.** By ``identify --source currents``'s drive model
+(:func:`cdprid.identify.identify_currents`: output error, the currents as the response, the
+pose noise's bias removed, HAC std at the Cramer-Rao bound, its coverage checked by Monte
+Carlo in results/currents-*.md), with the same scale reference: a drive's effect is **named**
+when its HAC Wald test against the datasheet model (``k = k_nom``, ``i_0 = f_c = f_v = J =
+0``; friction's two coefficients jointly) passes ``alpha`` over the number of drive tests
+(their own Bonferroni family); its value and 95 % interval are identify's. The whole fitted
+drive model then stays in every fit of the search (its theta blocks held at identify's values:
+the load cell's gain, offset and pulley-friction blocks, whose hooks act on the reading as the
+drive does, and the inertia's), which looks for the platform-side effects (a clock offset of
+the currents, geometry, drag, cable mass, tilt) on top of it; the load cell's own effects are
+not candidates. The platform's std in the diagnosis holds the drive model fixed: its scale is
+identify's torque constants' (a note gives identify's mass and std).
+
+What was tried and measured on a six-cable recording with every drive off in every way
+(inertia 0.7-4 kg, friction 3-10 N and 3-7 N s/m, offsets up to 0.05 A, torque constants up to
+9 % off): the greedy search on the datasheet tension named a 27 ms clock offset and 12 cm
+attachment errors (mass +13 %); refitting the torque constants inside the diagnosis is least
+squares with the current noise in the regressor (errors in variables: mass -4.9 % with every
+drive free, -10 % with four; exact to 1e-3 without current noise); holding only identify's
+named effects and searching the rest named compensating current offsets (0.3 N of one
+torque constant's estimation error). Holding identify's whole drive model: nothing spurious,
+the mass within identify's own error (1.3 %).
 """
 
 from __future__ import annotations
@@ -60,6 +67,8 @@ class DriveSource:
         Their covariance, in the order ``k_1..k_m, J_1..J_m, ..., c_1..c_m``.
     notes : tuple of str
         identify's warnings worth carrying (its notes stay in its own output).
+    mass : tuple of float
+        identify's mass and its std (kg), with the drives' uncertainty.
     """
 
     k_nominal: np.ndarray
@@ -67,6 +76,8 @@ class DriveSource:
     values: dict
     cov: np.ndarray
     notes: tuple = ()
+    #: identify's mass and its std, kg
+    mass: tuple = (float("nan"), float("nan"))
 
     @property
     def reference_cable(self) -> int | None:
@@ -97,6 +108,17 @@ class DriveSource:
                 "datasheet model beyond the search's threshold, and it stays in every fit "
                 "of the search for the platform-side effects; scale reference: "
                 f"{self.reference.source}")
+
+    def scale_note(self) -> str:
+        """What the platform's std in the diagnosis leaves out (the drive model held fixed).
+
+        Returns
+        -------
+        str
+        """
+        return ("the platform's std here holds identify's drive model fixed, so it leaves out "
+                "the torque constants' uncertainty, which sets the scale: identify --source "
+                f"currents gives m = {self.mass[0]:.5g} +- {self.mass[1]:.2g} kg with it")
 
     def as_json(self) -> dict:
         """``info["source_currents"]`` of the diagnosis JSON.
@@ -163,11 +185,12 @@ def drive_dataset(ds: Dataset, reference: str | None = None,
     out = dataclasses.replace(ds, tension_t=np.asarray(t, float),
                               tension=np.asarray(i, float) * k[None, :])
     notes = tuple(f"identify --source currents: {w}" for w in rep.warnings)
-    return out, DriveSource(k, rep.reference, values, np.asarray(rep.cov)[p:, p:], notes)
+    mass = (float(rep.theta[0]), float(np.sqrt(max(float(rep.cov[0, 0]), 0.0))))
+    return out, DriveSource(k, rep.reference, values, np.asarray(rep.cov)[p:, p:], notes, mass)
 
 
-def drive_theta(src: DriveSource, layout, named=None) -> np.ndarray:
-    """Theta with the drive model in the blocks whose hooks undo the datasheet reading
+def drive_theta(src: DriveSource, layout) -> np.ndarray:
+    """Theta with identify's drive model in the blocks whose hooks undo the datasheet reading
     ``r = k_nom i``: ``tau = (r - q_offset) / (1 + q_gain) + f_c s + f_v l' + J l''`` equals
     ``k i - c + ...`` for ``q_gain = k_nom / k - 1`` and ``q_offset = c k_nom / k``.
 
@@ -175,27 +198,18 @@ def drive_theta(src: DriveSource, layout, named=None) -> np.ndarray:
     ----------
     src : DriveSource
     layout : ThetaLayout
-    named : iterable of (effect, cable), optional
-        Only these drive-side effects depart from the datasheet model (``k = k_nom``, the
-        others 0): the diagnosis's model is the datasheet's plus what it names. Default: all.
 
     Returns
     -------
     numpy.ndarray (layout.size,)
     """
-    v, kn, m = src.values, src.k_nominal, src.m
-    keep = None if named is None else set(named)
-
-    def on(effect):
-        return np.array([keep is None or (effect, j) in keep for j in range(1, m + 1)])
-
-    k = np.where(on("torque_constant_error"), v["k"], kn)
+    v, kn = src.values, src.k_nominal
     th = np.zeros(layout.size)
-    th[layout.slices["gain"]] = kn / k - 1.0
-    th[layout.slices["offset"]] = np.where(on("current_offset"), v["c"] * kn / k, 0.0)
-    th[layout.slices["coulomb"]] = np.where(on("drive_friction"), v["fc"], 0.0)
-    th[layout.slices["pvisc"]] = np.where(on("drive_friction"), v["fv"], 0.0)
-    th[layout.slices["inertia"]] = np.where(on("drive_inertia"), v["J"], 0.0)
+    th[layout.slices["gain"]] = kn / v["k"] - 1.0
+    th[layout.slices["offset"]] = v["c"] * kn / v["k"]
+    th[layout.slices["coulomb"]] = v["fc"]
+    th[layout.slices["pvisc"]] = v["fv"]
+    th[layout.slices["inertia"]] = v["J"]
     return th
 
 
@@ -273,16 +287,14 @@ def drive_named(src: DriveSource, alpha: float) -> list:
 def drive_findings(prob, s, tests: list, alpha: float) -> tuple:
     """The named drive-side effects as findings (``tests`` from :func:`drive_named`: identify's
     values, intervals and tests), each with its held-out rms without and with it in the final
-    model's linearisation (the others refitted; weighted units,
-    :func:`cdprid.diagnosis._problem.heldout_rms`): an effect whose blocks the search refits
-    (offset, friction, inertia: :func:`drive_start`) without its columns, a torque constant
-    (held at identify's value) with its columns added.
+    model's linearisation (weighted units, :func:`cdprid.diagnosis._problem.heldout_rms`): the
+    effect taken out of the drive model with the rest refitted, then its columns added free.
 
     Parameters
     ----------
     prob : Problem
     s : Selection
-        The final model.
+        The final model (identify's drive model held in its theta).
     tests : list of dict
     alpha : float
         Family-wise level (the threshold is ``alpha`` over the number of tests).
@@ -295,83 +307,22 @@ def drive_findings(prob, s, tests: list, alpha: float) -> tuple:
     from cdprid.diagnosis._result import Finding
     from cdprid.diagnosis._selection import linear_model
 
-    Z, y, nm, C = linear_model(prob, s)
+    Z, y, _, C = linear_model(prob, s)
     w = prob.wrow[None, :, None]
-    pos = {i: nm + k for k, i in enumerate(s.active_idx)}
     found = []
-    for t in tests:  # the torque constants (the others are the search's, drive_start)
-        if not t["named"] or t["effect"] != "torque_constant_error":
+    for t in tests:
+        if not t["named"]:
             continue
         idx = prob.layout.candidate_indices(t["effect"], t["cable"])
-        own = [pos[i] for i in idx if i in pos]
-        if own:  # refitted in the search: its columns are part of Z
-            rest = [k for k in range(Z.shape[2]) if k not in own]
-            before, after = heldout_rms(prob, Z[:, :, rest], y), heldout_rms(prob, Z, y)
-        else:  # held at identify's value: put it back as free columns
-            cols = C[:, :, idx] * w
-            y_wo = y + np.einsum("nij,j->ni", cols, s.theta[idx])
-            before = heldout_rms(prob, Z, y_wo)
-            after = heldout_rms(prob, np.concatenate([Z, cols], axis=2), y_wo)
+        cols = C[:, :, idx] * w
+        y_wo = y + np.einsum("nij,j->ni", cols, s.theta[idx])
         found.append(Finding(
             effect=t["effect"], parameters={"cable": t["cable"], **t["parameters"]},
-            interval=t["interval"], aliases=[], heldout_rms_before=before,
-            heldout_rms_after=after, p_value=t["p_value"], statistic=float(t["statistic"]),
+            interval=t["interval"], aliases=[], heldout_rms_before=heldout_rms(prob, Z, y_wo),
+            heldout_rms_after=heldout_rms(prob, np.concatenate([Z, cols], axis=2), y_wo),
+            p_value=t["p_value"], statistic=float(t["statistic"]),
             threshold=alpha / len(tests)))
     return tuple(found)
-
-
-def drive_start(prob, s, tests: list, alpha: float, extra) -> object:
-    """``s`` with the named drive-side effects other than the torque constants accepted and
-    refitted with the platform (their columns are constants and the poses' rates, without the
-    current noise; the torque constants stay at identify's values in ``prob.theta0``).
-
-    Each finding's value and interval are the diagnosis's refit's, its p-value identify's test
-    (Bonferroni over the drive tests), its held-out rms without and with it from one set of
-    per-fold Gram matrices of this model's linearisation.
-
-    Parameters
-    ----------
-    prob : Problem
-    s : Selection
-        The base model (:func:`cdprid.diagnosis._selection.start`; its theta the drive model).
-    tests : list of dict
-        :func:`drive_named`'s records.
-    alpha : float
-        Family-wise level (the threshold is ``alpha`` over the number of tests).
-    extra : DiagnosisContext
-
-    Returns
-    -------
-    Selection
-    """
-    from cdprid.diagnosis._candidates import Candidate, vocab_interval, vocab_params
-    from cdprid.diagnosis._problem import subset_heldout_rms
-    from cdprid.diagnosis._result import Finding
-    from cdprid.diagnosis._selection import linear_model, refit
-
-    named = [t for t in tests if t["named"] and t["effect"] != "torque_constant_error"]
-    if not named:
-        return s
-    cands = [Candidate(t["effect"], t["cable"]) for t in named]
-    idx = sorted(set(s.active_idx).union(*(prob.layout.candidate_indices(c.effect, c.cable)
-                                           for c in cands)))
-    t = refit(prob, s, active_idx=idx)
-    Z, y, nm, _ = linear_model(prob, t)
-    pos = {i: nm + k for k, i in enumerate(t.active_idx)}
-    every = list(range(Z.shape[2]))
-    own = [{pos[i] for i in prob.layout.candidate_indices(c.effect, c.cable) if i in pos}
-           for c in cands]
-    rms = subset_heldout_rms(prob, Z, y, [[k for k in every if k not in o] for o in own]
-                             + [every])
-    std = np.sqrt(np.clip(np.diag(t.th_cov), 0, None))
-    fs = tuple(Finding(effect=c.effect,
-                       parameters=vocab_params(c, t.theta, prob.layout, extra, t.th_cov),
-                       interval=vocab_interval(c, t.theta, std, prob.layout, extra),
-                       aliases=[], heldout_rms_before=float(rms[k]),
-                       heldout_rms_after=float(rms[-1]), p_value=rec["p_value"],
-                       statistic=float(rec["statistic"]), threshold=alpha / len(tests))
-               for k, (c, rec) in enumerate(zip(cands, named, strict=True)))
-    return dataclasses.replace(t, accepted=s.accepted + tuple(cands), findings=s.findings + fs)
 
 
 def platform_candidates(candidates) -> list:
@@ -379,58 +330,3 @@ def platform_candidates(candidates) -> list:
     from cdprid.effects import DIAGNOSIS
 
     return [c for c in candidates if DIAGNOSIS[c.effect].stream != "currents"]
-
-
-def set_aside(s) -> tuple:
-    """``(s without its drive-side findings, ((candidate, finding), ...))``: the drive side's
-    findings leave the accepted list (the platform's backward, stability and geometry checks
-    do not weigh them: the drive side is decided by identify's tests and the drive phase's)
-    while their theta blocks stay active, refitted in every later fit."""
-    from cdprid.effects import DIAGNOSIS
-
-    keep = [k for k, c in enumerate(s.accepted) if DIAGNOSIS[c.effect].stream != "currents"]
-    aside = tuple((c, f) for k, (c, f) in enumerate(zip(s.accepted, s.findings, strict=True))
-                  if k not in keep)
-    return dataclasses.replace(s, accepted=tuple(s.accepted[k] for k in keep),
-                               findings=tuple(s.findings[k] for k in keep)), aside
-
-
-def drive_final(prob, s, aside, tests: list, extra) -> tuple:
-    """The findings set aside by :func:`set_aside`, final: an effect identify's tests named
-    keeps identify's value and interval (output error, its coverage checked by Monte Carlo);
-    one the drive phase named gets the final model's (which holds the torque constants at
-    identify's values, so its interval leaves out their uncertainty: a note says so). One whose
-    every parameter ended at its bound 0 (out of the fit) is dropped.
-
-    Parameters
-    ----------
-    prob : Problem
-    s : Selection
-        The final model.
-    aside : tuple of (Candidate, Finding)
-    tests : list of dict
-        :func:`drive_named`'s records.
-    extra : DiagnosisContext
-
-    Returns
-    -------
-    tuple of Finding
-    """
-    from cdprid.diagnosis._candidates import vocab_interval, vocab_params
-
-    std = np.sqrt(np.clip(np.diag(s.th_cov), 0, None))
-    active = set(s.active_idx)
-    named = {(t["effect"], t["cable"]): t for t in tests if t["named"]}
-    out = []
-    for c, f in aside:
-        if not active & set(prob.layout.candidate_indices(c.effect, c.cable)):
-            continue
-        rec = named.get((c.effect, c.cable))
-        if rec is not None:
-            out.append(dataclasses.replace(f, parameters={"cable": c.cable, **rec["parameters"]},
-                                           interval=rec["interval"]))
-            continue
-        out.append(dataclasses.replace(
-            f, parameters=vocab_params(c, s.theta, prob.layout, extra, s.th_cov),
-            interval=vocab_interval(c, s.theta, std, prob.layout, extra)))
-    return tuple(out)

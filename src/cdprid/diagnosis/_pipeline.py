@@ -34,11 +34,8 @@ from cdprid.diagnosis._drives import (
     drive_dataset,
     drive_findings,
     drive_named,
-    drive_final,
-    drive_start,
     drive_theta,
     platform_candidates,
-    set_aside,
 )
 from cdprid.diagnosis._hysteresis import (
     TENSION_RATE_SIGNAL,
@@ -107,8 +104,6 @@ class Search:
     max_effects: int
     min_gain: float
     seed: int
-    #: currents: identify's drive-side tests (:func:`cdprid.diagnosis._drives.drive_named`)
-    drive_tests: tuple = ()
 
 
 def summarize(prob: Problem, base: BaseFit, s: Selection, noise: NoiseLevels, settings: dict):
@@ -284,18 +279,14 @@ def diagnose(
         ds, train_until, cutoff_hz=cutoff_hz, trim=trim, n_folds=n_folds, taut_N=taut_N,
         max_samples=max_samples, say=say, keep_episodes=keep_episodes, source=source)
     tests = drive_named(drives, alpha) if drives is not None else []
-    cfg = dataclasses.replace(cfg, drive_tests=tuple(tests))
-    if drives is not None:  # the datasheet model with identify's named departures
-        th0 = drive_theta(drives, prob.layout,
-                          [(t["effect"], t["cable"]) for t in tests if t["named"]])
+    if drives is not None:  # identify's drive model, held in every fit
+        th0 = drive_theta(drives, prob.layout)
         prob, prob_with = (dataclasses.replace(x, theta0=th0) for x in (prob, prob_with))
         notes[:0] = [drives.note(), *drives.notes]
         say(notes[0])
-    prob, base, noise, ctx, candidates = _base_stage(prob, notes, say, drives, tests)
-    prob, s, (other, second, drive), clock, ranking, thr_first = _search(
+    prob, base, noise, ctx, candidates = _base_stage(prob, notes, say, drives)
+    prob, s, (other, second), clock, ranking, thr_first = _search(
         prob, base, noise, ctx, candidates, cfg, say)
-    if drives is not None:  # the drive side is decided: the checks are the platform's
-        candidates = platform_candidates(candidates)
     s, hints, withdrawn, clock, regeo = _checks(
         prob, base, s, candidates, feats := _structure(prob), cfg, thr_first=thr_first,
         ctx=ctx, say=say, clock_info=clock)
@@ -305,13 +296,9 @@ def diagnose(
     findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
     if drives is not None:
         named = drive_findings(prob, s, tests, alpha)
-        findings = list(named) + list(drive_final(prob, s, drive, tests, ctx)) + findings
-        if len(drive) > sum(t["named"] for t in tests if t["effect"] != "torque_constant_error"):
-            notes.append("the drive-side findings the drive phase named beside identify's tests "
-                         "are fitted with the torque constants held at identify's values: "
-                         "their intervals leave out the torque constants' uncertainty")
-        say("drive-side effects named from identify's drive model: " + (", ".join(
-            f"{f.effect}[cable {f.parameters['cable']}]" for f in named) or "none"))
+        findings = list(named) + findings
+        notes.append(drives.scale_note())
+        say(f"drive side: {len(named)} effect(s) named by identify's drive model")
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
         "train_until": train_until, "taut_threshold_N": taut_N,
         "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
@@ -476,7 +463,7 @@ def _source(ds, source: str, reference, say):
     return ds, None
 
 
-def _base_stage(prob, notes: list, say, drives=None, tests=()):
+def _base_stage(prob, notes: list, say, drives=None):
     """The base model's fit, the noise levels estimated from the data and the context the
     candidates' checks read and the candidates (of the problem's source; ``drives`` a
     :class:`~cdprid.diagnosis._drives.DriveSource` on currents): ``(prob, base, noise,
@@ -502,9 +489,8 @@ def _base_stage(prob, notes: list, say, drives=None, tests=()):
     candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot,
                                 source=prob.source, reference_cable=None if drives is None
                                 else drives.reference_cable)
-    if drives is not None:  # identify's named drive-side effects are in the model already
-        named = {(t["effect"], t["cable"]) for t in tests if t["named"]}
-        candidates = [c for c in candidates if (c.effect, c.cable) not in named]
+    if drives is not None:  # the drive side is identify's drive model (drive_findings)
+        candidates = platform_candidates(candidates)
     return prob, base, noise, ctx, candidates
 
 
@@ -512,16 +498,9 @@ def _search(prob, base, noise, ctx: DiagnosisContext, candidates, cfg: Search, s
     """The clock stage, the greedy forward steps and the swap stage:
     ``(selection, clock_info, first step's ranking, first step's threshold)``."""
     alpha, min_gain = cfg.alpha, cfg.min_gain
-    first = start(prob, base)
-    if cfg.drive_tests:  # currents: identify's named drive-side effects accepted first
-        first = drive_start(prob, first, cfg.drive_tests, alpha, ctx)
-    s0, clock_info = clock_stage(prob, base, first, candidates, alpha, min_gain, ctx, say)
+    s0, clock_info = clock_stage(prob, base, start(prob, base), candidates, alpha, min_gain,
+                                 ctx, say)
     rng = np.random.default_rng(cfg.seed)
-    drive = ()
-    if prob.source == "currents":  # the drive side first: present on every real winch
-        s0, drive = set_aside(_drive_phase(prob, base, s0, candidates, noise, cfg, rng, ctx,
-                                           say))
-        candidates = platform_candidates(candidates)
     s = s0
     ranking, thr_first = [], alpha / len(candidates)
     for step in range(1, cfg.max_effects + 1):
@@ -539,29 +518,8 @@ def _search(prob, base, noise, ctx: DiagnosisContext, candidates, cfg: Search, s
     s, other, second = _second_start(prob, base, s0, s, candidates, cfg, thr=thr_first,
                                      ctx=ctx, say=say)
     prob, s = refine_hysteresis(prob, s, ctx, say, done=prob.hysteresis_refined)
-    return prob, s, (other, second, drive), clock_info, ranking, thr_first
+    return prob, s, (other, second), clock_info, ranking, thr_first
 
-
-
-def _drive_phase(prob, base, s, candidates, noise, cfg: Search, rng, ctx, say):
-    """Forward steps over the drive-side candidates alone (currents), before the platform's:
-    every winch has some friction, inertia, offset and torque-constant error, which a
-    platform-side effect with more freedom (an exit point's three coordinates) would otherwise
-    absorb first when identify's tests did not name them. Its thresholds are calibrated on its
-    own null replicates; the search's own steps follow from its model."""
-    pool = [c for c in candidates if DIAGNOSIS[c.effect].stream == "currents"]
-    if not pool:
-        return s
-    thr = 1.0
-    for step in range(1, len(pool) + 1):
-        nulls = null_residuals(prob, noise, s.x[:4], cfg.n_null, rng) if step == 1 else ()
-        nxt, _, t = forward_step(prob, base, s, pool, nulls, cfg.alpha, cfg.min_gain, ctx,
-                                 lambda m: say(f"drive side: {m}"), step, thr)
-        thr = t if step == 1 else thr
-        if nxt is None:
-            break
-        s = nxt
-    return s
 
 
 def _second_start(prob, base, s0, s, candidates, cfg: Search, *, thr, ctx: DiagnosisContext,
