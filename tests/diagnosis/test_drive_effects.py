@@ -33,8 +33,7 @@ from tests.conftest import ROBOT_CRAFT  # noqa: E402  (the 8-cable CRAFT-like ge
 SIX = dict(SIX_SUSPENDED, home=[0.0, 0.0, 1.4])
 EIGHT = dict(ROBOT_CRAFT, home=[0.0, 0.0, 1.3])
 PLATFORM = (6.0, np.array([0.01, -0.005, -0.05]), np.diag([0.06, 0.07, 0.09]))
-DRIVE = ("current_offset", "torque_constant_error", "drive_friction", "drive_friction_all",
-         "drive_inertia", "drive_inertia_all")
+DRIVE = ("current_offset", "torque_constant_error", "drive_friction", "drive_inertia")
 CELL = ("tension_offset", "tension_gain", "tension_drift", "pulley_friction",
         "pulley_friction_all", "load_cell_hysteresis")
 

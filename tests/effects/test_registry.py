@@ -215,9 +215,10 @@ def test_every_nonneg_parameter_of_every_form_is_clamped(m):
         assert len(form.nonneg_blocks) == len(form.nonneg), name
         expect |= _clamped(lay, name, form)
     assert lay.nonneg == expect
-    # friction per cable and on all (2 m + 2), drag, two pulley radii, cable density (4) and
-    # the hysteresis width per cable (m)
-    assert len(expect) == 3 * m + 6
+    # friction per cable and on all (2 m + 2), drag, two pulley radii, cable density (4), the
+    # hysteresis width per cable (m) and the drive's inertia per cable (m; the drive's
+    # friction shares the pulley friction's blocks)
+    assert len(expect) == 4 * m + 6
 
 
 def test_the_clamp_holds_for_a_form_that_reports_through_params(monkeypatch):
@@ -295,7 +296,8 @@ def test_every_hook_reads_the_typed_context_as_it_reads_the_dict(rng):
     fields = dict(at=dict(blocks), taud=jnp.asarray(3.0), ldot=jnp.asarray(-0.2), R=R,
                   p=jnp.array([0.1, 0.2, 1.0]), k=jnp.array([0.0, 0.0, -1.0]),
                   ref=jnp.array([1.0, 0.0, 0.0]), t=jnp.asarray(4.0),
-                  slide=jnp.asarray(-0.7), bb=jnp.array([0.05, -0.05, 0.02]))
+                  slide=jnp.asarray(-0.7), bb=jnp.array([0.05, -0.05, 0.02]),
+                  lddot=jnp.asarray(1.3))
     typed = CableContext(**fields)
     geo = {"A": jnp.array([2.0, 1.0, 3.0]), "b": jnp.array([0.05, -0.05, 0.02]),
            "r": jnp.asarray(0.0)}
@@ -309,7 +311,8 @@ def test_every_hook_reads_the_typed_context_as_it_reads_the_dict(rng):
             T = geo["A"]
             assert np.allclose(form.leave(T, geo, q, fields), form.leave(T, geo, q, typed))
             hooks += 1
-    assert hooks == 7  # delay, offset, drift, gain, friction, friction on all, flipped pulley
+    # delay, offset, drift, gain, friction, friction on all, flipped pulley, drive inertia
+    assert hooks == 8
     # the typed context is read-only and reports a missing entry as a dict does
     with pytest.raises(dataclasses.FrozenInstanceError):
         typed.ldot = 0.0

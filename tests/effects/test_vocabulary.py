@@ -74,13 +74,16 @@ def test_diagnosis_forms_are_complete_and_laid_out_once():
                                       - EPISODE_EFFECTS)
     for m in (4, 6, 8):
         lay = ThetaLayout(m)
-        cands = candidate_list(m, True, None)
-        used = sorted(i for c in cands for i in lay.candidate_indices(c.effect, c.cable))
-        # each theta index belongs to exactly one candidate (the no-pulley variant excluded)
         flip = lay.candidate_indices("pulley_flipped")
-        assert used + flip == list(range(lay.size)) or sorted(used + flip) == list(
-            range(lay.size))
-        assert len(set(used)) == len(used)
+        every = set(flip)
+        for source in ("tensions", "currents"):
+            cands = candidate_list(m, True, None, source=source)
+            used = sorted(i for c in cands for i in lay.candidate_indices(c.effect, c.cable))
+            # on one stream each theta index belongs to at most one candidate (the no-pulley
+            # variant excluded); the drive's forms share the load cell's blocks
+            assert len(set(used)) == len(used) and not set(used) & set(flip), source
+            every |= set(used)
+        assert sorted(every) == list(range(lay.size))  # every index some stream's
         for name, f in DIAGNOSIS.items():
             for key in f.keys:
                 assert key in VOCABULARY[f.vocabulary or name], (name, key)

@@ -229,34 +229,27 @@ def _test(src: DriveSource, keys: tuple, cable: int, null: np.ndarray):
 
 
 def drive_tests(src: DriveSource) -> list:
-    """Every drive-side effect's test against the datasheet model:
+    """Every drive-side effect's test against the datasheet model (the forms of
+    :data:`cdprid.effects.DIAGNOSIS` that name drive parameters, ``DiagnosisForm.drive``):
     ``[(effect, cable, parameters, interval, statistic, p)]`` (p nan: cannot tell).
 
     Returns
     -------
     list of tuple
     """
-    z = 1.959963984540054
+    from cdprid.effects import DIAGNOSIS
+
     std = np.sqrt(np.clip(np.diag(src.cov), 0, None))
     out = []
     for j in range(1, src.m + 1):
         v = {key: float(src.values[key][j - 1]) for key in _KEYS}
         s = {key: float(std[src.index(key, j)]) for key in _KEYS}
         kn = float(src.k_nominal[j - 1])
-        if j != src.reference_cable:
-            out.append(("torque_constant_error", j, {"ratio": v["k"] / kn},
-                        {"ratio": [(v["k"] - z * s["k"]) / kn, (v["k"] + z * s["k"]) / kn]},
-                        *_test(src, ("k",), j, np.array([kn]))))
-        out.append(("current_offset", j, {"offset_A": v["c"] / v["k"]},
-                    {"offset_A": [(v["c"] - z * s["c"]) / v["k"], (v["c"] + z * s["c"]) / v["k"]]},
-                    *_test(src, ("c",), j, np.zeros(1))))
-        out.append(("drive_friction", j, {"coulomb_N": v["fc"], "viscous_Ns_per_m": v["fv"]},
-                    {"coulomb_N": [v["fc"] - z * s["fc"], v["fc"] + z * s["fc"]],
-                     "viscous_Ns_per_m": [v["fv"] - z * s["fv"], v["fv"] + z * s["fv"]]},
-                    *_test(src, ("fc", "fv"), j, np.zeros(2))))
-        out.append(("drive_inertia", j, {"J_kg": v["J"]},
-                    {"J_kg": [v["J"] - z * s["J"], v["J"] + z * s["J"]]},
-                    *_test(src, ("J",), j, np.zeros(1))))
+        for name, form in DIAGNOSIS.items():
+            if not form.drive or (form.not_on_reference and j == src.reference_cable):
+                continue
+            null = np.array([kn if key == "k" else 0.0 for key in form.drive])
+            out.append((name, j, *form.drive_report(v, s, kn), *_test(src, form.drive, j, null)))
     return out
 
 

@@ -8,6 +8,14 @@ from cdprid.effects._spec import EffectSpec, Parameter, Place
 
 __all__ = ["SPEC"]
 
+_Z = 1.959963984540054  # the 95 % quantile of the normal
+
+
+def _report(v, s, kn):
+    """``offset_A = c / k`` and its interval from the fitted c (N) and k."""
+    return ({"offset_A": v["c"] / v["k"]},
+            {"offset_A": [(v["c"] - _Z * s["c"]) / v["k"], (v["c"] + _Z * s["c"]) / v["k"]]})
+
 
 def _k(extra) -> float:
     """The datasheet's current-to-force constant (N/A) of the candidate's cable."""
@@ -22,11 +30,12 @@ SPEC = EffectSpec(
     doc="""``current_offset {cable, offset_A}``
     Winch drive ``cable`` reports ``i + offset_A`` for the current ``i`` that makes its
     torque: the cable's tension is ``k (i_read - offset_A)`` (``c = k offset_A`` of the drive
-    model, docs/drives.md). Motor currents only (``diagnose --source currents``).""",
+    model, docs/drives.md). Motor currents only:
+    ``diagnose --source currents`` names it from ``identify --source currents``' drive model.""",
     place=Place.DRIVE,
     diagnosis=DiagnosisForm(
         blocks=(("offset", 1),), per_cable=True, group=1, keys=("offset_A",),
-        stream="currents",
+        stream="currents", drive=("c",), drive_report=_report,
         params=lambda v, extra: {"offset_A": float(v[0]) / _k(extra)},
         interval=lambda lo, hi, extra: {"offset_A": [float(lo[0]) / _k(extra),
                                                      float(hi[0]) / _k(extra)]},

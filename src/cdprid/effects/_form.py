@@ -104,6 +104,13 @@ class DiagnosisForm:
     stream: str = "any"
     #: never a candidate on the scale reference drive (a torque constant taken as exact)
     not_on_reference: bool = False
+    #: a drive-side effect: the drive model's parameters it is (``identify --source currents``:
+    #: ``k``, ``J``, ``fv``, ``fc``, ``c``), tested against the datasheet model (``k`` the
+    #: datasheet's, the others 0) by :mod:`cdprid.diagnosis._drives`
+    drive: tuple = ()
+    #: ``(values, stds, k_nominal) -> (parameters, intervals)``: the effect's JSON from one
+    #: drive's fitted parameters (dicts by the names of ``drive``' model) and the datasheet's k
+    drive_report: object = None
     keys: tuple = ()
     params: object = None
     interval: object = None
@@ -136,6 +143,9 @@ class DiagnosisForm:
     def __post_init__(self):
         if self.not_on_reference and not self.per_cable:
             raise SpecError("not_on_reference needs a per-cable form.")
+        if bool(self.drive) != (self.drive_report is not None) or (
+                self.drive and not self.per_cable):
+            raise SpecError("a drive-side form gives drive and drive_report together, per cable.")
         if self.stream not in STREAMS:
             raise SpecError(f"a diagnosis form's stream is one of {STREAMS}, not "
                             f"{self.stream!r}.")
