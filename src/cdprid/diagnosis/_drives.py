@@ -42,7 +42,7 @@ import numpy as np
 from cdprid.base import InputError, chi2_sf
 from cdprid.io import Dataset, read_drives, read_stream
 
-__all__ = ["DriveSource", "SOURCES", "drive_dataset"]
+__all__ = ["DriveSource", "SOURCES", "datasheet_dataset", "fit_drives"]
 
 #: the force streams ``diagnose --source`` takes
 SOURCES = ("tensions", "currents")
@@ -137,10 +137,9 @@ class DriveSource:
                 "reference": self.reference.as_json(), "drives": drives}
 
 
-def drive_dataset(ds: Dataset, reference: str | None = None,
-                  progress=None) -> tuple[Dataset, DriveSource]:
-    """The dataset with its current stream as the force stream (the datasheet's ``k i``) and
-    the drive model identify fits.
+def datasheet_dataset(ds: Dataset, reference: str | None = None) -> tuple[Dataset, object]:
+    """The dataset with its current stream as the force stream (the datasheet's ``k i``), and
+    the scale reference identify will use.
 
     Parameters
     ----------
@@ -150,12 +149,10 @@ def drive_dataset(ds: Dataset, reference: str | None = None,
     reference : str, optional
         identify's ``--reference`` (``drive:K``, ``mass``, ``mass:KG[:STD_KG]``; default its
         automatic choice).
-    progress : callable, optional
-        Told identify's stages.
 
     Returns
     -------
-    (Dataset, DriveSource)
+    (Dataset, ScaleReference)
 
     Raises
     ------
@@ -163,7 +160,7 @@ def drive_dataset(ds: Dataset, reference: str | None = None,
         One sentence naming the file or option: no dataset folder, no drive fields, no
         currents.csv, a malformed one, no scale reference.
     """
-    from cdprid.identify import identify_currents
+    from cdprid.identify._scale import choose_reference
 
     if ds.path is None:
         raise InputError("diagnose --source currents reads currents.csv from a dataset folder.")
@@ -176,17 +173,47 @@ def drive_dataset(ds: Dataset, reference: str | None = None,
     cur = read_stream(ds.path, "currents", "i", m)
     if cur is None:
         raise InputError(f"{ds.path}: --source currents needs currents.csv (t,i_1..i_{m}, A).")
-    rep = identify_currents(ds, reference=reference, bound=False, progress=progress)
-    p = len(rep.names) - 5 * m
-    values = {key: np.asarray(rep.theta[p + i * m:p + (i + 1) * m], float)
-              for i, key in enumerate(_KEYS)}
+    ref = choose_reference(reference, ds.robot, drives)
     t, i = cur
     k = np.asarray(drives.k_nominal, float)
     out = dataclasses.replace(ds, tension_t=np.asarray(t, float),
                               tension=np.asarray(i, float) * k[None, :])
+    return out, ref
+
+
+def fit_drives(ds: Dataset, reference: str | None, late_s: float = 0.0,
+               progress=None) -> DriveSource:
+    """identify's drive model of the recording (``identify --source currents``, output error).
+
+    Parameters
+    ----------
+    ds : Dataset
+        As read (``require_tensions=False``).
+    reference : str, optional
+        identify's ``--reference``.
+    late_s : float
+        The drive streams' clock offset (s) to take out first (the diagnosis's clock stage on
+        currents, :func:`cdprid.diagnosis._drives_clock.currents_clock`).
+    progress : callable, optional
+        Told identify's stages.
+
+    Returns
+    -------
+    DriveSource
+    """
+    from cdprid.identify import identify_currents
+
+    m = ds.robot.n_cables
+    drives = read_drives(ds.path)
+    rep = identify_currents(ds, reference=reference, bound=False, progress=progress,
+                            clock_offset_s=late_s)
+    p = len(rep.names) - 5 * m
+    values = {key: np.asarray(rep.theta[p + i * m:p + (i + 1) * m], float)
+              for i, key in enumerate(_KEYS)}
     notes = tuple(f"identify --source currents: {w}" for w in rep.warnings)
     mass = (float(rep.theta[0]), float(np.sqrt(max(float(rep.cov[0, 0]), 0.0))))
-    return out, DriveSource(k, rep.reference, values, np.asarray(rep.cov)[p:, p:], notes, mass)
+    return DriveSource(np.asarray(drives.k_nominal, float), rep.reference, values,
+                       np.asarray(rep.cov)[p:, p:], notes, mass)
 
 
 def drive_theta(src: DriveSource, layout) -> np.ndarray:

@@ -31,12 +31,11 @@ from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._context import DiagnosisContext
 from cdprid.diagnosis._drives import (
     SOURCES,
-    drive_dataset,
+    datasheet_dataset,
     drive_findings,
-    drive_named,
-    drive_theta,
     platform_candidates,
 )
+from cdprid.diagnosis._drives_clock import DRIVE_CLOCK_CAVEAT, currents_model
 from cdprid.diagnosis._hysteresis import (
     TENSION_RATE_SIGNAL,
     direction_feature,
@@ -274,17 +273,24 @@ def diagnose(
     """
     say = _timed_say(progress, t0 := time.perf_counter())
     cfg = Search(alpha, n_null, max_effects, min_gain, seed)
-    ds, drives = _source(ds, source, reference, say)
-    prob, sub, lengths, notes, (eps, prob_with) = _problem(
-        ds, train_until, cutoff_hz=cutoff_hz, trim=trim, n_folds=n_folds, taut_N=taut_N,
-        max_samples=max_samples, say=say, keep_episodes=keep_episodes, source=source)
-    tests = drive_named(drives, alpha) if drives is not None else []
-    if drives is not None:  # identify's drive model, held in every fit
-        th0 = drive_theta(drives, prob.layout)
-        prob, prob_with = (dataclasses.replace(x, theta0=th0) for x in (prob, prob_with))
-        notes[:0] = [drives.note(), *drives.notes]
+    raw, ds = ds, _source(ds, source, reference)
+
+    def problem(x):
+        return _problem(x, train_until, cutoff_hz=cutoff_hz, trim=trim, n_folds=n_folds,
+                        taut_N=taut_N, max_samples=max_samples, say=say,
+                        keep_episodes=keep_episodes, source=source)
+
+    drives, tests, clock0 = None, [], None
+    if source == "currents":  # the drive streams' clock, then identify's drive model
+        prob, (sub, lengths, notes, (eps, prob_with)), drives, tests, clock0 = currents_model(
+            raw, ds, reference, problem, lambda p: _base_stage(p, [], lambda m: None),
+            alpha, min_gain, say)
         say(notes[0])
+    else:
+        prob, sub, lengths, notes, (eps, prob_with) = problem(ds)
     prob, base, noise, ctx, candidates = _base_stage(prob, notes, say, drives)
+    if clock0 is not None:  # named before the drive model: not searched again
+        candidates = [c for c in candidates if not DIAGNOSIS[c.effect].clock]
     prob, s, (other, second), clock, ranking, thr_first = _search(
         prob, base, noise, ctx, candidates, cfg, say)
     s, hints, withdrawn, clock, regeo = _checks(
@@ -293,10 +299,13 @@ def diagnose(
     s, competing, n_alt, clock = _competing_stage(
         prob, s, candidates, cfg, thr_first, other, ctx=ctx, say=say, notes=notes, clock_info=clock)
     unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn, noise, alpha=alpha, say=say)
+    if clock0 is not None:  # the encoders share the drives' clock, known to ~1 ms here
+        lengths = None
+        notes.append(DRIVE_CLOCK_CAVEAT)
     findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
     if drives is not None:
         named = drive_findings(prob, s, tests, alpha)
-        findings = list(named) + findings
+        findings = list(named) + ([clock0[0]] if clock0 else []) + findings
         notes.append(drives.scale_note())
         say(f"drive side: {len(named)} effect(s) named by identify's drive model")
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
@@ -306,7 +315,8 @@ def diagnose(
                    rule=rule, el_info=el_info, clock_info=clock, second=second, t0=t0,
                    sub=sub, regeo=regeo)
     if drives is not None:
-        info.update(source="currents", source_currents={**drives.as_json(), "tests": tests})
+        info.update(source="currents", source_currents={
+            **drives.as_json(), "tests": tests, "clock": clock0[1] if clock0 else None})
     return _result(prob, prob_with, eps, s, base, resid, noise, seed=seed, say=say,
                    base_heldout_rms=base_ho, findings=findings, extended_parameters=ext_params,
                    extended_heldout_rms=ext_ho, ranking=ranking, info=info,
@@ -447,20 +457,20 @@ def _structure(prob) -> dict:
         prob.use, slide=prob.d.slide).items()}
 
 
-def _source(ds, source: str, reference, say):
-    """``(dataset, DriveSource or None)``: the force stream the diagnosis reads (one sentence
-    on a bad source, a missing stream or a reference without currents)."""
+def _source(ds, source: str, reference):
+    """The dataset whose force stream the diagnosis reads (currents: the datasheet tension;
+    one sentence on a bad source, a missing stream or a reference without currents)."""
     if source not in SOURCES:
         raise InputError(f"--source {source!r}: use one of {', '.join(SOURCES)}.")
     if source == "currents":
-        return drive_dataset(ds, reference, progress=lambda m: say(f"identify: {m}"))
+        return datasheet_dataset(ds, reference)[0]
     if reference is not None:
         raise InputError("--reference applies to --source currents only (the load cells fix "
                          "the scale).")
     if ds.tension is None:
         raise InputError(f"{ds.path}: the dataset has no tensions.csv; diagnose its motor "
                          "currents with --source currents.")
-    return ds, None
+    return ds
 
 
 def _base_stage(prob, notes: list, say, drives=None):
@@ -487,9 +497,8 @@ def _base_stage(prob, notes: list, say, drives=None):
                            base_mass_kg=float(base.x[0]),
                            drive_k=None if drives is None else drives.k_nominal)
     candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot,
-                                source=prob.source, reference_cable=None if drives is None
-                                else drives.reference_cable)
-    if drives is not None:  # the drive side is identify's drive model (drive_findings)
+                                source=prob.source)
+    if prob.source == "currents":  # the drive side is identify's drive model (drive_findings)
         candidates = platform_candidates(candidates)
     return prob, base, noise, ctx, candidates
 

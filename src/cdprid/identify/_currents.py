@@ -6,20 +6,15 @@ With the drive model of :mod:`cdprid.core._drives` (``tau = k i + J l'' + f_v l'
 
     Z_n x - D_n d = 0,        D_n = [F[W i], W l'', W l', F[W sign(l')], -F[W]]
 
-(``F`` the matched filter of the accelerations, ``l'`` and ``l''`` the encoder lengths
+(``F`` the matched filter of the accelerations, ``l'``, ``l''`` the encoder lengths
 differentiated like the poses): homogeneous in ``theta = (x, d)``. One parameter is taken as
-known (:mod:`cdprid.identify._scale`); the others follow from least squares with
-
-* the errors-in-variables weighting of the tension path (:func:`cdprid.core._eiv.whitening`
-  with the drive model's tension and noise: current noise times k, encoder noise through J
-  and f_v),
-* the currents' noise removed from the normal equations: the currents sit inside the
-  regressor, so ``E[N] = N_0 + Q`` with ``Q`` the per-sample noise covariance of the current
-  and encoder columns (``sigma_i^2 g_F W_j^T Omega W_j``, ``g_F`` the filter's variance gain
-  measured on the recording's own clocks and interpolation); the corrected estimate solves
-  ``(N - Q) theta = 0`` (corrected least squares),
-* HAC covariance (the residual is coloured by the filter), propagated through the correction
-  and scaled by the reference (its uncertainty reaches every std).
+known (:mod:`cdprid.identify._scale`); the others follow from least squares with the tension
+path's errors-in-variables weighting (:func:`cdprid.core._eiv.whitening`: current noise times
+k, encoder noise through J and f_v), the currents' noise removed from the normal equations
+(``E[N] = N_0 + Q``, ``Q`` the current and encoder columns' noise covariance, ``sigma_i^2 g_F
+W_j^T Omega W_j`` with the filter's variance gain ``g_F`` measured on the recording's own
+clocks; the estimate solves ``(N - Q) theta = 0``: corrected least squares) and the HAC
+covariance through the correction, scaled by the reference (its uncertainty in every std).
 """
 
 from __future__ import annotations
@@ -163,15 +158,16 @@ class CurrentsReport:
         return currents_json(self)
 
 
-def _streams(ds, m: int):
-    """``(currents (t, i), lengths (t, l) or None)`` of the dataset folder (one sentence when
-    currents.csv is missing or malformed)."""
+def _streams(ds, m: int, late_s: float = 0.0):
+    """``(currents (t, i), lengths (t, l) or None)`` of the dataset folder, their time stamps
+    ``late_s`` earlier (one sentence when currents.csv is missing or malformed)."""
     if ds.path is None:
         raise InputError("identify --source currents reads currents.csv from a dataset folder.")
     cur = read_stream(ds.path, "currents", "i", m)
     if cur is None:
         raise InputError(f"{ds.path}: --source currents needs currents.csv (t,i_1..i_{m}, A).")
-    return cur, read_stream(ds.path, "lengths", "l", m)
+    lens = read_stream(ds.path, "lengths", "l", m)
+    return (cur[0] - late_s, cur[1]), None if lens is None else (lens[0] - late_s, lens[1])
 
 
 def _interp_checked(t_src, v_src, t, name: str, keep, notes: list):
@@ -247,7 +243,8 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
                       differentiator: str = "euler-filtfilt", params: dict | None = None,
                       t_start: float | None = None, t_end: float | None = None,
                       trim: float = TRIM_S, chunk: int = CHUNK, bound: bool = True,
-                      drives=None, estimator: str = "oe", progress=None) -> CurrentsReport:
+                      drives=None, estimator: str = "oe", progress=None,
+                      clock_offset_s: float = 0.0) -> CurrentsReport:
     """Identify the platform and every drive from poses, winch lengths and motor currents.
 
     Parameters
@@ -278,6 +275,9 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
         Output error (default; ``_currents_oe``) or the corrected least squares it starts from.
     progress : callable(str), optional
         Told each stage as it starts (the command's progress lines).
+    clock_offset_s : float
+        The drive streams' (currents.csv, lengths.csv) time stamps are this late against the
+        poses' (s): subtracted from them (``diagnose --source currents`` finds it first).
 
     Returns
     -------
@@ -288,7 +288,7 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     m = ds.robot.n_cables
     drives = read_drives(ds.path) if drives is None and ds.path is not None else drives
     ref = choose_reference(reference, ds.robot, drives)
-    (ct, cur_raw), lens = _streams(ds, m)
+    (ct, cur_raw), lens = _streams(ds, m, clock_offset_s)
     pre, ds_i, sig, notes = _currents_aligned(ds, ct, cur_raw, t_start, t_end)
     fix = cutoff_from_data(differentiator, params)
     params, w0 = resolve_params(ds_i, sig, differentiator, params, notes)
