@@ -31,8 +31,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
 from tests.conftest import ROBOT_CRAFT  # noqa: E402
 from tests.identify import winch_sim  # noqa: E402
 
@@ -111,12 +109,14 @@ def _case(robot: str, case: str, seed: int, out: Path):
 def run_one(robot: str, case: str, seed: int) -> dict:
     """Diagnose one recording and score it."""
     from cdprid.diagnosis import diagnose
+    from cdprid.identify import identify_currents
     from cdprid.io import read_dataset
 
     with tempfile.TemporaryDirectory() as tmp:
         hidden = _case(robot, case, seed, Path(tmp) / "d")
         t0 = time.perf_counter()
-        res = diagnose(read_dataset(Path(tmp) / "d", require_tensions=False), source="currents")
+        res = diagnose(read_dataset(Path(tmp) / "d", require_tensions=False), source="currents",
+                       drive_fit=identify_currents)
         wall = time.perf_counter() - t0
     named, covered, wrong = [], 0, []
     for f in res.findings:

@@ -26,6 +26,7 @@ from cdprid.diagnosis import _model as M  # noqa: E402
 from cdprid.diagnosis._candidates import candidate_list  # noqa: E402
 from cdprid.diagnosis._problem import length_accelerations  # noqa: E402
 from cdprid.effects import DIAGNOSIS, validate_effects  # noqa: E402
+from cdprid.identify import identify_currents  # noqa: E402
 from cdprid.io import read_dataset  # noqa: E402
 from cdprid.model import SIX_SUSPENDED  # noqa: E402
 from tests.conftest import ROBOT_CRAFT  # noqa: E402  (the 8-cable CRAFT-like geometry)
@@ -116,7 +117,8 @@ def _hide(effects):
         d = _ideal(d)
         for name, j, size in effects:
             if name == "drive_friction":
-                d["Tc"][j - 1], d["b"][j - 1] = size[0] * d["r"][j - 1], size[1] * d["r"][j - 1] ** 2
+                r = d["r"][j - 1]
+                d["Tc"][j - 1], d["b"][j - 1] = size[0] * r, size[1] * r ** 2
             elif name == "drive_inertia":
                 d["Jd"][j - 1] = size * d["r"][j - 1] ** 2
             elif name == "current_offset":
@@ -168,7 +170,7 @@ def _check(res, effects):
 @pytest.mark.slow  # one diagnosis (the default suite runs the three effects' one)
 def test_clean_drives_name_nothing(tmp_path):
     ds = read_dataset(_recording(tmp_path / "d", SIX, []), require_tensions=False)
-    res = diagnose(ds, source="currents", n_null=20)
+    res = diagnose(ds, source="currents", n_null=20, drive_fit=identify_currents)
     _check(res, [])
     assert res.info["source"] == "currents"
     info = res.info["source_currents"]
@@ -180,7 +182,7 @@ def test_three_drive_effects_found_with_their_sizes(tmp_path):
     hidden = [("drive_friction", 3, (5.0, 5.0)), ("current_offset", 4, 0.1),
               ("torque_constant_error", 2, 0.92)]
     ds = read_dataset(_recording(tmp_path / "d", SIX, hidden, seed=1), require_tensions=False)
-    _check(diagnose(ds, source="currents", n_null=20), hidden)
+    _check(diagnose(ds, source="currents", n_null=20, drive_fit=identify_currents), hidden)
 
 
 @pytest.mark.slow  # four diagnoses, ~15 s each
@@ -190,14 +192,14 @@ def test_three_drive_effects_found_with_their_sizes(tmp_path):
                                     [("drive_inertia", 2, 2.0)]])
 def test_each_drive_effect_alone(tmp_path, hidden):
     ds = read_dataset(_recording(tmp_path / "d", SIX, hidden, seed=2), require_tensions=False)
-    _check(diagnose(ds, source="currents"), hidden)
+    _check(diagnose(ds, source="currents", drive_fit=identify_currents), hidden)
 
 
 @pytest.mark.slow  # the redundant CRAFT-like eight: internal forces hide some drive combinations
 def test_eight_cables_friction_and_inertia(tmp_path):
     hidden = [("drive_friction", 5, (6.0, 4.0)), ("drive_inertia", 2, 3.0)]
     ds = read_dataset(_recording(tmp_path / "d", EIGHT, hidden, seed=3), require_tensions=False)
-    _check(diagnose(ds, source="currents"), hidden)
+    _check(diagnose(ds, source="currents", drive_fit=identify_currents), hidden)
 
 
 @pytest.mark.slow  # the clock stage on currents: two identifications and three problems
@@ -212,10 +214,16 @@ def test_clock_offset_of_the_drive_streams_is_named_first(tmp_path):
     td, cur, lens = sim["drives"]
     sim["drives"] = (td + 0.02, cur, lens)
     ds = read_dataset(winch_sim.write(tmp_path / "d", SIX, sim), require_tensions=False)
-    res = diagnose(ds, source="currents")
+    res = diagnose(ds, source="currents", drive_fit=identify_currents)
     assert [f.effect for f in res.findings] == ["time_delay"], res.findings
     assert 0.018 < res.findings[0].parameters["delay_s"] < 0.0205
     assert any("lower bound" in n for n in res.notes)
+
+
+def test_the_library_needs_the_drive_fit(short):
+    ds = read_dataset(short, require_tensions=False)
+    with pytest.raises(InputError, match="drive_fit=cdprid.identify.identify_currents"):
+        diagnose(ds, source="currents")
 
 
 @pytest.fixture(scope="module")

@@ -21,6 +21,13 @@ def _run(args) -> int:
     check_outputs(args, inputs, args.force)
     source = args.source or _auto_source(args.dataset)
     ds = read_dataset(args.dataset, require_tensions=source == "tensions")
+    drive_fit = None
+    if source == "currents":  # the drive model is identify's; its reference checked first
+        from cdprid.identify import choose_reference, identify_currents
+        from cdprid.io import read_drives
+
+        choose_reference(args.reference, ds.robot, read_drives(ds.path))
+        drive_fit = identify_currents
 
     def progress(msg):
         check_pending()  # a safe point for a signal recorded where it could not be raised
@@ -30,7 +37,7 @@ def _run(args) -> int:
     res = diagnose(ds, train_until=args.train_until, alpha=args.alpha, n_null=args.n_null,
                    max_effects=args.max_effects, seed=args.seed, progress=progress,
                    keep_episodes=args.keep_episodes, source=source,
-                   reference=args.reference)
+                   reference=args.reference, drive_fit=drive_fit)
     for note in res.notes:
         print(f"note: {note}")
     print(f"base model: m = {res.base_parameters['m'].value:.5g} kg, held-out force residual "

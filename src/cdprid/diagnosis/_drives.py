@@ -42,7 +42,7 @@ import numpy as np
 from cdprid.base import InputError, chi2_sf
 from cdprid.io import Dataset, read_drives, read_stream
 
-__all__ = ["DriveSource", "SOURCES", "datasheet_dataset", "fit_drives"]
+__all__ = ["DriveSource", "SOURCES", "datasheet_dataset", "fit_drives", "gauge_cable"]
 
 #: the force streams ``diagnose --source`` takes
 SOURCES = ("tensions", "currents")
@@ -137,31 +137,25 @@ class DriveSource:
                 "reference": self.reference.as_json(), "drives": drives}
 
 
-def datasheet_dataset(ds: Dataset, reference: str | None = None) -> tuple[Dataset, object]:
-    """The dataset with its current stream as the force stream (the datasheet's ``k i``), and
-    the scale reference identify will use.
+def datasheet_dataset(ds: Dataset) -> Dataset:
+    """The dataset with its current stream as the force stream (the datasheet's ``k i``).
 
     Parameters
     ----------
     ds : Dataset
         Read with ``require_tensions=False`` from a folder with ``currents.csv`` and
         robot.toml's drive fields (format 1.2); a tensions.csv beside them is not used.
-    reference : str, optional
-        identify's ``--reference`` (``drive:K``, ``mass``, ``mass:KG[:STD_KG]``; default its
-        automatic choice).
 
     Returns
     -------
-    (Dataset, ScaleReference)
+    Dataset
 
     Raises
     ------
     InputError
-        One sentence naming the file or option: no dataset folder, no drive fields, no
-        currents.csv, a malformed one, no scale reference.
+        One sentence naming the file: no dataset folder, no drive fields, no currents.csv,
+        a malformed one.
     """
-    from cdprid.identify._scale import choose_reference
-
     if ds.path is None:
         raise InputError("diagnose --source currents reads currents.csv from a dataset folder.")
     m = ds.robot.n_cables
@@ -173,17 +167,26 @@ def datasheet_dataset(ds: Dataset, reference: str | None = None) -> tuple[Datase
     cur = read_stream(ds.path, "currents", "i", m)
     if cur is None:
         raise InputError(f"{ds.path}: --source currents needs currents.csv (t,i_1..i_{m}, A).")
-    ref = choose_reference(reference, ds.robot, drives)
     t, i = cur
     k = np.asarray(drives.k_nominal, float)
-    out = dataclasses.replace(ds, tension_t=np.asarray(t, float),
-                              tension=np.asarray(i, float) * k[None, :])
-    return out, ref
+    return dataclasses.replace(ds, tension_t=np.asarray(t, float),
+                               tension=np.asarray(i, float) * k[None, :])
 
 
-def fit_drives(ds: Dataset, reference: str | None, late_s: float = 0.0,
+def gauge_cable(ds: Dataset) -> int:
+    """A drive whose torque constant the clock's profile holds (the homogeneous equations need
+    one; which one does not move the profile's minimum): robot.toml's ``drive_reference``,
+    else the one of least stated tolerance (1-based)."""
+    drives = read_drives(ds.path)
+    if drives.reference.any():
+        return int(np.flatnonzero(drives.reference)[0]) + 1
+    return int(np.argmin(np.where(np.isfinite(drives.tolerance), drives.tolerance, np.inf))) + 1
+
+
+def fit_drives(ds: Dataset, reference: str | None, drive_fit, late_s: float = 0.0,
                progress=None) -> DriveSource:
-    """identify's drive model of the recording (``identify --source currents``, output error).
+    """The recording's drive model by ``drive_fit`` (``identify --source currents``: output
+    error).
 
     Parameters
     ----------
@@ -191,28 +194,36 @@ def fit_drives(ds: Dataset, reference: str | None, late_s: float = 0.0,
         As read (``require_tensions=False``).
     reference : str, optional
         identify's ``--reference``.
+    drive_fit : callable
+        :func:`cdprid.identify.identify_currents` or a function with its arguments and report
+        (``names``, ``theta``, ``cov``, ``reference``, ``warnings``).
     late_s : float
         The drive streams' clock offset (s) to take out first (the diagnosis's clock stage on
-        currents, :func:`cdprid.diagnosis._drives_clock.currents_clock`).
+        currents, :mod:`cdprid.diagnosis._drives_clock`).
     progress : callable, optional
         Told identify's stages.
 
     Returns
     -------
     DriveSource
-    """
-    from cdprid.identify import identify_currents
 
+    Raises
+    ------
+    InputError
+        ``drive_fit`` not given.
+    """
+    if drive_fit is None:
+        raise InputError("diagnose --source currents needs the drive model's fit: pass "
+                         "drive_fit=cdprid.identify.identify_currents (the command line does).")
     m = ds.robot.n_cables
-    drives = read_drives(ds.path)
-    rep = identify_currents(ds, reference=reference, bound=False, progress=progress,
-                            clock_offset_s=late_s)
+    rep = drive_fit(ds, reference=reference, bound=False, progress=progress,
+                    clock_offset_s=late_s)
     p = len(rep.names) - 5 * m
     values = {key: np.asarray(rep.theta[p + i * m:p + (i + 1) * m], float)
               for i, key in enumerate(_KEYS)}
     notes = tuple(f"identify --source currents: {w}" for w in rep.warnings)
     mass = (float(rep.theta[0]), float(np.sqrt(max(float(rep.cov[0, 0]), 0.0))))
-    return DriveSource(np.asarray(drives.k_nominal, float), rep.reference, values,
+    return DriveSource(np.asarray(read_drives(ds.path).k_nominal, float), rep.reference, values,
                        np.asarray(rep.cov)[p:, p:], notes, mass)
 
 

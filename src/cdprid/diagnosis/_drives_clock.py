@@ -25,7 +25,7 @@ from cdprid.diagnosis._clock import FIRST_GAIN, clock_check, clock_interval
 from cdprid.diagnosis._selection import refit, start
 from cdprid.effects import DIAGNOSIS
 
-__all__ = ["DRIVE_CLOCK_CAVEAT", "STEP_S", "currents_clock", "currents_model"]
+__all__ = ["DRIVE_CLOCK_CAVEAT", "STEP_S", "CurrentsSide", "currents_clock", "currents_model"]
 
 #: the note a named clock offset of the drive streams carries (benchmarks/drives_diagnosis.py)
 DRIVE_CLOCK_CAVEAT = (
@@ -111,10 +111,50 @@ def _refined(prob, base_stage, delay: float, f, say):
         key: [delay + v for v in g.interval[key]]})
 
 
-def currents_model(raw, ds, reference, problem, base_stage, alpha: float, min_gain: float,
+@dataclasses.dataclass
+class CurrentsSide:
+    """What the diagnosis on currents carries besides the problem: identify's drive model, its
+    tests, the drive streams' clock offset (``(finding, info)`` or None) and the level."""
+
+    drives: object
+    tests: list
+    clock: tuple | None = None
+    alpha: float = 1e-3
+
+    def candidates(self, candidates) -> list:
+        """The search's candidates: without the clock when it was named first."""
+        if self.clock is None:
+            return candidates
+        return [c for c in candidates if not DIAGNOSIS[c.effect].clock]
+
+    def lengths(self, lengths, notes: list):
+        """The encoder stream for cable elasticity: none when the drive clock was named (the
+        encoders share it, known only to about a millisecond; a note says so)."""
+        if self.clock is None:
+            return lengths
+        notes.append(DRIVE_CLOCK_CAVEAT)
+        return None
+
+    def findings(self, prob, s, findings, notes: list, say) -> list:
+        """The drive-side findings and the clock's before the search's, and the scale note."""
+        from cdprid.diagnosis._drives import drive_findings
+
+        named = drive_findings(prob, s, self.tests, self.alpha)
+        notes.append(self.drives.scale_note())
+        say(f"drive side: {len(named)} effect(s) named by identify's drive model")
+        return list(named) + ([self.clock[0]] if self.clock else []) + list(findings)
+
+    def info(self) -> dict:
+        """``info["source"]`` and ``info["source_currents"]``."""
+        return {"source": "currents", "source_currents": {
+            **self.drives.as_json(), "tests": self.tests,
+            "clock": self.clock[1] if self.clock else None}}
+
+
+def currents_model(raw, ds, fit: tuple, problem, base_stage, alpha: float, min_gain: float,
                    say) -> tuple:
     """The diagnosis's problem on currents with the drive streams' clock and identify's drive
-    model: ``(problem, (sub, lengths, notes, (eps, prob_with)), drives, tests, clock)``.
+    model: ``(problem, (sub, lengths, notes, (eps, prob_with)), side)``.
 
     Parameters
     ----------
@@ -122,8 +162,9 @@ def currents_model(raw, ds, reference, problem, base_stage, alpha: float, min_ga
         As read (identify reads its drive streams from the folder).
     ds : Dataset
         The datasheet tension's dataset (:func:`cdprid.diagnosis._drives.datasheet_dataset`).
-    reference : str or None
-        identify's ``--reference``.
+    fit : tuple
+        ``(reference, drive_fit)``: identify's ``--reference`` and the drive model's fit
+        (:func:`cdprid.diagnosis._drives.fit_drives`).
     problem : callable
         ``problem(ds) -> (prob, sub, lengths, notes, (eps, prob_with))`` (the pipeline's).
     base_stage : callable
@@ -134,35 +175,40 @@ def currents_model(raw, ds, reference, problem, base_stage, alpha: float, min_ga
     Returns
     -------
     tuple
-        ``clock``: ``(finding, info)`` of the drive streams' clock offset, or None.
+        ``side``: a :class:`CurrentsSide`.
     """
-    from cdprid.diagnosis._drives import drive_named, drive_theta, fit_drives
+    from cdprid.diagnosis._drives import drive_named, drive_theta, fit_drives, gauge_cable
+
+    reference, drive_fit = fit
+
+    def drive_model(late):
+        return fit_drives(raw, reference, drive_fit, late, lambda m: say(f"identify: {m}"))
 
     prob, *rest = problem(ds)
-    ref_cable = _reference_cable(raw, reference)
     pb, base, _, ctx, candidates = base_stage(prob)
-    delay, f, info = currents_clock(pb, base, candidates, ref_cable, alpha, min_gain, ctx, say)
+    delay, f, info = currents_clock(pb, base, candidates, gauge_cable(raw), alpha, min_gain,
+                                    ctx, say)
     if f is not None:  # the stream read on the poses' clock from here on
         prob, *rest = problem(_shifted(ds, delay))
-    drives = fit_drives(raw, reference, delay, progress=lambda m: say(f"identify: {m}"))
+    drives = drive_model(delay)
     if f is not None:  # again with identify's drive model (its torque constants unbiased)
         step, f = _refined(dataclasses.replace(prob, theta0=drive_theta(drives, prob.layout)),
                            base_stage, delay, f, say)
         if abs(step) > STEP_S:
             delay += step
             prob, *rest = problem(_shifted(ds, delay))
-            drives = fit_drives(raw, reference, delay, progress=lambda m: say(f"identify: {m}"))
+            drives = drive_model(delay)
         rest[2].append(f"the drive streams' clock offset {1e3 * delay:+.2f} ms (named first, "
                        "on the datasheet tension with every drive's parameters free, then "
                        "refined with identify's drive model) is taken out of them before "
                        "identify and every later fit")
-    tests = drive_named(drives, alpha)
     th0 = drive_theta(drives, prob.layout)
     eps, prob_with = rest[3]
     prob, prob_with = (dataclasses.replace(x, theta0=th0) for x in (prob, prob_with))
     rest[2][:0] = [drives.note(), *drives.notes]
-    return (prob, (rest[0], rest[1], rest[2], (eps, prob_with)), drives, tests,
-            None if f is None else (f, info))
+    side = CurrentsSide(drives, drive_named(drives, alpha), None if f is None else (f, info),
+                        alpha)
+    return prob, (rest[0], rest[1], rest[2], (eps, prob_with)), side
 
 
 def _shifted(ds, delay: float):
@@ -176,12 +222,3 @@ def _shifted(ds, delay: float):
             vals[:, list(cols).index("t")] -= delay
             extra[name] = (cols, vals)
     return dataclasses.replace(ds, tension_t=ds.tension_t - delay, extra=extra)
-
-
-def _reference_cable(raw, reference):
-    """The scale reference drive identify will use (None for a mass)."""
-    from cdprid.identify._scale import choose_reference
-    from cdprid.io import read_drives
-
-    ref = choose_reference(reference, raw.robot, read_drives(raw.path))
-    return ref.cable if ref.kind == "drive" else None

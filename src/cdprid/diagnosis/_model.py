@@ -190,7 +190,7 @@ def measured_side(d: DiagData, th):
     tau = (tau - th["offset"] - th["drift"] * d.clock[:, None]) / (1.0 + th["gain"])
     tau = tau + (th["coulomb"] + th["coulomb_all"]) * slide_of(d) \
         + (th["pvisc"] + th["pvisc_all"]) * d.ldot \
-        + (th["inertia"] + th["inertia_all"]) * lddot_of(d)
+        + th["inertia"] * lddot_of(d)
     rob = shifted_robot(d.robot, th)
     g = tilt_gravity(d.robot.gravity, th["tilt"])
 

@@ -29,13 +29,8 @@ from cdprid.diagnosis._candidates import alias_label, candidate_list
 from cdprid.diagnosis._clock import INTERVAL_CAVEAT, clock_check, clock_interval, clock_stage
 from cdprid.diagnosis._competing import competing_models
 from cdprid.diagnosis._context import DiagnosisContext
-from cdprid.diagnosis._drives import (
-    SOURCES,
-    datasheet_dataset,
-    drive_findings,
-    platform_candidates,
-)
-from cdprid.diagnosis._drives_clock import DRIVE_CLOCK_CAVEAT, currents_model
+from cdprid.diagnosis._drives import SOURCES, datasheet_dataset, platform_candidates
+from cdprid.diagnosis._drives_clock import currents_model
 from cdprid.diagnosis._hysteresis import (
     TENSION_RATE_SIGNAL,
     direction_feature,
@@ -225,6 +220,7 @@ def diagnose(
     keep_episodes: bool = False,
     source: str = "tensions",
     reference: str | None = None,
+    drive_fit=None,
 ) -> DiagnosisResult:
     """Diagnose what the paper's model misses in a dataset.
 
@@ -232,26 +228,19 @@ def diagnose(
     ----------
     ds : Dataset
     train_until : float, optional
-        Fit everything on t < train_until and measure the held-out gain on t >= train_until.
-        Without it, held-out figures are blocked cross-validation over ``n_folds`` time blocks.
-    cutoff_hz : float
-        Zero-phase filter cutoff (differentiator and matched filter).
-    trim : float
-        Seconds dropped at both ends (filter transients).
-    n_folds : int
-        Number of contiguous time blocks for held-out validation.
-    alpha : float
-        Family-wise false-positive rate (of the candidates' tests; of ``unexplained``'s).
-    n_null : int
-        Null residual replicates simulated from the fitted base model to calibrate thresholds.
-    max_effects : int
-        Greedy forward selection stops after this many effects.
-    min_gain : float
-        Smallest relative held-out RMS change for an effect to be accepted, kept or swapped.
-    seed : int
-        Seed of the null simulation.
-    taut_N : float
-        Samples where any cable is below this tension (N) within +-0.1 s are excluded.
+        Fit on t < train_until, measure the held-out gain on t >= train_until (without it:
+        blocked cross-validation over ``n_folds`` time blocks).
+    cutoff_hz, trim, n_folds : float, float, int
+        Zero-phase filter cutoff (Hz: differentiator and matched filter); seconds dropped at
+        both ends (filter transients); contiguous time blocks for held-out validation.
+    alpha, n_null, max_effects, min_gain : float, int, int, float
+        Family-wise false-positive rate (of the candidates' tests; of ``unexplained``'s); null
+        residual replicates (from the fitted base model) calibrating thresholds; greedy forward
+        selection stops after max_effects; smallest relative held-out RMS change for an effect
+        to be accepted, kept or swapped.
+    seed, taut_N : int, float
+        Seed of the null simulation; samples where any cable is below ``taut_N`` (N) within
+        +-0.1 s are excluded.
     progress : callable, optional
         Called with progress strings.
     max_samples : int
@@ -259,13 +248,9 @@ def diagnose(
         (:func:`cdprid.diagnosis._budget.subset`; ``notes`` and ``info["subset"]`` say which).
     keep_episodes : bool
         Keep the episodes (:mod:`cdprid.episodes`) in the fits (by default left out).
-    source : str
-        The force stream: ``"tensions"`` (load cells, tensions.csv) or ``"currents"`` (the
-        winch drives' currents.csv read as the datasheet's tension ``k i``, the drive-side
-        effects the candidates: :mod:`cdprid.diagnosis._drives`, docs/drives.md).
-    reference : str, optional
-        With ``source="currents"``: ``drive:K``, the drive whose torque constant is the
-        scale (default: robot.toml's ``drive_reference`` or calibrated drive).
+    source, reference, drive_fit : str, str, callable
+        ``"tensions"`` (load cells) or ``"currents"`` (docs/drives.md), identify's
+        ``--reference``, the drive model's fit (:func:`cdprid.identify.identify_currents`).
 
     Returns
     -------
@@ -273,24 +258,11 @@ def diagnose(
     """
     say = _timed_say(progress, t0 := time.perf_counter())
     cfg = Search(alpha, n_null, max_effects, min_gain, seed)
-    raw, ds = ds, _source(ds, source, reference)
-
-    def problem(x):
-        return _problem(x, train_until, cutoff_hz=cutoff_hz, trim=trim, n_folds=n_folds,
-                        taut_N=taut_N, max_samples=max_samples, say=say,
-                        keep_episodes=keep_episodes, source=source)
-
-    drives, tests, clock0 = None, [], None
-    if source == "currents":  # the drive streams' clock, then identify's drive model
-        prob, (sub, lengths, notes, (eps, prob_with)), drives, tests, clock0 = currents_model(
-            raw, ds, reference, problem, lambda p: _base_stage(p, [], lambda m: None),
-            alpha, min_gain, say)
-        say(notes[0])
-    else:
-        prob, sub, lengths, notes, (eps, prob_with) = problem(ds)
-    prob, base, noise, ctx, candidates = _base_stage(prob, notes, say, drives)
-    if clock0 is not None:  # named before the drive model: not searched again
-        candidates = [c for c in candidates if not DIAGNOSIS[c.effect].clock]
+    prob, sub, lengths, notes, (eps, prob_with), side = _prepared(
+        ds, (source, reference, drive_fit), cfg, say, train_until=train_until,
+        cutoff_hz=cutoff_hz, trim=trim, n_folds=n_folds, taut_N=taut_N,
+        max_samples=max_samples, keep_episodes=keep_episodes)
+    prob, base, noise, ctx, candidates = _base_stage(prob, notes, say, side)
     prob, s, (other, second), clock, ranking, thr_first = _search(
         prob, base, noise, ctx, candidates, cfg, say)
     s, hints, withdrawn, clock, regeo = _checks(
@@ -299,24 +271,13 @@ def diagnose(
     s, competing, n_alt, clock = _competing_stage(
         prob, s, candidates, cfg, thr_first, other, ctx=ctx, say=say, notes=notes, clock_info=clock)
     unexplained, rule = _unexplained(prob, s, feats, hints, withdrawn, noise, alpha=alpha, say=say)
-    if clock0 is not None:  # the encoders share the drives' clock, known to ~1 ms here
-        lengths = None
-        notes.append(DRIVE_CLOCK_CAVEAT)
-    findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
-    if drives is not None:
-        named = drive_findings(prob, s, tests, alpha)
-        findings = list(named) + ([clock0[0]] if clock0 else []) + findings
-        notes.append(drives.scale_note())
-        say(f"drive side: {len(named)} effect(s) named by identify's drive model")
+    findings, el_info = _findings(prob, s, side, (lengths, sub, notes), alpha, say)
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
         "train_until": train_until, "taut_threshold_N": taut_N,
         "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
     _complete_info(info, not_named=not_named_sizes(prob, base, s, candidates, ctx, thr_first),
                    rule=rule, el_info=el_info, clock_info=clock, second=second, t0=t0,
-                   sub=sub, regeo=regeo)
-    if drives is not None:
-        info.update(source="currents", source_currents={
-            **drives.as_json(), "tests": tests, "clock": clock0[1] if clock0 else None})
+                   sub=sub, regeo=regeo, side=side)
     return _result(prob, prob_with, eps, s, base, resid, noise, seed=seed, say=say,
                    base_heldout_rms=base_ho, findings=findings, extended_parameters=ext_params,
                    extended_heldout_rms=ext_ho, ranking=ranking, info=info,
@@ -345,8 +306,17 @@ def _competing_stage(prob, s, candidates, cfg: Search, thr, other, *, ctx: Diagn
     return s, competing, n_alt, clock_info
 
 
+def _findings(prob, s, side, data: tuple, alpha, say) -> tuple:
+    """The findings with cable elasticity's (the encoder stream ``data = (lengths, sub,
+    notes)``) and, on currents, the drive side's first: ``(findings, elasticity info)``."""
+    lengths, sub, notes = data
+    lengths = side.lengths(lengths, notes) if side else lengths
+    findings, el_info = with_elasticity(list(s.findings), prob, lengths, sub, alpha, say)
+    return (side.findings(prob, s, findings, notes, say) if side else findings), el_info
+
+
 def _complete_info(info, *, not_named, rule, el_info, clock_info, second, t0, sub,
-                   regeo) -> None:
+                   regeo, side=None) -> None:
     """The stages' remaining entries of ``info`` (the budgeted subset's when there is one)."""
     info.update({"not_named": not_named, "unexplained_rule": rule, "lengths": el_info,
                  "clock_profile": clock_info, "second_start": second,
@@ -354,6 +324,7 @@ def _complete_info(info, *, not_named, rule, el_info, clock_info, second, t0, su
                  "wall_time_s": time.perf_counter() - t0})
     if sub is not None:
         info["subset"] = sub.as_json()
+    info.update(side.info() if side else {})
 
 
 def _result(prob: Problem, prob_with: Problem, eps, s, base: BaseFit, resid, noise, *, seed,
@@ -457,26 +428,38 @@ def _structure(prob) -> dict:
         prob.use, slide=prob.d.slide).items()}
 
 
-def _source(ds, source: str, reference):
-    """The dataset whose force stream the diagnosis reads (currents: the datasheet tension;
-    one sentence on a bad source, a missing stream or a reference without currents)."""
+def _prepared(ds, how: tuple, cfg: Search, say, **kw):
+    """The problem of the force stream ``how = (source, reference, drive_fit)`` names:
+    ``(prob, sub, lengths, notes, (eps, prob_with), side)``, ``side`` the
+    :class:`~cdprid.diagnosis._drives_clock.CurrentsSide` on currents, else None (one sentence
+    on a bad source, a missing stream or a reference without currents)."""
+    source, reference, drive_fit = how
     if source not in SOURCES:
         raise InputError(f"--source {source!r}: use one of {', '.join(SOURCES)}.")
-    if source == "currents":
-        return datasheet_dataset(ds, reference)[0]
+
+    def problem(x):
+        return _problem(x, kw["train_until"], say=say, source=source,
+                        **{k: v for k, v in kw.items() if k != "train_until"})
+
+    if source == "currents":  # the drive streams' clock, then the drive model
+        prob, rest, side = currents_model(
+            ds, datasheet_dataset(ds), (reference, drive_fit), problem,
+            lambda p: _base_stage(p, [], lambda m: None), cfg.alpha, cfg.min_gain, say)
+        say(rest[2][0])
+        return (prob, *rest, side)
     if reference is not None:
         raise InputError("--reference applies to --source currents only (the load cells fix "
                          "the scale).")
     if ds.tension is None:
         raise InputError(f"{ds.path}: the dataset has no tensions.csv; diagnose its motor "
                          "currents with --source currents.")
-    return ds
+    return (*problem(ds), None)
 
 
-def _base_stage(prob, notes: list, say, drives=None):
+def _base_stage(prob, notes: list, say, side=None):
     """The base model's fit, the noise levels estimated from the data and the context the
     candidates' checks read and the candidates (of the problem's source; ``drives`` a
-    :class:`~cdprid.diagnosis._drives.DriveSource` on currents): ``(prob, base, noise,
+    :class:`~cdprid.diagnosis._drives_clock.CurrentsSide` on currents): ``(prob, base, noise,
     context, candidates)``."""
     prob, base = base_fit(prob)
     if base.rotational:
@@ -495,11 +478,13 @@ def _base_stage(prob, notes: list, say, drives=None):
                            pulley_axis=axes[0] if np.allclose(axes, axes[0]) else axes,
                            finding_floor_N=finding_floor_N(prob.tension[prob.use]),
                            base_mass_kg=float(base.x[0]),
-                           drive_k=None if drives is None else drives.k_nominal)
+                           drive_k=None if side is None else side.drives.k_nominal)
     candidates = candidate_list(prob.m, prob.has_rotation and not base.rotational, prob.d.robot,
                                 source=prob.source)
     if prob.source == "currents":  # the drive side is identify's drive model (drive_findings)
         candidates = platform_candidates(candidates)
+    if side is not None:
+        candidates = side.candidates(candidates)
     return prob, base, noise, ctx, candidates
 
 

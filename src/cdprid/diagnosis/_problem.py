@@ -124,18 +124,15 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
     train_until : float (s), optional
         t < train_until is fitted, the rest held out; None: blocked cross-validation over
         ``n_folds`` time blocks.
-    cutoff_hz : float (Hz), the differentiator's low-pass
-    trim : float (s), left out at each end
-    n_folds : int
-    taut_N : float (N)
+    cutoff_hz, trim, n_folds, taut_N : float (Hz), float (s), int, float (N)
+        The differentiator's low-pass, left out at each end, folds, slack threshold.
     joins : tuple of float (s)
         Where blocks of a budgeted subset meet (:mod:`cdprid.diagnosis._budget`); the samples
         within the trim margin of each are left out.
     clock : callable, optional
         Times -> the recording's clock for time-dependent effects (default t - tension_t[0]).
     source : str
-        ``"tensions"`` or ``"currents"`` (the data then also carry the cable length
-        accelerations the drives' inertia reads, :func:`length_accelerations`).
+        ``"tensions"`` or ``"currents"`` (with :func:`length_accelerations`).
 
     Returns
     -------
@@ -166,8 +163,7 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
                  jnp.asarray(v), jnp.asarray(a), jnp.asarray(om), jnp.asarray(al),
                  stream.values, jnp.asarray(ldot), jnp.asarray(clk), stream.t0, tdt,
                  jnp.asarray(slide), smoothed_stream(stream).values, hysteresis_regressor(
-                     stream.values, tdt), None if source != "currents" else jnp.asarray(
-                     length_accelerations(lengths, dt, sig.segments)))
+                     stream.values, tdt), _accelerations(lengths, dt, sig, source))
     margin = max(trim, 0.1)
     use = ((sig.t >= max(sig.t[0], grid_t[0]) + margin)
            & (sig.t <= min(sig.t[-1], grid_t[-1]) - margin))
@@ -191,11 +187,18 @@ def prepare(ds: Dataset, train_until: float | None = None, cutoff_hz: float = CU
         rotational_base=bool(rot_deg > ROTATION_WARN_DEG), rotation_deg=float(rot_deg),
         d=d, layout=ThetaLayout(m), t=sig.t, position=sig.position, quaternion=sig.quaternion,
         tension=np.asarray(tension_at(stream, sig.t, CATMULL_ROM)), tau_grid=tau_grid, R=R, v=v,
-        a=a, om=om, W_all=W_all, motion=motion,
-        has_rotation=bool(sig.has_rotation), dt=dt, source=source, tdt=tdt, cutoff_hz=cutoff_hz, use=use,
-        train=train, test=test, n_slack=n_slack, n_folds=n_folds,
+        a=a, om=om, W_all=W_all, motion=motion, has_rotation=bool(sig.has_rotation), dt=dt,
+        source=source, tdt=tdt, cutoff_hz=cutoff_hz, use=use, train=train, test=test,
+        n_slack=n_slack, n_folds=n_folds,
         lags=int(math.ceil(3.0 / (cutoff_hz * dt))),  # correlation length, filtered residual
     )
+
+
+def _accelerations(lengths, dt: float, sig, source: str):
+    """The data's cable length accelerations on a current stream (None on load cells)."""
+    if source != "currents":
+        return None
+    return jnp.asarray(length_accelerations(lengths, dt, sig.segments))
 
 
 def length_accelerations(lengths, dt: float, segments=()) -> np.ndarray:

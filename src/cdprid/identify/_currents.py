@@ -251,22 +251,18 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     ----------
     ds : Dataset
         Read with ``require_tensions=False``; its folder holds currents.csv and, optionally,
-        lengths.csv (without it the paid-out lengths are the nominal geometry's cable lengths
-        at the measured poses).
+        lengths.csv (else the nominal geometry's cable lengths at the measured poses).
     reference : str, optional
         The scale reference (:func:`cdprid.identify._scale.choose_reference`).
     model : {"auto", "translation", "full"}
     differentiator : str
-        Only ``euler-filtfilt`` (the matched filter of the drive columns is its zero-phase
-        filter).
+        Only ``euler-filtfilt`` (its zero-phase filter is the drive columns' matched filter).
     params : dict, optional
         The differentiator's parameters (cutoff from the data when absent).
     t_start, t_end : float, optional
         Time window, s.
-    trim : float
-        Seconds dropped at each end after differentiation.
-    chunk : int
-        Samples per block of the least squares.
+    trim, chunk : float, int
+        Seconds dropped at each end after differentiation; samples per least-squares block.
     bound : bool
         Compute the Cramer-Rao bound of the platform parameters with the drives known.
     drives : DriveData, optional
@@ -276,8 +272,8 @@ def identify_currents(ds, reference: str | None = None, model: str = "auto",
     progress : callable(str), optional
         Told each stage as it starts (the command's progress lines).
     clock_offset_s : float
-        The drive streams' (currents.csv, lengths.csv) time stamps are this late against the
-        poses' (s): subtracted from them (``diagnose --source currents`` finds it first).
+        The drive streams' time stamps are this late against the poses' (s): subtracted
+        (``diagnose --source currents`` finds it first).
 
     Returns
     -------
