@@ -2,8 +2,8 @@
 of the independent winch simulator (``tests/identify/winch_sim.py``) and found.
 
 Usage (from the repository root): python -m benchmarks.drives_diagnosis [--seeds 5]
-       [--robots six,eight] [--cases clean,single,all,clock] [--out results/drives-diagnosis.md]
-       [--jsonl /tmp/drives_diagnosis.jsonl]
+       [--first-seed 0] [--robots six,eight] [--cases clean,single,all,clock]
+       [--out results/drives-diagnosis.md] [--jsonl runs.jsonl] [--from-jsonl]
 
 Per robot (the six-cable suspended one, the CRAFT-like eight) and seed, 30 s sums of sines,
 currents at 500 Hz with 0.03 A noise, encoder lengths, poses at 100 Hz (0.2 mm, 0.3 mrad), drive
@@ -129,13 +129,20 @@ def run_one(robot: str, case: str, seed: int) -> dict:
     return {"robot": robot, "case": case, "seed": seed, "hidden": len(hidden),
             "named": len(named), "covered": covered, "wrong": wrong,
             "mass_err_pct": 100 * (res.extended_parameters["m"].value / PLATFORM[0] - 1),
+            "mass_z": (res.extended_parameters["m"].value - PLATFORM[0])
+            / res.extended_parameters["m"].std,
             "wall_s": wall}
+
+
+def _worst_z(rs) -> str:
+    z = [abs(r["mass_z"]) for r in rs if "mass_z" in r]
+    return f"{max(z):.2f}" if z else "-"
 
 
 def table(rows: list) -> str:
     """The markdown table of the runs, one line per robot and case."""
     out = ["| robot | case | runs | hidden | named | intervals covering | wrong findings | "
-           "mass error (median / worst) | wall (median) |", "|---" * 9 + "|"]
+           "mass error (median / worst) | mass z (worst) | wall (median) |", "|---" * 10 + "|"]
     for robot in ROBOTS:
         for case in ("clean", "single", "all", "clock"):
             rs = [r for r in rows if r["robot"] == robot and r["case"] == case]
@@ -145,7 +152,8 @@ def table(rows: list) -> str:
             out.append(f"| {robot} | {case} | {len(rs)} | {sum(r['hidden'] for r in rs)} | "
                        f"{sum(r['named'] for r in rs)} | {sum(r['covered'] for r in rs)} | "
                        f"{sum(len(r['wrong']) for r in rs)} | {np.median(err):.2f} / "
-                       f"{err.max():.2f} % | {np.median([r['wall_s'] for r in rs]):.0f} s |")
+                       f"{err.max():.2f} % | {_worst_z(rs)} | "
+                       f"{np.median([r['wall_s'] for r in rs]):.0f} s |")
     return "\n".join(out)
 
 
@@ -156,6 +164,9 @@ def main(argv=None) -> int:
     jax.config.update("jax_enable_x64", True)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--first-seed", type=int, default=0)
+    ap.add_argument("--from-jsonl", action="store_true",
+                    help="only write the table of the runs already in --jsonl")
     ap.add_argument("--robots", default="six,eight")
     ap.add_argument("--cases", default="clean,single,all,clock")
     ap.add_argument("--out", default=None)
@@ -164,11 +175,14 @@ def main(argv=None) -> int:
     robots, cases = a.robots.split(","), a.cases.split(",")
     bad = [x for x in robots if x not in ROBOTS] + [
         x for x in cases if x not in ("clean", "single", "all", "clock")]
-    if bad or a.seeds < 1:
-        print(f"drives_diagnosis: unknown robot or case {bad} (or --seeds < 1).", file=sys.stderr)
+    if bad or a.seeds < 1 or a.first_seed < 0 or (a.from_jsonl and not a.jsonl):
+        print(f"drives_diagnosis: unknown robot or case {bad} (or --seeds < 1, --first-seed "
+              "< 0, --from-jsonl without --jsonl).", file=sys.stderr)
         return 2
     rows = []
-    for seed in range(a.seeds):
+    if a.from_jsonl:
+        rows = [json.loads(x) for x in Path(a.jsonl).read_text().splitlines() if x.strip()]
+    for seed in range(a.first_seed, a.first_seed + (0 if a.from_jsonl else a.seeds)):
         for robot in robots:
             for case in cases:
                 r = run_one(robot, case, seed)

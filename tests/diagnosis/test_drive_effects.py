@@ -164,7 +164,10 @@ def _check(res, effects):
             assert abs(f.parameters[p] - v) < 4 * std, (key, p, f.parameters[p], v, lo, hi)
             assert abs(f.parameters[p] - v) < 0.25 * abs(v), (key, p, f.parameters[p], v)
     assert res.extended_parameters["m"].value == pytest.approx(PLATFORM[0], rel=0.025)
-    assert any("identify --source currents gives m =" in n for n in res.notes)
+    assert any("identify --source currents' m =" in n for n in res.notes)
+    # the drive model's scale in the mass's std: its error within 3 of them
+    m = res.extended_parameters["m"]
+    assert abs(m.value - PLATFORM[0]) < 3 * m.std
 
 
 @pytest.mark.slow  # one diagnosis (the default suite runs the three effects' one)

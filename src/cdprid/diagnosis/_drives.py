@@ -109,16 +109,28 @@ class DriveSource:
                 "of the search for the platform-side effects; scale reference: "
                 f"{self.reference.source}")
 
+    def scale_rel_std(self) -> float:
+        """The relative std of the scale the drive model sets (identify's mass's, which holds
+        the torque constants' uncertainty), 0 when not finite.
+
+        Returns
+        -------
+        float
+        """
+        r = self.mass[1] / abs(self.mass[0]) if self.mass[0] else float("nan")
+        return float(r) if np.isfinite(r) else 0.0
+
     def scale_note(self) -> str:
-        """What the platform's std in the diagnosis leaves out (the drive model held fixed).
+        """How the platform's std holds the drive model's scale.
 
         Returns
         -------
         str
         """
-        return ("the platform's std here holds identify's drive model fixed, so it leaves out "
-                "the torque constants' uncertainty, which sets the scale: identify --source "
-                f"currents gives m = {self.mass[0]:.5g} +- {self.mass[1]:.2g} kg with it")
+        return ("the extended model's platform parameters hold identify's drive model fixed; "
+                f"its scale's relative std ({100 * self.scale_rel_std():.2g} %, that of "
+                f"identify --source currents' m = {self.mass[0]:.5g} +- {self.mass[1]:.2g} kg) "
+                "is added to each of their std (the base model's std leaves it out)")
 
     def as_json(self) -> dict:
         """``info["source_currents"]`` of the diagnosis JSON.

@@ -100,12 +100,18 @@ class Search:
     seed: int
 
 
-def summarize(prob: Problem, base: BaseFit, s: Selection, noise: NoiseLevels, settings: dict):
-    """Extended-model parameters, held-out force RMS (base, extended), BIC and the info dict."""
+def summarize(prob: Problem, base: BaseFit, s: Selection, noise: NoiseLevels, settings: dict,
+              scale_rel_std: float = 0.0):
+    """Extended-model parameters, held-out force RMS (base, extended), BIC and the info dict.
+    ``scale_rel_std``: the relative std of a scale held fixed in the fit (on currents, the
+    drive model's: :meth:`cdprid.diagnosis._drives.DriveSource.scale_rel_std`), added to every
+    parameter's variance as ``(r value)^2`` (``theta = v phi``: docs/drives.md)."""
     train, wrow, lags = prob.train, prob.wrow, prob.lags
     Zfw, yfw, _, _ = linear_model(prob, s)
     names = PARAMETER_NAMES["full" if s.rotational else "translation"]
     _, beta_f, V_f, _ = wald(Zfw[train], yfw[train], [0], lags)
+    V_f = V_f + np.diag(np.pad((scale_rel_std * beta_f[:len(names)]) ** 2,
+                               (0, len(beta_f) - len(names))))
     ext_params = ParameterEstimates({
         nm: ParameterEstimate(
             value=float(beta_f[i]), std=float(np.sqrt(V_f[i, i])),
@@ -238,11 +244,9 @@ def diagnose(
         residual replicates (from the fitted base model) calibrating thresholds; greedy forward
         selection stops after max_effects; smallest relative held-out RMS change for an effect
         to be accepted, kept or swapped.
-    seed, taut_N : int, float
+    seed, taut_N, progress : int, float, callable
         Seed of the null simulation; samples where any cable is below ``taut_N`` (N) within
-        +-0.1 s are excluded.
-    progress : callable, optional
-        Called with progress strings.
+        +-0.1 s are excluded; called with progress strings (optional).
     max_samples : int
         Sample budget: a longer recording is analysed on evenly spaced contiguous blocks
         (:func:`cdprid.diagnosis._budget.subset`; ``notes`` and ``info["subset"]`` say which).
@@ -274,7 +278,8 @@ def diagnose(
     findings, el_info = _findings(prob, s, side, (lengths, sub, notes), alpha, say)
     ext_params, base_ho, ext_ho, info, resid = summarize(prob, base, s, noise, {
         "train_until": train_until, "taut_threshold_N": taut_N,
-        "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt})
+        "n_candidates": len(candidates), "alpha": alpha, "competing_models_tried": n_alt},
+        side.drives.scale_rel_std() if side else 0.0)
     _complete_info(info, not_named=not_named_sizes(prob, base, s, candidates, ctx, thr_first),
                    rule=rule, el_info=el_info, clock_info=clock, second=second, t0=t0,
                    sub=sub, regeo=regeo, side=side)
