@@ -3,12 +3,11 @@ between the cable and the motor current (one module, one effect; motor currents 
 
 from __future__ import annotations
 
+from cdprid.effects._form import Z95 as _Z
 from cdprid.effects._form import DiagnosisForm
 from cdprid.effects._spec import EffectSpec, Parameter, Place
 
 __all__ = ["SPEC"]
-
-_Z = 1.959963984540054  # the 95 % quantile of the normal
 
 
 def _report(v, s, kn):
@@ -16,6 +15,7 @@ def _report(v, s, kn):
     return ({"coulomb_N": v["fc"], "viscous_Ns_per_m": v["fv"]},
             {"coulomb_N": [v["fc"] - _Z * s["fc"], v["fc"] + _Z * s["fc"]],
              "viscous_Ns_per_m": [v["fv"] - _Z * s["fv"], v["fv"] + _Z * s["fv"]]})
+
 
 # the pulley friction's blocks and hooks: a current, like a load cell on the winch side of
 # the pulley, reads ``tau - f_c sign(l') - f_v l'`` (docs/drives.md: the drum's torque

@@ -3,12 +3,11 @@
 
 from __future__ import annotations
 
+from cdprid.effects._form import Z95 as _Z
 from cdprid.effects._form import DiagnosisForm
 from cdprid.effects._spec import EffectSpec, Parameter, Place
 
 __all__ = ["SPEC"]
-
-_Z = 1.959963984540054  # the 95 % quantile of the normal
 
 
 def _report(v, s, kn):

@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 
-__all__ = ["DiagnosisForm", "SpecError", "STREAMS"]
+__all__ = ["DiagnosisForm", "SpecError", "STREAMS", "Z95"]
+
+#: the normal distribution's 95 % two-sided quantile (the drive forms' ``drive_report``)
+Z95 = 1.959963984540054
 
 #: the force streams a diagnosis form may be restricted to (:attr:`DiagnosisForm.stream`)
 STREAMS = ("any", "tensions", "currents")

@@ -3,18 +3,18 @@ datasheet's (one module, one effect; motor currents only)."""
 
 from __future__ import annotations
 
+from cdprid.effects._form import Z95 as _Z
 from cdprid.effects._form import DiagnosisForm
 from cdprid.effects._spec import EffectSpec, Parameter, Place
 
 __all__ = ["SPEC"]
-
-_Z = 1.959963984540054  # the 95 % quantile of the normal
 
 
 def _report(v, s, kn):
     """``ratio = k / k_nom`` and its interval from the fitted k."""
     return ({"ratio": v["k"] / kn},
             {"ratio": [(v["k"] - _Z * s["k"]) / kn, (v["k"] + _Z * s["k"]) / kn]})
+
 
 # the load cell's gain block: its hook undoes ``reading = (1 + q) tau``; the datasheet's
 # tension ``k_nom i`` is ``tau / ratio``, so ``ratio = 1 / (1 + q)``
