@@ -163,8 +163,11 @@ def currents_model(raw, ds, fit: tuple, problem, base_stage, alpha: float, min_g
     ds : Dataset
         The datasheet tension's dataset (:func:`cdprid.diagnosis._drives.datasheet_dataset`).
     fit : tuple
-        ``(reference, drive_fit)``: identify's ``--reference`` and the drive model's fit
-        (:func:`cdprid.diagnosis._drives.fit_drives`).
+        ``(reference, drive_fit, taut_N)``: identify's ``--reference``, the drive model's fit
+        (:func:`cdprid.diagnosis._drives.fit_drives`) and the slack threshold (N), applied to
+        the drive model's tension (``problem`` builds the problems without it: the datasheet
+        reading ``k i`` is the tension minus the drive's friction and inertia, below any
+        threshold where a cable pays out against 10 N of friction).
     problem : callable
         ``problem(ds) -> (prob, sub, lengths, notes, (eps, prob_with))`` (the pipeline's).
     base_stage : callable
@@ -179,7 +182,7 @@ def currents_model(raw, ds, fit: tuple, problem, base_stage, alpha: float, min_g
     """
     from cdprid.diagnosis._drives import drive_named, drive_theta, fit_drives, gauge_cable
 
-    reference, drive_fit = fit
+    reference, drive_fit, taut_N = fit
 
     def drive_model(late):
         return fit_drives(raw, reference, drive_fit, late, lambda m: say(f"identify: {m}"))
@@ -204,11 +207,33 @@ def currents_model(raw, ds, fit: tuple, problem, base_stage, alpha: float, min_g
                        "identify and every later fit")
     th0 = drive_theta(drives, prob.layout)
     eps, prob_with = rest[3]
-    prob, prob_with = (dataclasses.replace(x, theta0=th0) for x in (prob, prob_with))
+    prob, prob_with = (_taut(x, th0, taut_N) for x in (prob, prob_with))
     rest[2][:0] = [drives.note(), *drives.notes]
     side = CurrentsSide(drives, drive_named(drives, alpha), None if f is None else (f, info),
                         alpha)
     return prob, (rest[0], rest[1], rest[2], (eps, prob_with)), side
+
+
+def _taut(prob, th0, taut_N: float):
+    """The problem with the drive model ``th0`` and without the samples where the model's
+    tension of a cable (matched-filtered) is below ``taut_N`` (the shared rule's window)."""
+    import jax.numpy as jnp
+
+    from cdprid.base import UserError
+    from cdprid.core import taut_mask
+    from cdprid.diagnosis._model import tension_jac
+
+    # through the matched filter: the inertia's raw second differences are noise per sample
+    tau = prob.filt(np.asarray(tension_jac(prob.d, jnp.asarray(th0), prob.layout)[0]))
+    ok = taut_mask(prob.t, prob.t, tau, threshold_N=taut_N)
+    if int((prob.use & ok).sum()) < 200:
+        raise UserError(f"only {int((prob.use & ok).sum())} pose samples have every cable's "
+                        f"tension (the drive model's) above {taut_N:g} N, 200 are needed: "
+                        "slack cables, or currents the drive model does not explain.")
+    return dataclasses.replace(
+        prob, theta0=th0, use=prob.use & ok, train=prob.train & ok,
+        test=None if prob.test is None else prob.test & ok,
+        n_slack=prob.n_slack + int((prob.use & ~ok).sum()))
 
 
 def _shifted(ds, delay: float):

@@ -442,13 +442,14 @@ def _prepared(ds, how: tuple, cfg: Search, say, **kw):
     if source not in SOURCES:
         raise InputError(f"--source {source!r}: use one of {', '.join(SOURCES)}.")
 
-    def problem(x):
-        return _problem(x, kw["train_until"], say=say, source=source,
-                        **{k: v for k, v in kw.items() if k != "train_until"})
+    def problem(x):  # on currents the slack test waits for the drive model (currents_model)
+        return _problem(x, kw["train_until"], say=say, source=source, **{
+            k: (-np.inf if k == "taut_N" and source == "currents" else v)
+            for k, v in kw.items() if k != "train_until"})
 
     if source == "currents":  # the drive streams' clock, then the drive model
         prob, rest, side = currents_model(
-            ds, datasheet_dataset(ds), (reference, drive_fit), problem,
+            ds, datasheet_dataset(ds), (reference, drive_fit, kw["taut_N"]), problem,
             lambda p: _base_stage(p, [], lambda m: None), cfg.alpha, cfg.min_gain, say)
         say(rest[2][0])
         return (prob, *rest, side)
